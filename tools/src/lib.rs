@@ -1,0 +1,1 @@
+//! Host-only tools for glint.
