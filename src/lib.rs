@@ -9,5 +9,6 @@
 //! capacity in the type, and output is formatted into reused buffers. The test
 //! `tests/alloc_free.rs` installs a counting global allocator and holds the pipeline to this.
 
+pub mod detect;
 pub mod frame;
 pub mod source;
