@@ -183,6 +183,28 @@ impl BitImage {
             .unwrap_or(&mut [])
     }
 
+    /// Sets pixels `x0..=x1` of row `y`, clipped to the image.
+    pub fn set_run(&mut self, y: usize, x0: usize, x1: usize) {
+        let x1 = x1.min(self.width_px.saturating_sub(1));
+        if y >= self.height_px || x0 > x1 {
+            return;
+        }
+        let row = self.row_mut(y);
+        let (k0, k1) = (x0 / WORD_BITS, x1 / WORD_BITS);
+        for k in k0..=k1 {
+            let lo = if k == k0 { x0 % WORD_BITS } else { 0 };
+            let hi = if k == k1 {
+                x1 % WORD_BITS
+            } else {
+                WORD_BITS - 1
+            };
+            let bits = (!0u64 >> (WORD_BITS - 1 - hi)) & (!0u64 << lo);
+            if let Some(word) = row.get_mut(k) {
+                *word |= bits;
+            }
+        }
+    }
+
     /// Clears every pixel.
     pub fn clear_all(&mut self) {
         self.words.fill(0);
@@ -263,6 +285,9 @@ mod tests {
         assert_eq!(image.row(1), &[0, 1, 0b10]);
         image.clear(64, 1);
         assert_eq!(image.count_ones(), 1);
+        image.set_run(0, 60, 70);
+        image.set_run(0, 125, 500);
+        assert_eq!(image.row(0), &[0xF << 60, 0x7F | 0x7 << 61, 0b11]);
         assert_eq!(image.last_word_mask(), 0b11);
     }
 }
