@@ -103,7 +103,8 @@ impl Default for Labeler {
 /// No slot: a run whose blob did not fit in the list.
 const NO_SLOT: u16 = u16::MAX;
 
-const _: () = assert!(MAX_RUNS < NO_SLOT as usize && MAX_BLOBS < NO_SLOT as usize);
+// Run indices and blob slots are stored as u16, with NO_SLOT kept free.
+const _: () = assert!(MAX_RUNS < NO_SLOT as usize);
 
 impl Labeler {
     /// Allocates the run table (about 80 KiB) once.
