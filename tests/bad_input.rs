@@ -55,7 +55,7 @@ fn sizes_that_do_not_parse_or_are_impossible() {
         ("63x48", "odd"),
         ("0x48", "greater than zero"),
         ("64x0", "greater than zero"),
-        ("-64x48", "not WIDTHxHEIGHT"),
+        ("64x-48", "not WIDTHxHEIGHT"),
     ] {
         assert_one_line_error(&track_file(&path, size), needle);
     }
