@@ -1,6 +1,6 @@
 //! Per-stage and whole-path timings of detection on rendered frames, at 640×480 and 1280×720.
 //!
-//! Stages: the top-level luma scan, the threshold into the bit mask, blob labelling, streak
+//! Stages: the threshold into the bit mask (at a fixed level, and automatic), blob labelling, streak
 //! analysis (skeleton, centroid, ends), and the whole `Pipeline::process`. The frames are
 //! rendered scenes with a moving LED streak on a textured floor.
 
@@ -21,7 +21,9 @@ fn rendered(name: &str) -> (FrameSize, Vec<u8>) {
     let scene = Scene::preset(name).expect("preset");
     let size = FrameSize::new(scene.width_px(), scene.height_px()).unwrap();
     let mut bytes = vec![0u8; size.frame_bytes()];
-    scene.render(scene.frame_count() / 2, &mut bytes).expect("render");
+    scene
+        .render(scene.frame_count() / 2, &mut bytes)
+        .expect("render");
     (size, bytes)
 }
 
@@ -32,12 +34,12 @@ fn stages(c: &mut Criterion) {
         let mut group = c.benchmark_group(format!("detect/{size}"));
         group.throughput(Throughput::Elements(1));
 
-        group.bench_function("top_luma", |b| b.iter(|| threshold::top_luma(black_box(&frame))));
-
         let mut mask = BitImage::new(size);
-        let level = threshold::Threshold::Auto.levels(&frame).threshold_luma.unwrap();
-        group.bench_function("threshold", |b| {
-            b.iter(|| threshold::threshold_into(black_box(&frame), level, &mut mask))
+        group.bench_function("threshold_fixed", |b| {
+            b.iter(|| threshold::threshold_into(black_box(&frame), 247, &mut mask))
+        });
+        group.bench_function("threshold_auto", |b| {
+            b.iter(|| threshold::apply(black_box(&frame), threshold::Threshold::Auto, &mut mask))
         });
 
         let mut labeler = Labeler::new();

@@ -92,7 +92,10 @@ fn replay_allocates_nothing_per_frame() {
     });
     let summary = summary.unwrap();
     assert_eq!(summary.frames, count as u64);
-    assert!(summary.found > summary.frames / 2, "the scenes were tracked: {summary:?}");
+    assert!(
+        summary.found > summary.frames / 2,
+        "the scenes were tracked: {summary:?}"
+    );
     assert_eq!(allocations, 0, "allocations during {count} frames");
 
     // The counter itself works: a deliberate allocation is seen.
@@ -111,7 +114,9 @@ fn replay_allocates_nothing_per_frame() {
     let mut pipeline = Pipeline::new(size, config);
     let mut sink = CsvSink::new(BufWriter::with_capacity(64 * 1024, io::sink()), false);
     let allocations = allocations_during(|| {
-        pipeline::run(&mut source, &mut pipeline, &mut sink).1.unwrap();
+        pipeline::run(&mut source, &mut pipeline, &mut sink)
+            .1
+            .unwrap();
     });
     assert_eq!(allocations, 0);
 }

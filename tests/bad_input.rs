@@ -100,7 +100,11 @@ fn white_and_black_frames_are_not_found_and_tracking_continues() {
     bytes.extend(frame(50, true));
     let (_dir, path) = temp_file("blank.yuv", &bytes);
     let out = track_file(&path, "64x48");
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let found: Vec<bool> = parse_jsonl(&out.stdout)
         .iter()
         .map(|r| r["found"].as_bool().unwrap())
@@ -120,7 +124,15 @@ fn a_directory_is_not_a_dump() {
 #[test]
 fn unknown_arguments_are_one_line_too() {
     let out = Command::new(env!("CARGO_BIN_EXE_glint"))
-        .args(["track", "--input", "x", "--size", "64x48", "--threshold", "bright"])
+        .args([
+            "track",
+            "--input",
+            "x",
+            "--size",
+            "64x48",
+            "--threshold",
+            "bright",
+        ])
         .output()
         .unwrap();
     assert_one_line_error(&out, "neither `auto` nor a luma level");

@@ -12,14 +12,30 @@ const MID_P95_MAX_PX: f64 = 0.5;
 fn check_scene(name: &str) {
     let r = render(name);
     let out = track(&r, &[]);
-    assert!(out.status.success(), "{name}: {}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{name}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let reports = parse_jsonl(&out.stdout);
     let s = score(&reports, &r.truths);
     assert!(s.visible > 0, "{name}: the scene shows the LED");
-    assert_eq!(s.detected, s.visible, "{name}: every visible frame is detected");
-    assert_eq!(s.false_reports, 0, "{name}: no reports when the LED is hidden");
-    let (median, p95) = (quantile(&s.mid_errors_px, 0.5), quantile(&s.mid_errors_px, 0.95));
-    eprintln!("{name}: streak middle error median {median:.3} px, p95 {p95:.3} px over {} frames", s.detected);
+    assert_eq!(
+        s.detected, s.visible,
+        "{name}: every visible frame is detected"
+    );
+    assert_eq!(
+        s.false_reports, 0,
+        "{name}: no reports when the LED is hidden"
+    );
+    let (median, p95) = (
+        quantile(&s.mid_errors_px, 0.5),
+        quantile(&s.mid_errors_px, 0.95),
+    );
+    eprintln!(
+        "{name}: streak middle error median {median:.3} px, p95 {p95:.3} px over {} frames",
+        s.detected
+    );
     assert!(median <= MID_MEDIAN_MAX_PX, "{name}: median {median:.3} px");
     assert!(p95 <= MID_P95_MAX_PX, "{name}: p95 {p95:.3} px");
 }

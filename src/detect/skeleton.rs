@@ -107,71 +107,84 @@ fn morphological(
     }
 }
 
-/// The 8-neighbourhood of `(x, y)` as a byte: bit 0 = north (P2), then clockwise: NE, E, SE,
-/// S, SW, W, NW (P3..P9).
+/// Pixel `x` receives pixel `x - 1`.
+#[inline(always)]
+fn from_left(word: u64, prev: u64) -> u64 {
+    (word << 1) | (prev >> 63)
+}
+
+/// Pixel `x` receives pixel `x + 1`.
+#[inline(always)]
+fn from_right(word: u64, next: u64) -> u64 {
+    (word >> 1) | (next << 63)
+}
+
+#[inline(always)]
+fn word_at(row: &[u64], k: usize) -> u64 {
+    row.get(k).copied().unwrap_or(0)
+}
+
+#[inline(always)]
+fn at_least_two(a: u64, b: u64, c: u64, d: u64) -> u64 {
+    (a & b) | (a & c) | (a & d) | (b & c) | (b & d) | (c & d)
+}
+
+/// Guo–Hall's deletion test for the 64 pixels of word `k` of row `y`, all at once: bit `i`
+/// of the result is set when pixel `64 k + i` is set and may be deleted in this
+/// sub-iteration. Guo & Hall (1989) keep two-pixel-thick diagonal lines, which Zhang–Suen
+/// erases completely; a diagonal LED streak is exactly such a line.
+///
+/// With the neighbours P2 (north) … P9 (north-west) clockwise, a pixel goes when
+/// C = Σ ¬P2∧(P3∨P4), ¬P4∧(P5∨P6), ¬P6∧(P7∨P8), ¬P8∧(P9∨P2) is exactly 1, when
+/// min(N1, N2) is 2 or 3 (N1, N2: the neighbour pairs OR-ed two ways and counted), and when
+/// the sub-iteration's own term is 0.
 #[inline]
-pub fn neighbours(image: &BitImage, x: usize, y: usize) -> u8 {
-    let at = |dx: isize, dy: isize| -> u8 {
-        match (x.checked_add_signed(dx), y.checked_add_signed(dy)) {
-            (Some(nx), Some(ny)) => u8::from(image.get(nx, ny)),
-            _ => 0,
-        }
-    };
-    at(0, -1)
-        | at(1, -1) << 1
-        | at(1, 0) << 2
-        | at(1, 1) << 3
-        | at(0, 1) << 4
-        | at(-1, 1) << 5
-        | at(-1, 0) << 6
-        | at(-1, -1) << 7
-}
-
-const fn bit(n: u8, i: u32) -> u8 {
-    (n >> i) & 1
-}
-
-/// Whether Guo–Hall thinning deletes a pixel with neighbourhood `n` in sub-iteration
-/// `second`. Guo & Hall (1989) keep two-pixel-thick diagonal lines, which Zhang–Suen erases
-/// completely; a diagonal LED streak is exactly such a line.
-const fn deletable(n: u8, second: bool) -> bool {
-    let (p2, p3, p4, p5) = (bit(n, 0), bit(n, 1), bit(n, 2), bit(n, 3));
-    let (p6, p7, p8, p9) = (bit(n, 4), bit(n, 5), bit(n, 6), bit(n, 7));
-    let connectivity = ((1 - p2) & (p3 | p4))
-        + ((1 - p4) & (p5 | p6))
-        + ((1 - p6) & (p7 | p8))
-        + ((1 - p8) & (p9 | p2));
-    let n1 = (p9 | p2) + (p3 | p4) + (p5 | p6) + (p7 | p8);
-    let n2 = (p2 | p3) + (p4 | p5) + (p6 | p7) + (p8 | p9);
-    let neighbours = if n1 < n2 { n1 } else { n2 };
-    let m = if second {
-        (p2 | p3 | (1 - p5)) & p4
-    } else {
-        (p6 | p7 | (1 - p9)) & p8
-    };
-    connectivity == 1 && neighbours >= 2 && neighbours <= 3 && m == 0
-}
-
-const fn deletion_table(second: bool) -> [bool; 256] {
-    let mut table = [false; 256];
-    let mut n = 0;
-    while n < 256 {
-        table[n] = deletable(n as u8, second);
-        n += 1;
+fn deletable_word(image: &BitImage, y: usize, k: usize, second: bool) -> u64 {
+    let mid = image.row(y);
+    let centre = word_at(mid, k);
+    if centre == 0 {
+        return 0;
     }
-    table
-}
+    let up = y.checked_sub(1).map_or(&[][..], |u| image.row(u));
+    let down = image.row(y + 1);
+    let around = |row: &[u64]| {
+        let w = word_at(row, k);
+        let prev = k.checked_sub(1).map_or(0, |p| word_at(row, p));
+        let next = word_at(row, k + 1);
+        (from_left(w, prev), w, from_right(w, next))
+    };
+    let (p9, p2, p3) = around(up);
+    let (p8, _, p4) = around(mid);
+    let (p7, p6, p5) = around(down);
 
-const DELETE_FIRST: [bool; 256] = deletion_table(false);
-const DELETE_SECOND: [bool; 256] = deletion_table(true);
+    let t = [
+        !p2 & (p3 | p4),
+        !p4 & (p5 | p6),
+        !p6 & (p7 | p8),
+        !p8 & (p9 | p2),
+    ];
+    let exactly_one_c = (t[0] | t[1] | t[2] | t[3]) & !at_least_two(t[0], t[1], t[2], t[3]);
+    let n1 = [p9 | p2, p3 | p4, p5 | p6, p7 | p8];
+    let n2 = [p2 | p3, p4 | p5, p6 | p7, p8 | p9];
+    let all_four = |n: [u64; 4]| n[0] & n[1] & n[2] & n[3];
+    let min_two_or_three = at_least_two(n1[0], n1[1], n1[2], n1[3])
+        & at_least_two(n2[0], n2[1], n2[2], n2[3])
+        & !(all_four(n1) & all_four(n2));
+    let m = if second {
+        (p2 | p3 | !p5) & p4
+    } else {
+        (p6 | p7 | !p9) & p8
+    };
+    centre & exactly_one_c & min_two_or_three & !m
+}
 
 /// Guo–Hall thinning of `image` in place, inside `window`, with `marks` as scratch.
 pub fn thin(image: &mut BitImage, marks: &mut BitImage, window: Window) {
     // Each full pass peels at least one layer or stops; a blob is at most this many layers.
     let max_passes = (window.y1 - window.y0).max((window.k1 - window.k0) * 64) / 2 + 2;
     for _ in 0..max_passes {
-        let first = thin_subiteration(image, marks, window, &DELETE_FIRST);
-        let second = thin_subiteration(image, marks, window, &DELETE_SECOND);
+        let first = thin_subiteration(image, marks, window, false);
+        let second = thin_subiteration(image, marks, window, true);
         if !(first || second) {
             break;
         }
@@ -182,27 +195,22 @@ fn thin_subiteration(
     image: &mut BitImage,
     marks: &mut BitImage,
     window: Window,
-    table: &[bool; 256],
+    second: bool,
 ) -> bool {
-    marks.clear_window(window);
     let mut any = false;
     for y in window.y0..window.y1 {
         for k in window.k0..window.k1 {
-            let mut bits = image.row(y).get(k).copied().unwrap_or(0);
-            while bits != 0 {
-                let x = k * 64 + bits.trailing_zeros() as usize;
-                bits &= bits - 1;
-                if table[usize::from(neighbours(image, x, y))] {
-                    marks.set(x, y);
-                    any = true;
-                }
+            let deletions = deletable_word(image, y, k, second);
+            any |= deletions != 0;
+            if let Some(m) = marks.row_mut(y).get_mut(k) {
+                *m = deletions;
             }
         }
     }
     if any {
         for y in window.y0..window.y1 {
             for k in window.k0..window.k1 {
-                let m = marks.row(y).get(k).copied().unwrap_or(0);
+                let m = word_at(marks.row(y), k);
                 if let Some(w) = image.row_mut(y).get_mut(k) {
                     *w &= !m;
                 }
@@ -305,13 +313,72 @@ mod tests {
         assert!(skeleton.get(7, 5), "{got:#?}");
     }
 
+    fn bit(n: u8, i: u32) -> u8 {
+        (n >> i) & 1
+    }
+
+    /// Guo–Hall's rule for one pixel, written the way the paper states it: the reference the
+    /// bit-parallel version is held to.
+    fn deletable(n: u8, second: bool) -> bool {
+        let (p2, p3, p4, p5) = (bit(n, 0), bit(n, 1), bit(n, 2), bit(n, 3));
+        let (p6, p7, p8, p9) = (bit(n, 4), bit(n, 5), bit(n, 6), bit(n, 7));
+        let c = ((1 - p2) & (p3 | p4))
+            + ((1 - p4) & (p5 | p6))
+            + ((1 - p6) & (p7 | p8))
+            + ((1 - p8) & (p9 | p2));
+        let n1 = (p9 | p2) + (p3 | p4) + (p5 | p6) + (p7 | p8);
+        let n2 = (p2 | p3) + (p4 | p5) + (p6 | p7) + (p8 | p9);
+        let m = if second {
+            (p2 | p3 | (1 - p5)) & p4
+        } else {
+            (p6 | p7 | (1 - p9)) & p8
+        };
+        c == 1 && (2..=3).contains(&n1.min(n2)) && m == 0
+    }
+
     #[test]
-    fn the_deletion_tables_keep_line_ends_and_bridges() {
+    fn the_word_rule_matches_the_papers_rule_for_every_neighbourhood() {
+        // Ring order P2..P9 as (dx, dy) offsets from the centre.
+        let ring = [
+            (0, -1),
+            (1, -1),
+            (1, 0),
+            (1, 1),
+            (0, 1),
+            (-1, 1),
+            (-1, 0),
+            (-1, -1),
+        ];
+        // Centres on both sides of a word boundary, so the carries are exercised too.
+        for cx in [1usize, 63, 64, 100] {
+            for n in 0..=255u8 {
+                let mut image = BitImage::with_dimensions(130, 3);
+                image.set(cx, 1);
+                for (i, (dx, dy)) in ring.iter().enumerate() {
+                    if bit(n, i as u32) == 1 {
+                        image.set(cx.wrapping_add_signed(*dx), 1usize.wrapping_add_signed(*dy));
+                    }
+                }
+                for second in [false, true] {
+                    let word = deletable_word(&image, 1, cx / 64, second);
+                    let got = (word >> (cx % 64)) & 1 == 1;
+                    assert_eq!(
+                        got,
+                        deletable(n, second),
+                        "neighbours {n:08b}, x {cx}, second {second}"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn line_ends_and_bridges_stay() {
         // An end point (one neighbour) and a bridge (two separate neighbours) stay.
-        assert!(!DELETE_FIRST[0b0000_0001]);
-        assert!(!DELETE_FIRST[0b0001_0001]);
+        assert!(!deletable(0b0000_0001, false));
+        assert!(!deletable(0b0001_0001, false));
         // A pixel on the west edge of a thick region goes in the first sub-iteration:
         // N, NE, E, SE, S set.
-        assert!(DELETE_FIRST[0b0001_1111]);
+        assert!(deletable(0b0001_1111, false));
     }
 }

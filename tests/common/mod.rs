@@ -54,7 +54,9 @@ pub fn parse_jsonl(stdout: &[u8]) -> Vec<Value> {
     std::str::from_utf8(stdout)
         .expect("utf-8 output")
         .lines()
-        .map(|line| serde_json::from_str(line).unwrap_or_else(|e| panic!("bad JSON line {line:?}: {e}")))
+        .map(|line| {
+            serde_json::from_str(line).unwrap_or_else(|e| panic!("bad JSON line {line:?}: {e}"))
+        })
         .collect()
 }
 
@@ -98,7 +100,8 @@ pub fn score(reports: &[Value], truths: &[Truth]) -> Score {
                         let (x, y) = (r[kx].as_f64().unwrap(), r[ky].as_f64().unwrap());
                         (x - tx.unwrap()).hypot(y - ty.unwrap())
                     };
-                    s.mid_errors_px.push(d("mid_x", "mid_y", t.mid_x_px, t.mid_y_px));
+                    s.mid_errors_px
+                        .push(d("mid_x", "mid_y", t.mid_x_px, t.mid_y_px));
                     s.pos_errors_px.push(d("x", "y", t.x_px, t.y_px));
                 }
             }

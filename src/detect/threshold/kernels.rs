@@ -9,9 +9,10 @@ const BYTES_PER_WORD: usize = 128;
 pub(crate) mod portable {
     use super::BYTES_PER_WORD;
 
-    /// The brightest luma byte (every even byte) of a YUYV row.
-    pub fn row_max_luma(row: &[u8]) -> u8 {
-        row.iter().step_by(2).copied().max().unwrap_or(0)
+    /// [`row_threshold`], also returning the brightest luma of the row.
+    pub fn row_threshold_max(row: &[u8], threshold: u8, words: &mut [u64]) -> (usize, u8) {
+        let top = row.iter().step_by(2).copied().max().unwrap_or(0);
+        (row_threshold(row, threshold, words), top)
     }
 
     /// Sets bit `x` of `words` where the luma of pixel `x` is at least `threshold`; returns
@@ -36,33 +37,27 @@ mod sse2 {
 
     use super::{portable, BYTES_PER_WORD};
 
-    pub fn row_max_luma(row: &[u8]) -> u8 {
-        let blocks = row.len() / 16;
-        // SAFETY: SSE2 is always available on x86_64; every load reads 16 bytes starting at
-        // `16 * i` with `i < blocks`, so within `row`.
-        let vector_max = unsafe {
-            let luma_mask = _mm_set1_epi16(0x00FF);
-            let mut acc = _mm_setzero_si128();
-            for i in 0..blocks {
-                let v = _mm_loadu_si128(row.as_ptr().add(16 * i).cast());
-                acc = _mm_max_epu8(acc, _mm_and_si128(v, luma_mask));
-            }
-            let mut lanes = [0u8; 16];
-            _mm_storeu_si128(lanes.as_mut_ptr().cast(), acc);
-            lanes.iter().copied().max().unwrap_or(0)
-        };
-        let tail = portable::row_max_luma(row.get(blocks * 16..).unwrap_or(&[]));
-        vector_max.max(tail)
+    pub fn row_threshold(row: &[u8], threshold: u8, words: &mut [u64]) -> usize {
+        kernel::<false>(row, threshold, words).0
     }
 
-    pub fn row_threshold(row: &[u8], threshold: u8, words: &mut [u64]) -> usize {
+    pub fn row_threshold_max(row: &[u8], threshold: u8, words: &mut [u64]) -> (usize, u8) {
+        kernel::<true>(row, threshold, words)
+    }
+
+    /// Both kernels in one body; `MAX` adds the running maximum, which costs one
+    /// instruction per 16 pixels.
+    #[inline(always)]
+    fn kernel<const MAX: bool>(row: &[u8], threshold: u8, words: &mut [u64]) -> (usize, u8) {
         let full_words = (row.len() / BYTES_PER_WORD).min(words.len());
         let mut count = 0;
+        let mut top_lanes = [0u8; 16];
         // SAFETY: SSE2 is always available on x86_64; word `k < full_words` reads bytes
         // `128 k .. 128 k + 128`, all within `row`.
         unsafe {
             let luma_mask = _mm_set1_epi16(0x00FF);
             let level = _mm_set1_epi8(threshold as i8);
+            let mut top = _mm_setzero_si128();
             for (k, word) in words.iter_mut().enumerate().take(full_words) {
                 let base = row.as_ptr().add(k * BYTES_PER_WORD);
                 let mut bits = 0u64;
@@ -71,6 +66,9 @@ mod sse2 {
                     let b = _mm_loadu_si128(base.add(32 * quarter + 16).cast());
                     let luma =
                         _mm_packus_epi16(_mm_and_si128(a, luma_mask), _mm_and_si128(b, luma_mask));
+                    if MAX {
+                        top = _mm_max_epu8(top, luma);
+                    }
                     let at_least = _mm_cmpeq_epi8(_mm_max_epu8(luma, level), luma);
                     let lanes = _mm_movemask_epi8(at_least) as u32 as u64;
                     bits |= lanes << (16 * quarter);
@@ -78,18 +76,21 @@ mod sse2 {
                 *word = bits;
                 count += bits.count_ones() as usize;
             }
+            _mm_storeu_si128(top_lanes.as_mut_ptr().cast(), top);
         }
         let tail_row = row.get(full_words * BYTES_PER_WORD..).unwrap_or(&[]);
         let tail_words = words.get_mut(full_words..).unwrap_or(&mut []);
-        count + portable::row_threshold(tail_row, threshold, tail_words)
+        let (tail_count, tail_top) = portable::row_threshold_max(tail_row, threshold, tail_words);
+        let top = top_lanes.iter().copied().max().unwrap_or(0).max(tail_top);
+        (count + tail_count, top)
     }
 }
 
 #[cfg(target_arch = "x86_64")]
-pub(crate) use sse2::{row_max_luma, row_threshold};
+pub(crate) use sse2::{row_threshold, row_threshold_max};
 
 #[cfg(not(target_arch = "x86_64"))]
-pub(crate) use portable::{row_max_luma, row_threshold};
+pub(crate) use portable::{row_threshold, row_threshold_max};
 
 #[cfg(test)]
 mod tests {
@@ -119,7 +120,11 @@ mod tests {
             let n_ref = portable::row_threshold(&row, threshold, &mut reference);
             prop_assert_eq!(&fast, &reference);
             prop_assert_eq!(n_fast, n_ref);
-            prop_assert_eq!(row_max_luma(&row), portable::row_max_luma(&row));
+            let mut fast_max = vec![0u64; words_len];
+            let got = row_threshold_max(&row, threshold, &mut fast_max);
+            let want = portable::row_threshold_max(&row, threshold, &mut reference);
+            prop_assert_eq!(got, want);
+            prop_assert_eq!(&fast_max, &reference);
         }
     }
 
@@ -130,6 +135,6 @@ mod tests {
         let mut words = [0u64; 1];
         assert_eq!(portable::row_threshold(&row, 200, &mut words), 2);
         assert_eq!(words[0], 0b1001);
-        assert_eq!(portable::row_max_luma(&row), 201);
+        assert_eq!(portable::row_threshold_max(&row, 200, &mut words), (2, 201));
     }
 }

@@ -5,8 +5,8 @@
 //! Y = 235–243. The automatic threshold therefore follows the frame's own top luma level, and
 //! refuses to call anything saturated when that top level is too dark to be a clipped LED.
 //!
-//! Both passes read the luma bytes straight out of the packed frame: the top level in one pass,
-//! the mask in a second, which finds the frame still in cache.
+//! The luma bytes are read straight out of the packed frame, 64 pixels to a mask word; the
+//! automatic level costs one full pass plus a re-cut of the few rows near the LED.
 
 use core::fmt;
 
@@ -52,52 +52,62 @@ pub struct Levels {
     pub threshold_luma: Option<u8>,
 }
 
-impl Threshold {
-    /// Chooses the level for a frame, measuring its top luma when automatic.
-    pub fn levels(&self, frame: &Frame<'_>) -> Levels {
-        match *self {
-            Threshold::Fixed(v) => Levels {
-                top_luma: u8::MAX,
-                threshold_luma: Some(v),
-            },
-            Threshold::Auto => {
-                let top_luma = top_luma(frame);
-                Levels {
-                    top_luma,
-                    threshold_luma: (top_luma >= MIN_CLIP_LUMA)
-                        .then(|| top_luma.saturating_sub(AUTO_MARGIN_LUMA)),
-                }
-            }
-        }
-    }
-}
-
-/// The brightest luma byte in the frame.
-pub fn top_luma(frame: &Frame<'_>) -> u8 {
-    frame.rows().map(kernels::row_max_luma).max().unwrap_or(0)
-}
+/// The level the first, fused pass cuts at: the lowest automatic threshold there can be.
+const AUTO_FIRST_PASS_LUMA: u8 = MIN_CLIP_LUMA - AUTO_MARGIN_LUMA;
 
 /// Writes one bit per pixel into `mask`, set where luma ≥ `threshold_luma`, and returns how
 /// many pixels were set. `mask` must have the frame's dimensions.
 pub fn threshold_into(frame: &Frame<'_>, threshold_luma: u8, mask: &mut BitImage) -> usize {
-    let mut count = 0;
-    for (y, row) in frame.rows().enumerate() {
-        let words = mask.row_mut(y);
-        count += kernels::row_threshold(row, threshold_luma, words);
-    }
-    count
+    frame
+        .rows()
+        .enumerate()
+        .map(|(y, row)| kernels::row_threshold(row, threshold_luma, mask.row_mut(y)))
+        .sum()
 }
 
-/// Applies `threshold` to `frame`: measures the levels, fills `mask` (cleared when nothing can
-/// be saturated) and returns the levels and the count of set pixels.
+/// Applies `threshold` to `frame`: fills `mask` (cleared when nothing can be saturated) and
+/// returns the levels used and the count of set pixels.
+///
+/// The automatic threshold needs the frame's top level before it can cut, which would take
+/// two full passes. Instead one pass cuts at the lowest level the threshold can have while
+/// measuring the top; then only the rows that have any bit set (a few, around the LED) are cut
+/// again at the real level.
 pub fn apply(frame: &Frame<'_>, threshold: Threshold, mask: &mut BitImage) -> (Levels, usize) {
-    let levels = threshold.levels(frame);
-    let count = match levels.threshold_luma {
-        Some(level) => threshold_into(frame, level, mask),
-        None => {
-            mask.clear_all();
-            0
+    if let Threshold::Fixed(level) = threshold {
+        let levels = Levels {
+            top_luma: u8::MAX,
+            threshold_luma: Some(level),
+        };
+        return (levels, threshold_into(frame, level, mask));
+    }
+    let mut top_luma = 0;
+    let mut count = 0;
+    for (y, row) in frame.rows().enumerate() {
+        let (n, top) = kernels::row_threshold_max(row, AUTO_FIRST_PASS_LUMA, mask.row_mut(y));
+        count += n;
+        top_luma = top_luma.max(top);
+    }
+    if top_luma < MIN_CLIP_LUMA {
+        mask.clear_all();
+        let levels = Levels {
+            top_luma,
+            threshold_luma: None,
+        };
+        return (levels, 0);
+    }
+    let level = top_luma - AUTO_MARGIN_LUMA;
+    if level > AUTO_FIRST_PASS_LUMA {
+        count = 0;
+        for (y, row) in frame.rows().enumerate() {
+            let words = mask.row_mut(y);
+            if words.iter().any(|&w| w != 0) {
+                count += kernels::row_threshold(row, level, words);
+            }
         }
+    }
+    let levels = Levels {
+        top_luma,
+        threshold_luma: Some(level),
     };
     (levels, count)
 }
