@@ -36,10 +36,10 @@ use rng::{mix64, SplitMix64};
 
 /// At most this much LED motion between two time samples of an exposure, so a streak is a
 /// continuous smear rather than a row of separate disks.
-const MAX_DISK_STEP_PX: f64 = 0.05;
+const MAX_DISK_STEP_PX: f64 = 0.1;
 /// The glow is smooth and wide, so it needs far fewer time samples than the disk.
 const MAX_GLOW_STEP_PX: f64 = 0.5;
-/// Caps the time samples of one exposure (a 1000 px streak at the disk step), so an absurd
+/// Caps the time samples of one exposure (a 2000 px streak at the disk step), so an absurd
 /// custom speed costs a bounded time instead of hanging.
 const MAX_TIME_STEPS: usize = 20_000;
 /// Largest accepted frame side, which bounds the scene's memory.
@@ -448,7 +448,7 @@ fn finite_at_least(value: f64, min: f64) -> bool {
 }
 
 fn validate(c: &SceneConfig) -> Result<(), SceneError> {
-    if c.width_px == 0 || c.width_px % 2 != 0 || c.width_px > MAX_SIDE_PX {
+    if c.width_px == 0 || !c.width_px.is_multiple_of(2) || c.width_px > MAX_SIDE_PX {
         return Err(invalid(
             "width_px",
             "must be even, non-zero and at most 4096",
