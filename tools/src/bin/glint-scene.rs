@@ -6,6 +6,7 @@
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::PathBuf;
+use std::process::ExitCode;
 use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
@@ -33,8 +34,17 @@ struct Args {
     seed: Option<u64>,
 }
 
-fn main() -> Result<()> {
-    let args = Args::parse();
+fn main() -> ExitCode {
+    match run(Args::parse()) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("glint-scene: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(args: Args) -> Result<()> {
     if args.list {
         for &name in Scene::names() {
             if let Some(config) = Scene::preset_config(name) {
@@ -99,7 +109,7 @@ fn write_dump(scene: &Scene, path: &PathBuf) -> Result<Vec<Truth>> {
     let file = File::create(path).with_context(|| format!("cannot create {}", path.display()))?;
     let mut out = BufWriter::new(file);
     let mut frame = vec![0u8; scene.frame_len_bytes()];
-    let mut truths = Vec::with_capacity(scene.frame_count());
+    let mut truths = Vec::new();
     for index in 0..scene.frame_count() {
         truths.push(scene.render(index, &mut frame)?);
         out.write_all(&frame)

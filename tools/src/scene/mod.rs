@@ -44,6 +44,8 @@ const MAX_GLOW_STEP_PX: f64 = 0.5;
 const MAX_TIME_STEPS: usize = 20_000;
 /// Largest accepted frame side, which bounds the scene's memory.
 const MAX_SIDE_PX: u32 = 4096;
+/// Most frames a scene may have (55 minutes at 30 fps), which bounds a dump's size.
+const MAX_FRAMES: usize = 100_000;
 /// Separates the per-frame noise streams from the floor texture's seed.
 const NOISE_SALT: u64 = 0x0015_E1CE_0015_E1CE;
 const MICROS_PER_S: f64 = 1e6;
@@ -376,10 +378,12 @@ impl Scene {
         }
     }
 
-    /// Renders every frame back to back (a raw YUYV dump) with their truths.
+    /// Renders every frame back to back (a raw YUYV dump) with their truths. The whole dump
+    /// is held in memory (`frame_count × frame_len_bytes`); stream with [`Scene::render`]
+    /// for long scenes.
     pub fn render_dump(&self) -> (Vec<u8>, Vec<Truth>) {
         let len = self.frame_len_bytes();
-        let mut dump = vec![0u8; len * self.config.frame_count];
+        let mut dump = vec![0u8; len.saturating_mul(self.config.frame_count)];
         let truths = dump
             .chunks_exact_mut(len.max(1))
             .enumerate()
@@ -459,6 +463,9 @@ fn validate(c: &SceneConfig) -> Result<(), SceneError> {
     }
     if !(c.fps.is_finite() && c.fps > 0.0) {
         return Err(invalid("fps", "must be positive"));
+    }
+    if c.frame_count > MAX_FRAMES {
+        return Err(invalid("frame_count", "must be at most 100000"));
     }
     let frame_period_us = MICROS_PER_S / c.fps;
     if c.exposure_us == 0 || f64::from(c.exposure_us) > frame_period_us {
