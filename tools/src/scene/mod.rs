@@ -117,11 +117,20 @@ impl fmt::Display for SceneError {
 impl std::error::Error for SceneError {}
 
 /// A validated scene, ready to render any frame.
-#[derive(Clone, Debug)]
+#[derive(Clone)]
 pub struct Scene {
     config: SceneConfig,
     /// Radiance of everything that does not move (floor, glare, occluders), row-major.
     static_radiance: Vec<f32>,
+}
+
+/// Shows the configuration only: the precomputed radiance map is a frame's worth of floats.
+impl fmt::Debug for Scene {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Scene")
+            .field("config", &self.config)
+            .finish_non_exhaustive()
+    }
 }
 
 /// When, and how finely, one frame's exposure is sampled.
