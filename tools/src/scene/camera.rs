@@ -20,18 +20,25 @@ impl Range {
 
     /// Quantises a linear value; values outside `[0, 1]` are clipped first.
     pub fn luma(self, v: f32) -> u8 {
-        let v = v.clamp(0.0, 1.0);
-        // Both results lie in 0..=255 after the clamp, so the casts cannot truncate.
+        let (black, span) = self.black_and_span();
+        round_to_u8(black + span * v.clamp(0.0, 1.0))
+    }
+
+    /// Luma of black, and the luma span from black to white.
+    fn black_and_span(self) -> (f32, f32) {
         match self {
-            Range::Full => (FULL_SPAN * v).round() as u8,
-            Range::Studio => STUDIO_BLACK + (STUDIO_SPAN * v).round() as u8,
+            Range::Full => (0.0, 255.0),
+            Range::Studio => (16.0, 219.0),
         }
     }
 }
 
-const FULL_SPAN: f32 = 255.0;
-const STUDIO_BLACK: u8 = 16;
-const STUDIO_SPAN: f32 = 219.0;
+/// Rounds a value in `0.0..=255.0` to the nearest integer, halves up. Adding one half and
+/// truncating avoids `f32::round`, which is a library call on baseline x86-64 and would
+/// dominate the per-pixel cost.
+fn round_to_u8(x: f32) -> u8 {
+    (x + 0.5) as u8
+}
 
 /// Neutral chroma.
 const CHROMA_NEUTRAL: f32 = 128.0;
@@ -61,19 +68,26 @@ impl Camera {
         out: &mut [u8],
     ) {
         let sigma = self.noise_sigma as f32;
-        let mut noisy = |v: f32| match rng {
-            Some(rng) => v + sigma * rng.next_gaussian(),
-            None => v,
-        };
+        // Two monomorphised loops rather than a per-pixel branch on the noise.
+        match rng {
+            Some(rng) => self.pack_row(radiance, out, || sigma * rng.next_gaussian()),
+            None => self.pack_row(radiance, out, || 0.0),
+        }
+    }
+
+    fn pack_row(&self, radiance: &[f32], out: &mut [u8], mut noise: impl FnMut() -> f32) {
+        let (black, span) = self.range.black_and_span();
         for (pair, quad) in radiance.chunks_exact(2).zip(out.chunks_exact_mut(4)) {
-            let (v0, v1) = match *pair {
-                [a, b] => (noisy(a).clamp(0.0, 1.0), noisy(b).clamp(0.0, 1.0)),
-                _ => continue,
-            };
+            let [a, b] = *pair else { continue };
+            let v0 = (a + noise()).clamp(0.0, 1.0);
+            let v1 = (b + noise()).clamp(0.0, 1.0);
             let fade = 1.0 - 0.5 * (v0 + v1);
-            let u = (CHROMA_NEUTRAL + FLOOR_TINT_U * fade).round() as u8;
-            let v = (CHROMA_NEUTRAL + FLOOR_TINT_V * fade).round() as u8;
-            quad.copy_from_slice(&[self.range.luma(v0), u, self.range.luma(v1), v]);
+            quad.copy_from_slice(&[
+                round_to_u8(black + span * v0),
+                round_to_u8(CHROMA_NEUTRAL + FLOOR_TINT_U * fade),
+                round_to_u8(black + span * v1),
+                round_to_u8(CHROMA_NEUTRAL + FLOOR_TINT_V * fade),
+            ]);
         }
     }
 }

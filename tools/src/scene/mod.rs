@@ -36,14 +36,16 @@ use rng::{mix64, SplitMix64};
 
 /// At most this much LED motion between two time samples of an exposure, so a streak is a
 /// continuous smear rather than a row of separate disks.
-const MAX_DISK_STEP_PX: f64 = 0.05;
+const MAX_DISK_STEP_PX: f64 = 0.1;
 /// The glow is smooth and wide, so it needs far fewer time samples than the disk.
 const MAX_GLOW_STEP_PX: f64 = 0.5;
-/// Caps the time samples of one exposure (a 1000 px streak at the disk step), so an absurd
+/// Caps the time samples of one exposure (a 2000 px streak at the disk step), so an absurd
 /// custom speed costs a bounded time instead of hanging.
 const MAX_TIME_STEPS: usize = 20_000;
 /// Largest accepted frame side, which bounds the scene's memory.
 const MAX_SIDE_PX: u32 = 4096;
+/// Most frames a scene may have (55 minutes at 30 fps), which bounds a dump's size.
+const MAX_FRAMES: usize = 100_000;
 /// Separates the per-frame noise streams from the floor texture's seed.
 const NOISE_SALT: u64 = 0x0015_E1CE_0015_E1CE;
 const MICROS_PER_S: f64 = 1e6;
@@ -115,11 +117,20 @@ impl fmt::Display for SceneError {
 impl std::error::Error for SceneError {}
 
 /// A validated scene, ready to render any frame.
-#[derive(Clone, Debug)]
+#[derive(Clone)]
 pub struct Scene {
     config: SceneConfig,
     /// Radiance of everything that does not move (floor, glare, occluders), row-major.
     static_radiance: Vec<f32>,
+}
+
+/// Shows the configuration only: the precomputed radiance map is a frame's worth of floats.
+impl fmt::Debug for Scene {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Scene")
+            .field("config", &self.config)
+            .finish_non_exhaustive()
+    }
 }
 
 /// When, and how finely, one frame's exposure is sampled.
@@ -376,10 +387,12 @@ impl Scene {
         }
     }
 
-    /// Renders every frame back to back (a raw YUYV dump) with their truths.
+    /// Renders every frame back to back (a raw YUYV dump) with their truths. The whole dump
+    /// is held in memory (`frame_count × frame_len_bytes`); stream with [`Scene::render`]
+    /// for long scenes.
     pub fn render_dump(&self) -> (Vec<u8>, Vec<Truth>) {
         let len = self.frame_len_bytes();
-        let mut dump = vec![0u8; len * self.config.frame_count];
+        let mut dump = vec![0u8; len.saturating_mul(self.config.frame_count)];
         let truths = dump
             .chunks_exact_mut(len.max(1))
             .enumerate()
@@ -448,7 +461,7 @@ fn finite_at_least(value: f64, min: f64) -> bool {
 }
 
 fn validate(c: &SceneConfig) -> Result<(), SceneError> {
-    if c.width_px == 0 || c.width_px % 2 != 0 || c.width_px > MAX_SIDE_PX {
+    if c.width_px == 0 || !c.width_px.is_multiple_of(2) || c.width_px > MAX_SIDE_PX {
         return Err(invalid(
             "width_px",
             "must be even, non-zero and at most 4096",
@@ -459,6 +472,9 @@ fn validate(c: &SceneConfig) -> Result<(), SceneError> {
     }
     if !(c.fps.is_finite() && c.fps > 0.0) {
         return Err(invalid("fps", "must be positive"));
+    }
+    if c.frame_count > MAX_FRAMES {
+        return Err(invalid("frame_count", "must be at most 100000"));
     }
     let frame_period_us = MICROS_PER_S / c.fps;
     if c.exposure_us == 0 || f64::from(c.exposure_us) > frame_period_us {

@@ -156,7 +156,8 @@ impl Patch {
             // Pixel i covers [i - 0.5, i + 0.5]; keep pixels that touch [lo, hi].
             let first = (lo - margin_px + 0.5).floor().max(0.0);
             let last = (hi + margin_px + 0.5).floor().min(size as f64 - 1.0);
-            if !(first <= last) {
+            // NaN bounds (from a non-finite position) give an empty span too.
+            if first.is_nan() || last.is_nan() || first > last {
                 return (0, 0);
             }
             (first as usize, (last - first) as usize + 1)
@@ -172,11 +173,35 @@ impl Patch {
         }
     }
 
-    /// Adds `weight ×` (disk coverage) for a disk at `centre`.
+    /// Adds `weight ×` (disk coverage) for a disk at `centre`, visiting in each row only
+    /// the pixels the disk's chord across that row's band can reach.
     pub(crate) fn add_disk(&mut self, centre: Point, radius_px: f64, weight: f64) {
-        self.add_kernel(centre, radius_px + 1.0, |px, py| {
-            weight * pixel_disk_coverage(centre, radius_px, px, py)
-        });
+        let reach = radius_px + 0.5;
+        let rows = self.index_range(centre.y - reach, centre.y + reach, self.top, self.height);
+        let width = self.width;
+        for row in rows {
+            let py = (self.top + row) as f64;
+            let near_y = ((py - centre.y).abs() - 0.5).max(0.0);
+            if near_y >= radius_px {
+                continue;
+            }
+            let half_chord = (radius_px * radius_px - near_y * near_y).sqrt() + 0.5;
+            let cols = self.index_range(
+                centre.x - half_chord,
+                centre.x + half_chord,
+                self.left,
+                width,
+            );
+            let Some(line) = self.values.get_mut(row * width..(row + 1) * width) else {
+                continue;
+            };
+            for col in cols {
+                if let Some(value) = line.get_mut(col) {
+                    let px = (self.left + col) as f64;
+                    *value += (weight * pixel_disk_coverage(centre, radius_px, px, py)) as f32;
+                }
+            }
+        }
     }
 
     /// Adds `weight ×` the glow profile around `centre`.

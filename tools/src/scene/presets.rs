@@ -126,13 +126,13 @@ pub(crate) fn config(name: &str) -> Option<SceneConfig> {
         }
         "circles" => base(
             name,
-            "LED on a 20 px circle at 5 rev/s (628 px/s), 20 ms exposure: 36° curved 12.6 px streaks",
-            20_000,
+            "LED on a 20 px circle at 6 rev/s (754 px/s), 25 ms exposure: 54° arcs, 18.8 px long, 2.2 px sagitta",
+            25_000,
             120,
             Trajectory::Circle {
                 centre_px: Point::new(320.0, 240.0),
                 radius_px: 20.0,
-                rev_per_s: 5.0,
+                rev_per_s: 6.0,
                 phase_rad: 0.0,
             },
         ),

@@ -328,6 +328,8 @@ fn invalid_configurations_are_rejected() {
     long_exposure.exposure_us = 40_000;
     let mut no_led = base.clone();
     no_led.led.radius_px = f64::NAN;
+    let mut endless = base.clone();
+    endless.frame_count = usize::MAX;
     let mut stray_box = base.clone();
     stray_box.occluders.push(Occluder {
         left: 600,
@@ -340,6 +342,7 @@ fn invalid_configurations_are_rejected() {
         (odd, "width_px"),
         (long_exposure, "exposure_us"),
         (no_led, "led.radius_px"),
+        (endless, "frame_count"),
         (stray_box, "occluders"),
     ] {
         match Scene::new(config) {
