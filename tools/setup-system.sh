@@ -10,11 +10,11 @@
 #   socat            serial port pairs for UART tests
 #   xz-utils         unpacking the kernel image to the uncompressed vmlinux qemu boots fastest
 #
-# Also adds the rustup target the VM's guest programs are built for, when rustup is present.
+# The VM runs host-built (glibc) test programs: tests/vm/prepare.sh copies the C libraries they
+# need into the guest, so no extra Rust target is needed.
 set -eu
 
 PACKAGES="libclang-dev qemu-system-x86 busybox-static v4l-utils cpio kmod socat xz-utils"
-MUSL_TARGET="x86_64-unknown-linux-musl"
 
 missing=""
 for pkg in $PACKAGES; do
@@ -34,9 +34,3 @@ if [ -n "$missing" ]; then
     DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends $missing >/dev/null
 fi
 
-if command -v rustup >/dev/null 2>&1; then
-    if ! rustup target list --installed | grep -qx "$MUSL_TARGET"; then
-        echo "setup-system: adding rustup target $MUSL_TARGET" >&2
-        rustup target add "$MUSL_TARGET" >/dev/null
-    fi
-fi
