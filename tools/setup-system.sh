@@ -8,13 +8,14 @@
 #   v4l-utils        v4l2-ctl in the VM (DV timings, controls, feeding vivid's output node)
 #   cpio, kmod       building the VM's initramfs (cpio) and module dependencies (depmod, modprobe)
 #   socat            serial port pairs for UART tests
+#   binutils         strip, to shrink the test programs copied into the VM
 #   xz-utils         unpacking the kernel image to the uncompressed vmlinux qemu boots fastest
 #
 # The VM runs host-built (glibc) test programs: tests/vm/prepare.sh copies the C libraries they
 # need into the guest, so no extra Rust target is needed.
 set -eu
 
-PACKAGES="libclang-dev qemu-system-x86 busybox-static v4l-utils cpio kmod socat xz-utils"
+PACKAGES="libclang-dev qemu-system-x86 busybox-static v4l-utils cpio kmod socat xz-utils binutils"
 
 missing=""
 for pkg in $PACKAGES; do
