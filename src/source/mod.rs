@@ -28,3 +28,6 @@ pub trait FrameSource {
     /// The next frame, or `Ok(None)` at a clean end of the stream.
     fn next_frame(&mut self) -> Result<Option<(Frame<'_>, FrameMeta)>, Self::Error>;
 }
+
+#[cfg(feature = "v4l2")]
+pub mod v4l2;
