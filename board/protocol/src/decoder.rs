@@ -71,13 +71,20 @@ pub struct Decoder<const N: usize = MAX_ENCODED_LEN> {
 
 impl<const N: usize> Default for Decoder<N> {
     fn default() -> Self {
-        Self::new()
+        Self::with_capacity()
+    }
+}
+
+impl Decoder {
+    /// An empty decoder of the default [`MAX_ENCODED_LEN`] bytes, waiting for the first byte.
+    pub const fn new() -> Self {
+        Self::with_capacity()
     }
 }
 
 impl<const N: usize> Decoder<N> {
-    /// An empty decoder, waiting for the first byte.
-    pub const fn new() -> Self {
+    /// An empty decoder of `N` bytes, e.g. `Decoder::<23>::with_capacity()`.
+    pub const fn with_capacity() -> Self {
         Decoder { buf: Vec::new(), overflowed: false }
     }
 

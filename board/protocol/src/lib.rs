@@ -26,7 +26,7 @@
 //! let mut out = [0u8; 32];
 //! let frame = encode(&Message::Position(q.position), &mut out).unwrap();
 //!
-//! let mut decoder: Decoder = Decoder::new();
+//! let mut decoder = Decoder::new();
 //! let got: Vec<_> = decoder.feed(frame).collect();
 //! assert_eq!(got, [Ok(Received::Message(Message::Position(q.position)))]);
 //! ```

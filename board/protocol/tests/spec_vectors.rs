@@ -33,12 +33,12 @@ fn encoder_produces_the_spec_bytes() {
 #[test]
 fn decoder_reports_what_the_spec_says_byte_by_byte_and_in_one_chunk() {
     for v in spec_vectors() {
-        let mut decoder: Decoder = Decoder::new();
+        let mut decoder = Decoder::new();
         let by_byte: Vec<String> =
             v.wire.iter().filter_map(|&b| decoder.push(b)).map(|e| describe(&e)).collect();
         assert_eq!(by_byte, v.decodes, "{} (byte by byte)", v.name);
 
-        let mut decoder: Decoder = Decoder::new();
+        let mut decoder = Decoder::new();
         let chunked: Vec<String> = decoder.feed(&v.wire).map(|e| describe(&e)).collect();
         assert_eq!(chunked, v.decodes, "{} (one chunk)", v.name);
     }

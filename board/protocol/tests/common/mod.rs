@@ -176,3 +176,56 @@ fn parse_vector(lines: &[&str]) -> Result<Vector, String> {
     }
     Ok(v)
 }
+
+/// A small deterministic generator (SplitMix64) so the corruption counts are reproducible.
+pub struct SplitMix64(pub u64);
+
+impl SplitMix64 {
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+
+    /// Uniform in `0..n` (n > 0; the modulo bias is irrelevant at these sizes).
+    pub fn below(&mut self, n: usize) -> usize {
+        (self.next_u64() % n as u64) as usize
+    }
+
+    pub fn byte(&mut self) -> u8 {
+        self.next_u64() as u8
+    }
+
+    /// A random message: positions three times as often as heartbeats, as on the real link.
+    pub fn message(&mut self) -> Message {
+        if self.below(4) == 0 {
+            Message::Heartbeat(Heartbeat {
+                protocol_version: self.byte(),
+                frame_rate_centihz: self.next_u64() as u16,
+                dropped_frames: (self.next_u64() as u32) >> self.below(32),
+                tracker_state: [
+                    TrackerState::Starting,
+                    TrackerState::Searching,
+                    TrackerState::Tracking,
+                    TrackerState::Coasting,
+                ][self.below(4)],
+            })
+        } else {
+            // Shift right by a random amount so every varint length occurs.
+            let field = |r: &mut Self| (r.next_u64() as i16) >> r.below(16);
+            Message::Position(Position {
+                seq: self.byte(),
+                timestamp_us: self.next_u64() as u32,
+                units: if self.below(2) == 0 { Units::Floor } else { Units::Pixels },
+                x: field(self),
+                y: field(self),
+                vx_per_s: field(self),
+                vy_per_s: field(self),
+                status: [Status::Lost, Status::Found, Status::Predicted][self.below(3)],
+                quality: self.byte(),
+            })
+        }
+    }
+}
