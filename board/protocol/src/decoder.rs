@@ -38,9 +38,13 @@ impl fmt::Display for DecodeError {
         match self {
             DecodeError::Overflow => write!(f, "frame longer than the decoder's buffer, dropped"),
             DecodeError::Cobs => write!(f, "frame is not valid COBS, dropped"),
-            DecodeError::TooShort => write!(f, "frame too short for a message id and a CRC, dropped"),
+            DecodeError::TooShort => {
+                write!(f, "frame too short for a message id and a CRC, dropped")
+            }
             DecodeError::Crc => write!(f, "frame CRC mismatch, dropped"),
-            DecodeError::Malformed { id } => write!(f, "malformed body for message id {id:#04x}, dropped"),
+            DecodeError::Malformed { id } => {
+                write!(f, "malformed body for message id {id:#04x}, dropped")
+            }
         }
     }
 }
@@ -85,7 +89,10 @@ impl Decoder {
 impl<const N: usize> Decoder<N> {
     /// An empty decoder of `N` bytes, e.g. `Decoder::<23>::with_capacity()`.
     pub const fn with_capacity() -> Self {
-        Decoder { buf: Vec::new(), overflowed: false }
+        Decoder {
+            buf: Vec::new(),
+            overflowed: false,
+        }
     }
 
     /// Feeds one byte. Returns `Some` when the byte completed a (non-empty) frame.
@@ -112,7 +119,10 @@ impl<const N: usize> Decoder<N> {
     /// chunk completes, in order; bytes it does not reach (if dropped early) are not consumed,
     /// so drain it to consume the whole chunk.
     pub fn feed<'d, 'b>(&'d mut self, bytes: &'b [u8]) -> Frames<'d, 'b, N> {
-        Frames { decoder: self, bytes: bytes.iter() }
+        Frames {
+            decoder: self,
+            bytes: bytes.iter(),
+        }
     }
 
     /// Forgets any partial frame, e.g. after the UART reported a framing error.

@@ -45,7 +45,11 @@ impl fmt::Display for EncodeError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             EncodeError::BufferTooSmall => {
-                write!(f, "output buffer too small for the frame (give it {} bytes)", MAX_ENCODED_LEN + 1)
+                write!(
+                    f,
+                    "output buffer too small for the frame (give it {} bytes)",
+                    MAX_ENCODED_LEN + 1
+                )
             }
         }
     }
@@ -61,7 +65,9 @@ pub fn encode<'a>(message: &Message, out: &'a mut [u8]) -> Result<&'a [u8], Enco
         Message::Heartbeat(h) => postcard::serialize_with_flavor(&(HEARTBEAT_ID, h), flavor),
     };
     // The only way these serde types can fail to serialise is running out of buffer.
-    written.map(|bytes| &*bytes).map_err(|_| EncodeError::BufferTooSmall)
+    written
+        .map(|bytes| &*bytes)
+        .map_err(|_| EncodeError::BufferTooSmall)
 }
 
 /// Why a payload (a COBS-decoded frame) was rejected.

@@ -122,7 +122,9 @@ pub enum InvalidField {
 impl fmt::Display for InvalidField {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            InvalidField::PositionFlags(byte) => write!(f, "invalid position flags byte {byte:#04x}"),
+            InvalidField::PositionFlags(byte) => {
+                write!(f, "invalid position flags byte {byte:#04x}")
+            }
             InvalidField::TrackerState(byte) => write!(f, "invalid tracker state {byte}"),
         }
     }
@@ -221,9 +223,13 @@ impl TryFrom<WirePosition> for Position {
         if w.flags & FLAG_RESERVED_MASK != 0 {
             return Err(InvalidField::PositionFlags(w.flags));
         }
-        let status =
-            Status::from_bits(w.flags & FLAG_STATUS_MASK).ok_or(InvalidField::PositionFlags(w.flags))?;
-        let units = if w.flags & FLAG_FLOOR != 0 { Units::Floor } else { Units::Pixels };
+        let status = Status::from_bits(w.flags & FLAG_STATUS_MASK)
+            .ok_or(InvalidField::PositionFlags(w.flags))?;
+        let units = if w.flags & FLAG_FLOOR != 0 {
+            Units::Floor
+        } else {
+            Units::Pixels
+        };
         Ok(Position {
             seq: w.seq,
             timestamp_us: w.timestamp_us,

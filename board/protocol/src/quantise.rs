@@ -157,7 +157,12 @@ mod tests {
         assert_eq!(q.position.vy_per_s, 0);
         assert_eq!(
             q.clamped,
-            Clamped { x: false, y: true, vx_per_s: false, vy_per_s: true }
+            Clamped {
+                x: false,
+                y: true,
+                vx_per_s: false,
+                vy_per_s: true
+            }
         );
         assert!(q.clamped.any());
         assert!((q.position.x_in_units() - 1234.0).abs() < f32::EPSILON);

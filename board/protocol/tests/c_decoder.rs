@@ -55,9 +55,23 @@ fn drivers() -> &'static [Driver; 3] {
     static DRIVERS: OnceLock<[Driver; 3]> = OnceLock::new();
     DRIVERS.get_or_init(|| {
         [
-            compile("c99", "gcc", &["-std=c99", "-O1", "-g", "-fsanitize=address,undefined", "-fno-sanitize-recover=all"]),
+            compile(
+                "c99",
+                "gcc",
+                &[
+                    "-std=c99",
+                    "-O1",
+                    "-g",
+                    "-fsanitize=address,undefined",
+                    "-fno-sanitize-recover=all",
+                ],
+            ),
             compile("cxx11", "g++", &["-x", "c++", "-std=c++11", "-O2"]),
-            compile("c99_buf23", "gcc", &["-std=c99", "-O2", "-DGLINT_BUFFER_LEN=23"]),
+            compile(
+                "c99_buf23",
+                "gcc",
+                &["-std=c99", "-O2", "-DGLINT_BUFFER_LEN=23"],
+            ),
         ]
     })
 }
@@ -81,7 +95,11 @@ fn run(driver: &Driver, input: &[u8]) -> Vec<String> {
         driver.name,
         String::from_utf8_lossy(&output.stderr)
     );
-    String::from_utf8(output.stdout).expect("ASCII output").lines().map(str::to_owned).collect()
+    String::from_utf8(output.stdout)
+        .expect("ASCII output")
+        .lines()
+        .map(str::to_owned)
+        .collect()
 }
 
 #[test]
@@ -90,7 +108,13 @@ fn c_decoder_passes_the_spec_vectors() {
     assert!(!vectors.is_empty());
     for driver in &drivers()[..2] {
         for v in &vectors {
-            assert_eq!(run(driver, &v.wire), v.decodes, "{} on {}", driver.name, v.name);
+            assert_eq!(
+                run(driver, &v.wire),
+                v.decodes,
+                "{} on {}",
+                driver.name,
+                v.name
+            );
         }
     }
 }
@@ -131,7 +155,9 @@ fn hostile_stream(seed: u64, frames: usize) -> Vec<u8> {
 
 /// Compares event lists, reporting the first difference rather than thousands of lines.
 fn assert_same_events(actual: &[String], expected: &[String], what: &str) {
-    if let Some(i) = (0..actual.len().max(expected.len())).find(|&i| actual.get(i) != expected.get(i)) {
+    if let Some(i) =
+        (0..actual.len().max(expected.len())).find(|&i| actual.get(i) != expected.get(i))
+    {
         panic!(
             "{what}: event {i} differs (of {} actual, {} expected):\n  actual:   {:?}\n  expected: {:?}",
             actual.len(),
@@ -151,8 +177,19 @@ fn c_decoder_matches_the_rust_decoder_on_hostile_streams() {
     let stream = hostile_stream(0x6c69_6e74_0c0c, 5_000);
     let expected = rust_events(Decoder::new(), &stream);
     // The stream must exercise every kind of outcome, or the comparison proves little.
-    for kind in ["position", "heartbeat", "unknown", "error crc", "error cobs", "error malformed", "error overflow"] {
-        assert!(expected.iter().any(|e| e.starts_with(kind)), "stream has no `{kind}` event");
+    for kind in [
+        "position",
+        "heartbeat",
+        "unknown",
+        "error crc",
+        "error cobs",
+        "error malformed",
+        "error overflow",
+    ] {
+        assert!(
+            expected.iter().any(|e| e.starts_with(kind)),
+            "stream has no `{kind}` event"
+        );
     }
     for driver in &drivers()[..2] {
         assert_same_events(&run(driver, &stream), &expected, driver.name);

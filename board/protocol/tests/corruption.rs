@@ -15,7 +15,7 @@
 mod common;
 
 use common::SplitMix64;
-use glint_protocol::{encode, Decoder, Message, Received, FRAME_CRC, MAX_ENCODED_LEN};
+use glint_protocol::{encode, Decoder, Message, Received, DELIMITER, FRAME_CRC, MAX_ENCODED_LEN};
 
 /// Frames corrupted on the wire in `random_wire_corruption_is_bounded`.
 const WIRE_CORRUPTIONS: usize = 1_000_000;
@@ -38,7 +38,11 @@ fn payload(message: &Message) -> Vec<u8> {
 
 /// Re-frames a (corrupted) payload as a sender would, and counts the frames the decoder accepts
 /// that are not `original`.
-fn accepted_wrongly_from_payload(decoder: &mut Decoder, corrupted: &[u8], original: &Message) -> usize {
+fn accepted_wrongly_from_payload(
+    decoder: &mut Decoder,
+    corrupted: &[u8],
+    original: &Message,
+) -> usize {
     let mut wire = cobs::encode_vec(corrupted);
     wire.push(0);
     accepted_wrongly(decoder, &wire, original)
@@ -208,7 +212,10 @@ fn random_wire_corruption_is_bounded() {
     let total: usize = accepted.iter().sum();
     let rate = total as f64 / WIRE_CORRUPTIONS as f64;
     for (kind, count) in DAMAGES.iter().zip(accepted) {
-        println!("wire damage {kind:?}: {count} accepted of {}", WIRE_CORRUPTIONS / DAMAGES.len());
+        println!(
+            "wire damage {kind:?}: {count} accepted of {}",
+            WIRE_CORRUPTIONS / DAMAGES.len()
+        );
     }
     println!(
         "wire corruption: {WIRE_CORRUPTIONS} frames, {crc_checked} reached and failed the CRC, \
@@ -216,7 +223,10 @@ fn random_wire_corruption_is_bounded() {
     );
     // Twice the ideal rate: with ~15 expected at most, exceeding 30 would mean the framing
     // weakens the CRC, not bad luck (Poisson tail < 1e-4).
-    assert!(rate <= 2.0 * CRC16_PASS_RATE, "false-accept rate {rate:.2e}");
+    assert!(
+        rate <= 2.0 * CRC16_PASS_RATE,
+        "false-accept rate {rate:.2e}"
+    );
 }
 
 #[test]
@@ -227,8 +237,10 @@ fn random_garbage_is_rarely_accepted() {
     let mut crc_passed = 0usize;
     for _ in 0..WIRE_CORRUPTIONS / 4 {
         let len = 1 + rng.below(MAX_ENCODED_LEN);
-        let mut wire: Vec<u8> = (0..len).map(|_| 1 + rng.below(255) as u8).collect();
-        wire.push(0);
+        let wire: Vec<u8> = (0..len)
+            .map(|_| 1 + rng.below(255) as u8)
+            .chain([DELIMITER])
+            .collect();
         for event in decoder.feed(&wire) {
             match event {
                 Ok(Received::Message(_)) => accepted += 1,
@@ -241,7 +253,9 @@ fn random_garbage_is_rarely_accepted() {
         "random garbage: {} frames, {accepted} accepted as messages, {crc_passed} as unknown ids",
         WIRE_CORRUPTIONS / 4
     );
-    assert!((accepted + crc_passed) as f64 <= 2.0 * CRC16_PASS_RATE * (WIRE_CORRUPTIONS / 4) as f64);
+    assert!(
+        (accepted + crc_passed) as f64 <= 2.0 * CRC16_PASS_RATE * (WIRE_CORRUPTIONS / 4) as f64
+    );
 }
 
 #[test]
@@ -253,17 +267,15 @@ fn random_payloads_in_valid_frames_pass_the_crc_at_the_ideal_rate() {
     for _ in 0..WIRE_CORRUPTIONS {
         let len = 3 + rng.below(20);
         let random: Vec<u8> = (0..len).map(|_| rng.byte()).collect();
-        let mut wire = cobs::encode_vec(&random);
-        wire.push(0);
+        let wire = [cobs::encode_vec(&random), vec![DELIMITER]].concat();
         for event in decoder.feed(&wire) {
             match event {
                 Ok(Received::Message(_)) => {
                     crc_passed += 1;
                     accepted += 1;
                 }
-                Ok(Received::Unknown { .. }) | Err(glint_protocol::DecodeError::Malformed { .. }) => {
-                    crc_passed += 1
-                }
+                Ok(Received::Unknown { .. })
+                | Err(glint_protocol::DecodeError::Malformed { .. }) => crc_passed += 1,
                 Err(_) => {}
             }
         }

@@ -14,11 +14,18 @@ fn frame(message: &Message) -> Vec<u8> {
 }
 
 fn messages(max: usize) -> impl Strategy<Value = Vec<Message>> {
-    prop::collection::vec(any::<u64>().prop_map(|seed| SplitMix64(seed).message()), 1..max)
+    prop::collection::vec(
+        any::<u64>().prop_map(|seed| SplitMix64(seed).message()),
+        1..max,
+    )
 }
 
 /// Feeds `bytes` in chunks of the given sizes (cycled), collecting every event.
-fn feed_chunked(decoder: &mut Decoder, bytes: &[u8], chunk_sizes: &[usize]) -> Vec<Result<Received, DecodeError>> {
+fn feed_chunked(
+    decoder: &mut Decoder,
+    bytes: &[u8],
+    chunk_sizes: &[usize],
+) -> Vec<Result<Received, DecodeError>> {
     let mut events = Vec::new();
     let mut rest = bytes;
     for &size in chunk_sizes.iter().cycle() {

@@ -19,7 +19,7 @@ const I16_EDGES: [i16; 8] = [i16::MIN, -8193, -8192, -65, 0, 63, 8191, i16::MAX]
 
 #[test]
 fn every_extreme_position_fits_the_budget_and_the_worst_reaches_it() {
-    assert!(MAX_POSITION_WIRE_LEN <= POSITION_BUDGET_BYTES);
+    const { assert!(MAX_POSITION_WIRE_LEN <= POSITION_BUDGET_BYTES) };
     let mut longest = 0;
     for &seq in &[0u8, 255] {
         for &timestamp_us in &[0u32, u32::MAX] {
@@ -31,7 +31,15 @@ fn every_extreme_position_fits_the_budget_and_the_worst_reaches_it() {
                                 for &vy_per_s in &I16_EDGES {
                                     for &quality in &[0u8, 255] {
                                         let p = Position {
-                                            seq, timestamp_us, units, x, y, vx_per_s, vy_per_s, status, quality,
+                                            seq,
+                                            timestamp_us,
+                                            units,
+                                            x,
+                                            y,
+                                            vx_per_s,
+                                            vy_per_s,
+                                            status,
+                                            quality,
                                         };
                                         let len = wire_len(&Message::Position(p));
                                         assert!(len <= MAX_POSITION_WIRE_LEN, "{p:?}: {len} bytes");
@@ -61,19 +69,27 @@ fn heartbeat_fits_the_frame_limit_at_its_largest() {
 }
 
 fn any_position() -> impl Strategy<Value = Position> {
-    (any::<u8>(), any::<u32>(), any::<bool>(), any::<[i16; 4]>(), 0u8..3, any::<u8>()).prop_map(
-        |(seq, timestamp_us, floor, [x, y, vx_per_s, vy_per_s], status, quality)| Position {
-            seq,
-            timestamp_us,
-            units: if floor { Units::Floor } else { Units::Pixels },
-            x,
-            y,
-            vx_per_s,
-            vy_per_s,
-            status: [Status::Lost, Status::Found, Status::Predicted][usize::from(status)],
-            quality,
-        },
+    (
+        any::<u8>(),
+        any::<u32>(),
+        any::<bool>(),
+        any::<[i16; 4]>(),
+        0u8..3,
+        any::<u8>(),
     )
+        .prop_map(
+            |(seq, timestamp_us, floor, [x, y, vx_per_s, vy_per_s], status, quality)| Position {
+                seq,
+                timestamp_us,
+                units: if floor { Units::Floor } else { Units::Pixels },
+                x,
+                y,
+                vx_per_s,
+                vy_per_s,
+                status: [Status::Lost, Status::Found, Status::Predicted][usize::from(status)],
+                quality,
+            },
+        )
 }
 
 proptest! {

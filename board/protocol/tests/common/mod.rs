@@ -113,7 +113,11 @@ pub fn parse_hex(text: &str) -> Result<Vec<u8>, String> {
 
 /// Formats bytes as space-separated lower-case hex.
 pub fn hex(bytes: &[u8]) -> String {
-    bytes.iter().map(|b| format!("{b:02x}")).collect::<Vec<_>>().join(" ")
+    bytes
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect::<Vec<_>>()
+        .join(" ")
 }
 
 /// One test vector from SPEC.md.
@@ -160,7 +164,9 @@ fn parse_vector(lines: &[&str]) -> Result<Vector, String> {
         decodes: Vec::new(),
     };
     for line in lines {
-        let (key, value) = line.split_once(':').ok_or(format!("line without ':': {line}"))?;
+        let (key, value) = line
+            .split_once(':')
+            .ok_or(format!("line without ':': {line}"))?;
         let value = value.trim();
         match key {
             "name" => v.name = value.to_string(),
@@ -218,7 +224,11 @@ impl SplitMix64 {
             Message::Position(Position {
                 seq: self.byte(),
                 timestamp_us: self.next_u64() as u32,
-                units: if self.below(2) == 0 { Units::Floor } else { Units::Pixels },
+                units: if self.below(2) == 0 {
+                    Units::Floor
+                } else {
+                    Units::Pixels
+                },
                 x: field(self),
                 y: field(self),
                 vx_per_s: field(self),
