@@ -68,8 +68,22 @@ pub fn quantise(value: f32, quanta_per_unit: f32) -> (i16, bool) {
     if scaled <= MIN_ROUNDABLE {
         return (i16::MIN, true);
     }
-    // In range now, so the truncating cast after adding ±0.5 is round-half-away-from-zero.
-    ((scaled + 0.5_f32.copysign(scaled)) as i16, false)
+    // In range now. `round` is not in `core`, and adding ±0.5 before truncating misrounds
+    // 0.49999997; the fraction left after truncation is exact in f32, so compare that instead.
+    let whole = scaled as i32;
+    let fraction = scaled - whole as f32;
+    let rounded = if fraction >= 0.5 {
+        whole + 1
+    } else if fraction <= -0.5 {
+        whole - 1
+    } else {
+        whole
+    };
+    // Saturating, though the range checks above already keep `rounded` inside i16.
+    (
+        rounded.clamp(i32::from(i16::MIN), i32::from(i16::MAX)) as i16,
+        false,
+    )
 }
 
 impl Position {
@@ -122,6 +136,9 @@ mod tests {
         assert_eq!(quantise(-1.07, QUANTA_PER_PX), (-9, false));
         assert_eq!(quantise(0.0625, QUANTA_PER_PX), (1, false)); // exactly 0.5 rounds away
         assert_eq!(quantise(-0.0625, QUANTA_PER_PX), (-1, false));
+        // The largest f32 below 0.5 rounds down (adding 0.5 first would give 1).
+        assert_eq!(quantise(0.499_999_97, 1.0), (0, false));
+        assert_eq!(quantise(-0.499_999_97, 1.0), (0, false));
     }
 
     #[test]
