@@ -275,3 +275,158 @@ impl Tracker {
 fn dist(a: (f32, f32), b: (f32, f32)) -> f32 {
     (a.0 - b.0).hypot(a.1 - b.1)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::detect::blobs::BoundingBox;
+    use crate::detect::tips::Tips;
+
+    fn blob_at(x: f32, y: f32) -> Blob {
+        Blob {
+            area_px: 30,
+            bbox: BoundingBox {
+                x_min_px: 0,
+                y_min_px: 0,
+                x_max_px: 1,
+                y_max_px: 1,
+            },
+            mass_centre_px: (x, y),
+        }
+    }
+
+    fn streak(mid: (f32, f32), tips: Option<[(f32, f32); 2]>) -> Streak {
+        Streak {
+            centroid_px: mid,
+            seed_point_px: (mid.0 as u16, mid.1 as u16),
+            mid_px: mid,
+            ends_px: [mid, mid],
+            skeleton_length_px: 0,
+            skeleton_px: 1,
+            thickness_px: 6.0,
+            tips: tips.map(|tips_px| Tips {
+                tips_px,
+                radius_px: 3.0,
+                path_length_px: ((tips_px[1].0 - tips_px[0].0).hypot(tips_px[1].1 - tips_px[0].1)),
+            }),
+        }
+    }
+
+    const FRAME_US: u64 = 33_333;
+
+    #[test]
+    fn two_unknown_candidates_are_ambiguous_until_one_moves() {
+        let mut t = Tracker::new(TrackerConfig::default());
+        let first = [(0, blob_at(100.0, 100.0)), (1, blob_at(300.0, 200.0))];
+        assert_eq!(t.choose(first.into_iter(), 0, 0), Choice::Ambiguous);
+        t.update(0, None);
+        // The lamp at (100, 100) stays; the LED moved.
+        let second = [(0, blob_at(100.2, 100.0)), (1, blob_at(310.0, 200.0))];
+        assert_eq!(t.choose(second.into_iter(), 1, FRAME_US), Choice::Ambiguous);
+        t.update(FRAME_US, None);
+        let third = [(0, blob_at(100.1, 100.1)), (1, blob_at(320.0, 200.0))];
+        assert_eq!(
+            t.choose(third.into_iter(), 2, 2 * FRAME_US),
+            Choice::Blob(1)
+        );
+    }
+
+    #[test]
+    fn the_head_is_the_tip_farther_from_the_previous_position() {
+        let mut t = Tracker::new(TrackerConfig::default());
+        let first = t
+            .update(
+                0,
+                Some(&streak(
+                    (100.0, 100.0),
+                    Some([(90.0, 100.0), (110.0, 100.0)]),
+                )),
+            )
+            .unwrap();
+        assert_eq!(
+            first.position_method,
+            PositionMethod::Mid,
+            "no direction on the first frame"
+        );
+        assert_eq!(first.position_px, (100.0, 100.0));
+        // Moving right: the next streak spans 130..150; its far tip from 100 is 150.
+        let second = t
+            .update(
+                FRAME_US,
+                Some(&streak(
+                    (140.0, 100.0),
+                    Some([(150.0, 100.0), (130.0, 100.0)]),
+                )),
+            )
+            .unwrap();
+        assert_eq!(second.position_method, PositionMethod::Head);
+        assert_eq!(second.position_px, (150.0, 100.0));
+        // Reversed between frames: the streak runs back from 150 to 130; the far tip from the
+        // previous head (150) is 130, even though the old velocity points the other way.
+        let third = t
+            .update(
+                2 * FRAME_US,
+                Some(&streak(
+                    (140.0, 100.0),
+                    Some([(150.0, 100.0), (130.0, 100.0)]),
+                )),
+            )
+            .unwrap();
+        assert_eq!(third.position_px, (130.0, 100.0));
+        let ((vx, vy), method) = third.velocity_px_s.unwrap();
+        assert_eq!(method, VelocityMethod::Frames);
+        assert_eq!((vx, vy), (0.0, 0.0), "the middle did not move");
+    }
+
+    #[test]
+    fn the_exposure_gives_speed_from_one_frame() {
+        let mut t = Tracker::new(TrackerConfig {
+            exposure_us: Some(10_000),
+        });
+        t.update(0, Some(&streak((100.0, 100.0), None)));
+        let e = t
+            .update(
+                FRAME_US,
+                Some(&streak(
+                    (120.0, 100.0),
+                    Some([(115.0, 100.0), (125.0, 100.0)]),
+                )),
+            )
+            .unwrap();
+        let ((vx, vy), method) = e.velocity_px_s.unwrap();
+        assert_eq!(method, VelocityMethod::Streak);
+        assert!(
+            (vx - 1000.0).abs() < 1e-3 && vy.abs() < 1e-3,
+            "10 px in 10 ms: {vx}, {vy}"
+        );
+    }
+
+    #[test]
+    fn a_lost_led_is_never_reported_and_the_track_expires() {
+        let mut t = Tracker::new(TrackerConfig::default());
+        t.update(0, Some(&streak((100.0, 100.0), None)));
+        assert!(t.prediction(FRAME_US).is_some());
+        for i in 1..=u64::from(MAX_MISSED_FRAMES) + 1 {
+            assert_eq!(t.update(i * FRAME_US, None), None);
+        }
+        assert_eq!(
+            t.prediction(20 * FRAME_US),
+            None,
+            "too long lost: acquire afresh"
+        );
+        // Back far from where it vanished: acquired on the first frame it is visible again.
+        let back = [(0, blob_at(500.0, 50.0))];
+        assert_eq!(
+            t.choose(back.into_iter(), 20, 20 * FRAME_US),
+            Choice::Blob(0)
+        );
+        let e = t
+            .update(20 * FRAME_US, Some(&streak((500.0, 50.0), None)))
+            .unwrap();
+        assert_eq!(
+            e.position_method,
+            PositionMethod::Mid,
+            "no direction after re-acquisition"
+        );
+    }
+}
