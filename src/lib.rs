@@ -20,3 +20,4 @@ pub mod frame;
 pub mod pipeline;
 pub mod sink;
 pub mod source;
+pub mod track;

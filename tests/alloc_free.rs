@@ -109,6 +109,9 @@ fn replay_allocates_nothing_per_frame() {
             erosions: 1,
             ..Default::default()
         },
+        tracker: glint::track::TrackerConfig {
+            exposure_us: Some(25_000),
+        },
     };
     let mut source = DumpSource::new(Cursor::new(&bytes), size, 30.0);
     let mut pipeline = Pipeline::new(size, config);

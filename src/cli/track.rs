@@ -15,6 +15,7 @@ use glint::frame::FrameSize;
 use glint::pipeline::{self, Pipeline, PipelineConfig, RunSummary};
 use glint::sink::{CsvSink, JsonLinesSink};
 use glint::source::dump::DumpSource;
+use glint::track::TrackerConfig;
 
 /// Output buffer size: a few hundred report lines.
 const OUTPUT_BUFFER_BYTES: usize = 64 * 1024;
@@ -49,6 +50,11 @@ pub struct TrackArgs {
     /// Structuring element of the erosions.
     #[arg(long, value_enum, default_value_t = KernelArg::Square)]
     erode_kernel: KernelArg,
+
+    /// The camera's exposure time in microseconds, when known: the streak's length over it
+    /// gives the speed within a single frame.
+    #[arg(long, value_name = "US", value_parser = clap::value_parser!(u32).range(1..=10_000_000))]
+    exposure_us: Option<u32>,
 
     /// Skeleton for the streak's middle and ends.
     #[arg(long, value_enum, default_value_t = SkeletonArg::Thinning)]
@@ -106,6 +112,9 @@ impl TrackArgs {
                     SkeletonArg::Seed => SkeletonMethod::Morphological,
                 },
                 ..DetectorConfig::default()
+            },
+            tracker: TrackerConfig {
+                exposure_us: self.exposure_us,
             },
         }
     }

@@ -9,6 +9,7 @@ pub mod morph;
 pub mod skeleton;
 pub mod streak;
 pub mod threshold;
+pub mod tips;
 
 use bitimage::BitImage;
 use blobs::{Blob, Labeler, Overflow};
@@ -83,6 +84,8 @@ pub struct Detector {
     labeler: Labeler,
     streak: StreakScratch,
     max_area_px: u32,
+    /// Whether the labeller's tables hold the last frame's blobs.
+    labeled: bool,
 }
 
 impl Detector {
@@ -96,6 +99,7 @@ impl Detector {
             labeler: Labeler::new(),
             streak: StreakScratch::new(size.width(), size.height()),
             max_area_px: (size.pixels() as f32 * MAX_BLOB_FRACTION) as u32,
+            labeled: false,
         }
     }
 
@@ -109,9 +113,10 @@ impl Detector {
         &self.config
     }
 
-    /// Runs threshold, erosion, labelling and streak analysis on `frame`, which must have the
-    /// detector's size (a mismatched frame is simply found empty).
-    pub fn detect(&mut self, frame: &Frame<'_>) -> Detection {
+    /// Runs threshold, erosion and labelling on `frame`, which must have the detector's size
+    /// (a mismatched frame is simply found empty). `best` is left empty: the caller picks a
+    /// candidate (see [`Detector::candidates`]) and analyses it with [`Detector::analyze`].
+    pub fn segment(&mut self, frame: &Frame<'_>) -> Detection {
         self.streak.reset();
         let (levels, mut mask_px) = threshold::apply(frame, self.config.threshold, &mut self.mask);
         if self.config.erosions > 0 && mask_px > 0 {
@@ -133,42 +138,60 @@ impl Detector {
             blinded: mask_px as f32 > self.size.pixels() as f32 * BLINDED_FRACTION,
             best: None,
         };
+        self.labeled = false;
         if detection.blinded || mask_px == 0 || frame.size() != self.size {
             return detection;
         }
         self.labeler.label(&self.mask);
+        self.labeled = true;
         detection.blob_count = self.labeler.blobs().len();
         detection.overflow = self.labeler.overflow();
-        if detection.overflow.any() {
-            return detection;
-        }
-        let Some(threshold_luma) = levels.threshold_luma else {
-            return detection;
-        };
-        detection.best = self.largest_candidate().map(|(index, blob)| {
-            let streak = streak::analyze(
-                frame,
-                &self.labeler,
-                index,
-                &blob,
-                threshold_luma,
-                self.config.skeleton,
-                &mut self.streak,
-            );
-            (blob, streak)
-        });
         detection
     }
 
-    /// The largest blob that is neither noise nor glare.
-    fn largest_candidate(&self) -> Option<(usize, Blob)> {
+    /// Segments `frame` and analyses its largest candidate: detection without tracking.
+    pub fn detect(&mut self, frame: &Frame<'_>) -> Detection {
+        let mut detection = self.segment(frame);
+        detection.best = self
+            .candidates()
+            .max_by_key(|(_, b)| b.area_px)
+            .and_then(|(index, _)| self.analyze(frame, index, detection.levels));
+        detection
+    }
+
+    /// The blobs of the last segmented frame that may be the LED: neither noise nor glare.
+    /// None when the frame overflowed the blob tables or was blinded.
+    pub fn candidates(&self) -> impl Iterator<Item = (usize, Blob)> + Clone + '_ {
+        let usable = self.labeled && !self.labeler.overflow().any();
         self.labeler
             .blobs()
             .iter()
             .copied()
             .enumerate()
-            .filter(|(_, b)| b.area_px >= self.config.min_area_px && b.area_px <= self.max_area_px)
-            .max_by_key(|(_, b)| b.area_px)
+            .filter(move |(_, b)| {
+                usable && b.area_px >= self.config.min_area_px && b.area_px <= self.max_area_px
+            })
+    }
+
+    /// The streak geometry of blob `index` of the last segmented frame.
+    pub fn analyze(
+        &mut self,
+        frame: &Frame<'_>,
+        index: usize,
+        levels: Levels,
+    ) -> Option<(Blob, Streak)> {
+        let blob = *self.labeler.blobs().get(index)?;
+        levels.threshold_luma?;
+        let streak = streak::analyze(
+            frame,
+            &self.labeler,
+            index,
+            &blob,
+            levels,
+            self.config.skeleton,
+            &mut self.streak,
+        );
+        Some((blob, streak))
     }
 
     /// The saturation mask of the last frame.

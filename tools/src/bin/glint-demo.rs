@@ -1,7 +1,7 @@
 //! `glint-demo`: glint on a built-in synthetic scene, no camera needed.
 //!
 //! Renders a preset scene frame by frame in memory, runs each frame through the real glint
-//! pipeline (exactly as `glint track` would), compares the answers with the scene's exact
+//! pipeline (exactly as `glint track --exposure-us` would), compares the answers with the scene's exact
 //! ground truth, prints a short table and a summary, and writes an overlay PNG of one frame.
 
 use std::path::PathBuf;
@@ -13,6 +13,7 @@ use clap::Parser;
 use glint::frame::{Frame, FrameSize};
 use glint::pipeline::{FrameReport, Pipeline, PipelineConfig};
 use glint::source::FrameMeta;
+use glint::track::{PositionMethod, TrackerConfig};
 use glint_tools::overlay::{Overlay, YuvRange};
 use glint_tools::scene::{Range, Scene, Truth, Visibility};
 use glint_tools::stats::Spread;
@@ -93,7 +94,14 @@ fn run(args: Args) -> Result<()> {
     );
     println!("  {}", scene.config().summary);
 
-    let mut pipeline = Pipeline::new(size, PipelineConfig::default());
+    // As `glint track --exposure-us`: the scene's exposure is known, as a camera's is.
+    let config = PipelineConfig {
+        tracker: TrackerConfig {
+            exposure_us: Some(scene.exposure_us()),
+        },
+        ..PipelineConfig::default()
+    };
+    let mut pipeline = Pipeline::new(size, config);
     let mut buffer = vec![0u8; scene.frame_len_bytes()];
     let (mut rows, mut detect_s, mut render_time) = (Vec::new(), Vec::new(), Duration::ZERO);
     for index in 0..frame_count {
@@ -139,9 +147,8 @@ fn compare(truth: Truth, report: FrameReport) -> Row {
     };
     let p = report.position;
     Row {
-        mid_error_px: p
-            .and_then(|p| distance((p.mid_x_px, p.mid_y_px), truth.mid_x_px, truth.mid_y_px)),
-        position_error_px: p.and_then(|p| distance((p.x_px, p.y_px), truth.x_px, truth.y_px)),
+        mid_error_px: p.and_then(|p| distance(p.mid_px, truth.mid_x_px, truth.mid_y_px)),
+        position_error_px: p.and_then(|p| distance(p.position_px, truth.x_px, truth.y_px)),
         truth,
         report,
     }
@@ -169,7 +176,7 @@ fn print_table(rows: &[Row], overlay_frame: usize) {
             Visibility::Hidden => "hidden",
             Visibility::Partial => "partial",
         };
-        let mid = row.report.position.map(|p| (p.mid_x_px, p.mid_y_px));
+        let mid = row.report.position.map(|p| p.mid_px);
         let glint_mid = match mid {
             Some((x, y)) => pair(Some(x.into()), Some(y.into())),
             None => "not found".into(),
@@ -225,14 +232,15 @@ fn print_summary(rows: &[Row], detect_s: &[f64], render_time: Duration) {
         "position (x, y) error            ",
         &errors(|r| r.position_error_px),
     );
-    let position_is_mid = rows
+    let from_mid = rows
         .iter()
         .filter_map(|r| r.report.position)
-        .all(|p| (p.x_px, p.y_px) == (p.mid_x_px, p.mid_y_px));
-    if position_is_mid && n_found > 0 {
+        .filter(|p| p.position_method == PositionMethod::Mid)
+        .count();
+    if from_mid > 0 {
         println!(
-            "  (glint reports x, y = the streak's middle for now, so the x, y error is the \
-             distance the LED moves in half an exposure)"
+            "  ({from_mid} of the found frames report x, y = the streak's middle: the first \
+             frame of a track has no direction of travel yet)"
         );
     }
     if let Some(t) = Spread::of(detect_s) {

@@ -21,6 +21,7 @@ use glint::frame::FrameSize;
 use glint::pipeline::{Pipeline, PipelineConfig};
 use glint::source::dump::DumpSource;
 use glint::source::FrameSource;
+use glint::track::TrackerConfig;
 use glint_tools::overlay::{Overlay, YuvRange};
 use glint_tools::scene::{read_truth_csv, Truth};
 
@@ -55,6 +56,9 @@ struct Args {
     /// Structuring element of the erosions, as `glint track --erode-kernel`.
     #[arg(long, value_enum, default_value_t = KernelArg::Square)]
     erode_kernel: KernelArg,
+    /// The camera's exposure time, as `glint track --exposure-us`.
+    #[arg(long, value_name = "US", value_parser = clap::value_parser!(u32).range(1..=10_000_000))]
+    exposure_us: Option<u32>,
     /// Skeleton, as `glint track --skeleton`.
     #[arg(long, value_enum, default_value_t = SkeletonArg::Thinning)]
     skeleton: SkeletonArg,
@@ -116,6 +120,9 @@ impl Args {
                     SkeletonArg::Seed => SkeletonMethod::Morphological,
                 },
                 ..DetectorConfig::default()
+            },
+            tracker: TrackerConfig {
+                exposure_us: self.exposure_us,
             },
         }
     }
@@ -179,8 +186,13 @@ fn run(args: Args) -> Result<()> {
 
         match report.position {
             Some(p) => println!(
-                "frame {}: found, mid {:.3} {:.3}, x,y {:.3} {:.3}",
-                args.frame, p.mid_x_px, p.mid_y_px, p.x_px, p.y_px
+                "frame {}: found, mid {:.3} {:.3}, x,y {:.3} {:.3} ({})",
+                args.frame,
+                p.mid_px.0,
+                p.mid_px.1,
+                p.position_px.0,
+                p.position_px.1,
+                p.position_method.name()
             ),
             None => println!("frame {}: not found", args.frame),
         }

@@ -26,11 +26,12 @@ enum Swatch {
     Mark(MarkStyle),
 }
 
-const LEGEND: [(Swatch, &str); 9] = [
+const LEGEND: [(Swatch, &str); 10] = [
     (Swatch::Mask, "mask"),
     (Swatch::Skeleton, "skeleton"),
     (Swatch::BlobBox, "blob box"),
     (Swatch::Mark(style::ENDS), "ends"),
+    (Swatch::Mark(style::TIPS), "tips"),
     (Swatch::Mark(style::CENTROID), "centroid"),
     (Swatch::Mark(style::MID), "mid"),
     (Swatch::Mark(style::POSITION), "x,y"),
@@ -138,9 +139,16 @@ fn detection_lines(overlay: &Overlay<'_>) -> Vec<String> {
     match (overlay.position, d.best) {
         (Some(p), Some((_, streak))) => {
             lines.push(format!(
-                "glint  mid {:.2} {:.2}   x,y {:.2} {:.2}",
-                p.mid_x_px, p.mid_y_px, p.x_px, p.y_px
+                "glint  mid {:.2} {:.2}   x,y {:.2} {:.2} ({})",
+                p.mid_px.0,
+                p.mid_px.1,
+                p.position_px.0,
+                p.position_px.1,
+                p.position_method.name()
             ));
+            if let Some(((vx, vy), method)) = p.velocity_px_s {
+                lines.push(format!("       v {vx:.0} {vy:.0} px/s ({})", method.name()));
+            }
             lines.push(format!(
                 "       centroid {:.2} {:.2}   streak {} px, {:.1} px thick",
                 streak.centroid_px.0,
@@ -148,6 +156,9 @@ fn detection_lines(overlay: &Overlay<'_>) -> Vec<String> {
                 streak.skeleton_length_px,
                 streak.thickness_px
             ));
+        }
+        _ if overlay.ambiguous => {
+            lines.push("glint  not found: several candidates, none known to be the LED".into())
         }
         _ => lines.push("glint  not found".into()),
     }
@@ -180,8 +191,8 @@ fn truth_lines(overlay: &Overlay<'_>) -> Vec<String> {
         };
         lines.push(format!(
             "error  mid {:.3} px   x,y {:.3} px",
-            err((p.mid_x_px, p.mid_y_px), m),
-            err((p.x_px, p.y_px), t)
+            err(p.mid_px, m),
+            err(p.position_px, t)
         ));
     }
     lines
@@ -203,28 +214,32 @@ fn chars_per_line(width_px: usize) -> usize {
     (width_px.saturating_sub(2 * GAP_PX) / (GLYPH_PX * text_scale(width_px))).max(1)
 }
 
-/// Breaks `line` at spaces into pieces of at most `max_chars` (longer words are cut).
+/// Breaks `line` at spaces into pieces of at most `max_chars` (longer words are cut). Every
+/// piece keeps the line's indentation.
 fn wrap(line: &str, max_chars: usize) -> Vec<String> {
-    let mut out = vec![];
+    let body = line.trim_start_matches(' ');
+    let indent = &line[..line.len() - body.len()];
+    let width = max_chars.saturating_sub(indent.len()).max(1);
+    let mut pieces = vec![];
     let mut current = String::new();
-    for word in line.split(' ') {
+    for word in body.split(' ') {
         let needed = current.chars().count() + usize::from(!current.is_empty()) + word.len();
-        if needed > max_chars && !current.trim().is_empty() {
-            out.push(std::mem::take(&mut current));
+        if needed > width && !current.trim().is_empty() {
+            pieces.push(std::mem::take(&mut current));
         } else if !current.is_empty() {
             current.push(' ');
         }
         current.push_str(word);
-        while current.chars().count() > max_chars {
-            let cut: String = current.chars().take(max_chars).collect();
-            current = current.chars().skip(max_chars).collect();
-            out.push(cut);
+        while current.chars().count() > width {
+            let cut: String = current.chars().take(width).collect();
+            current = current.chars().skip(width).collect();
+            pieces.push(cut);
         }
     }
-    if !current.is_empty() || out.is_empty() {
-        out.push(current);
+    if !current.is_empty() || pieces.is_empty() {
+        pieces.push(current);
     }
-    out
+    pieces.into_iter().map(|p| format!("{indent}{p}")).collect()
 }
 
 /// The legend's items, flowed into rows that fit `width_px`.
@@ -282,6 +297,7 @@ mod tests {
         assert_eq!(wrap("abcdefgh", 3), ["abc", "def", "gh"]);
         assert_eq!(wrap("", 3), [""]);
         assert_eq!(wrap("short", 80), ["short"]);
+        assert_eq!(wrap("  ab cd", 5), ["  ab", "  cd"]);
     }
 
     #[test]

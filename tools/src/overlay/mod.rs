@@ -3,8 +3,8 @@
 //! The image has three parts. On the left is the whole frame at 1×, with the saturation mask
 //! tinted, the skeleton, the chosen blob's box and the inset's outline. On the right is a
 //! nearest-neighbour magnification of a crop around the LED (the inset), where the sub-pixel
-//! markers can be told apart: the streak's middle, the position, the centroid, the two ends,
-//! and the ground truth's middle and position when known. Below both is a caption with the
+//! markers can be told apart: the streak's middle, the position, the centroid, the skeleton's
+//! two ends, the streak's tips, and the ground truth's middle and position when known. Below both is a caption with the
 //! numbers and a legend of the markers.
 //!
 //! ```no_run
@@ -31,7 +31,8 @@ pub use yuv::{pixel_rgb, YuvRange};
 use glint::detect::bitimage::BitImage;
 use glint::detect::Detection;
 use glint::frame::Frame;
-use glint::pipeline::{FrameReport, Pipeline, Position};
+use glint::pipeline::{FrameReport, Pipeline};
+use glint::track::Estimate;
 
 use crate::scene::Truth;
 
@@ -74,6 +75,12 @@ pub mod style {
         marker: Marker::Dot,
         colour: [255, 140, 0],
         radius_px: 3,
+    };
+    /// The streak's tips: where the LED was at the start and the end of the exposure.
+    pub const TIPS: MarkStyle = MarkStyle {
+        marker: Marker::Circle,
+        colour: [255, 200, 0],
+        radius_px: 6,
     };
     /// The intensity-weighted centroid.
     pub const CENTROID: MarkStyle = MarkStyle {
@@ -123,8 +130,10 @@ pub struct Overlay<'a> {
     pub skeleton: Option<&'a BitImage>,
     /// What detection found.
     pub detection: Option<Detection>,
-    /// The reported position.
-    pub position: Option<Position>,
+    /// The tracker's answer: position (`x, y`) and streak middle.
+    pub position: Option<Estimate>,
+    /// Several candidates and no way yet to tell the LED among them.
+    pub ambiguous: bool,
     /// The ground truth of this frame.
     pub truth: Option<&'a Truth>,
     /// A first caption line: the input's name, say.
@@ -149,6 +158,7 @@ impl<'a> Overlay<'a> {
             skeleton: None,
             detection: None,
             position: None,
+            ambiguous: false,
             truth: None,
             title: None,
         }
@@ -168,6 +178,7 @@ impl<'a> Overlay<'a> {
             skeleton: report.detection.best.map(|_| detector.skeleton()),
             detection: Some(report.detection),
             position: report.position,
+            ambiguous: report.ambiguous,
             ..Overlay::new(frame, report.meta.index, range)
         }
     }
@@ -320,6 +331,9 @@ impl<'a> Overlay<'a> {
             for end in streak.ends_px {
                 mark(canvas, style::ENDS, f64_pair(end));
             }
+            for tip in streak.tips.map(|t| t.tips_px).into_iter().flatten() {
+                mark(canvas, style::TIPS, f64_pair(tip));
+            }
             mark(canvas, style::CENTROID, f64_pair(streak.centroid_px));
         }
         let [truth_mid, truth_position] = self.truth_points();
@@ -331,8 +345,8 @@ impl<'a> Overlay<'a> {
             mark(canvas, style::TRUTH_MID, p);
         }
         if let Some(p) = self.position {
-            mark(canvas, style::POSITION, f64_pair((p.x_px, p.y_px)));
-            mark(canvas, style::MID, f64_pair((p.mid_x_px, p.mid_y_px)));
+            mark(canvas, style::POSITION, f64_pair(p.position_px));
+            mark(canvas, style::MID, f64_pair(p.mid_px));
         }
     }
 }

@@ -196,7 +196,7 @@ fn the_detector_s_mask_skeleton_and_answers_are_drawn() {
     assert_eq!(canvas.get(35, 20), Some(style::BLOB_BOX));
 
     // Inset: glint's middle is drawn where it says.
-    let mid = (f64::from(position.mid_x_px), f64::from(position.mid_y_px));
+    let mid = (f64::from(position.mid_px.0), f64::from(position.mid_px.1));
     assert!((mid.0 - centre.0).abs() < 0.1 && (mid.1 - centre.1).abs() < 0.1);
     let (mx, my) = inset_pixel(&image.layout, mid);
     assert_eq!(canvas.get(mx, my), Some(style::MID.colour));
