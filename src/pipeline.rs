@@ -7,6 +7,7 @@
 use core::fmt;
 use std::io;
 
+use crate::detect::bgdiff::BackgroundError;
 use crate::detect::{Detection, Detector, DetectorConfig};
 use crate::frame::{Frame, FrameSize};
 use crate::sink::Sink;
@@ -51,11 +52,16 @@ pub struct Pipeline {
 
 impl Pipeline {
     /// Allocates every stage for frames of `size`.
-    pub fn new(size: FrameSize, config: PipelineConfig) -> Self {
-        Pipeline {
-            detector: Detector::new(size, config.detector),
+    pub fn new(size: FrameSize, config: PipelineConfig) -> Result<Self, BackgroundError> {
+        Ok(Pipeline {
+            detector: Detector::new(size, config.detector)?,
             tracker: Tracker::new(config.tracker),
-        }
+        })
+    }
+
+    /// Feeds a frame of a separate background recording to the detector.
+    pub fn learn_background(&mut self, frame: &Frame<'_>) -> Result<(), BackgroundError> {
+        self.detector.learn_background(frame)
     }
 
     /// Processes one frame: segment, let the tracker choose the LED among the candidates,

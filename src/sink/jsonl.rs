@@ -63,6 +63,9 @@ impl<W: Write> Sink for JsonLinesSink<W> {
         if let Some(level) = d.levels.threshold_luma {
             write!(out, ",\"threshold\":{level}")?;
         }
+        if d.learning {
+            write!(out, ",\"learning\":true")?;
+        }
         if r.ambiguous {
             write!(out, ",\"ambiguous\":true")?;
         }

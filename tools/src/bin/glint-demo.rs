@@ -101,7 +101,7 @@ fn run(args: Args) -> Result<()> {
         },
         ..PipelineConfig::default()
     };
-    let mut pipeline = Pipeline::new(size, config);
+    let mut pipeline = Pipeline::new(size, config)?;
     let mut buffer = vec![0u8; scene.frame_len_bytes()];
     let (mut rows, mut detect_s, mut render_time) = (Vec::new(), Vec::new(), Duration::ZERO);
     for index in 0..frame_count {

@@ -145,7 +145,7 @@ fn run(args: Args) -> Result<()> {
     };
     let reader = open_dump(&args)?;
     let mut source = DumpSource::new(reader, args.size, args.fps);
-    let mut pipeline = Pipeline::new(args.size, args.pipeline_config());
+    let mut pipeline = Pipeline::new(args.size, args.pipeline_config())?;
     let mut processed = 0u64;
     loop {
         let (frame, meta) = match source.next_frame() {

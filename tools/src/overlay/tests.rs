@@ -166,7 +166,7 @@ fn the_detector_s_mask_skeleton_and_answers_are_drawn() {
     let centre = (30.0, 20.0);
     let bytes = frame_bytes(Some((centre, 3.2)));
     let size = FrameSize::new(WIDTH_PX as u32, HEIGHT_PX as u32).unwrap();
-    let mut pipeline = Pipeline::new(size, PipelineConfig::default());
+    let mut pipeline = Pipeline::new(size, PipelineConfig::default()).unwrap();
     let meta = FrameMeta {
         index: 7,
         sequence: 7,
@@ -210,7 +210,7 @@ fn the_detector_s_mask_skeleton_and_answers_are_drawn() {
 fn caption_reports_the_errors_against_the_truth() {
     let bytes = frame_bytes(Some(((30.0, 20.0), 3.2)));
     let size = FrameSize::new(WIDTH_PX as u32, HEIGHT_PX as u32).unwrap();
-    let mut pipeline = Pipeline::new(size, PipelineConfig::default());
+    let mut pipeline = Pipeline::new(size, PipelineConfig::default()).unwrap();
     let meta = FrameMeta {
         index: 0,
         sequence: 0,
