@@ -10,4 +10,5 @@
 //! `tests/alloc_free.rs` installs a counting global allocator and holds the pipeline to this.
 
 pub mod frame;
+pub mod geometry;
 pub mod source;

@@ -1,0 +1,173 @@
+//! Adaptive threshold: a pixel is dark when it is darker than the mean of its square window by
+//! a margin.
+//!
+//! A fixed threshold fails under shadows and studio-range cameras; comparing with the local mean
+//! keeps the marker's black border dark wherever it lies. The window mean comes from an integral
+//! image of the luma, so the cost does not depend on the window size. Both buffers are sized once
+//! for the whole frame; a region of interest uses their first `width × height` entries.
+
+use crate::frame::Frame;
+
+/// A mask pixel brighter than its surroundings (or not darker by the margin).
+pub const LIGHT: u8 = 0;
+/// A mask pixel darker than its surroundings.
+pub const DARK: u8 = 1;
+
+/// A rectangle of the frame, in pixels.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Roi {
+    pub x_px: usize,
+    pub y_px: usize,
+    pub width_px: usize,
+    pub height_px: usize,
+}
+
+/// Threshold scratch, allocated once for the largest region (the whole frame).
+#[derive(Debug)]
+pub struct Thresholder {
+    /// Integral of luma, `(width + 1) × (height + 1)`, row `y` holding sums of rows `< y`.
+    integral: Vec<u32>,
+    /// The mask of the current region, `width × height`, row-major: `LIGHT` or `DARK`.
+    mask: Vec<u8>,
+    width_px: usize,
+    height_px: usize,
+}
+
+impl Thresholder {
+    /// Scratch for regions up to `max_width_px × max_height_px`.
+    pub fn new(max_width_px: usize, max_height_px: usize) -> Self {
+        Thresholder {
+            integral: vec![0; (max_width_px + 1) * (max_height_px + 1)],
+            mask: vec![LIGHT; max_width_px * max_height_px],
+            width_px: 0,
+            height_px: 0,
+        }
+    }
+
+    /// Thresholds `roi` of `frame` (already clipped to it and no larger than the scratch):
+    /// dark where `luma + offset < window mean`, the window being `2 × radius + 1` pixels square,
+    /// cut at the region's edges.
+    pub fn run(&mut self, frame: &Frame<'_>, roi: Roi, radius_px: usize, offset: u8) {
+        let (w, h) = (roi.width_px, roi.height_px);
+        let stride = w + 1;
+        self.width_px = w;
+        self.height_px = h;
+        let (Some(integral), Some(mask)) = (
+            self.integral.get_mut(..stride * (h + 1)),
+            self.mask.get_mut(..w * h),
+        ) else {
+            // The caller sizes regions within the scratch; an oversize one yields an empty mask.
+            self.width_px = 0;
+            self.height_px = 0;
+            return;
+        };
+        integral[..stride].fill(0);
+        for y in 0..h {
+            let luma = frame
+                .row(roi.y_px + y)
+                .and_then(|r| r.get(2 * roi.x_px..2 * (roi.x_px + w)))
+                .unwrap_or(&[]);
+            let (above, here) = integral.split_at_mut((y + 1) * stride);
+            let above = &above[y * stride..];
+            let here = &mut here[..stride];
+            here[0] = 0;
+            let mut row_sum = 0u32;
+            for (x, l) in luma.iter().step_by(2).enumerate() {
+                row_sum += u32::from(*l);
+                here[x + 1] = above[x + 1] + row_sum;
+            }
+        }
+        let offset = u32::from(offset);
+        for y in 0..h {
+            let y0 = y.saturating_sub(radius_px);
+            let y1 = (y + radius_px + 1).min(h);
+            let top = &integral[y0 * stride..(y0 + 1) * stride];
+            let bottom = &integral[y1 * stride..(y1 + 1) * stride];
+            let luma = frame
+                .row(roi.y_px + y)
+                .and_then(|r| r.get(2 * roi.x_px..2 * (roi.x_px + w)))
+                .unwrap_or(&[]);
+            let out = &mut mask[y * w..(y + 1) * w];
+            let rows = (y1 - y0) as u32;
+            for (x, (m, l)) in out.iter_mut().zip(luma.iter().step_by(2)).enumerate() {
+                let x0 = x.saturating_sub(radius_px);
+                let x1 = (x + radius_px + 1).min(w);
+                let sum = bottom[x1] + top[x0] - bottom[x0] - top[x1];
+                let area = rows * (x1 - x0) as u32;
+                *m = if (u32::from(*l) + offset) * area < sum {
+                    DARK
+                } else {
+                    LIGHT
+                };
+            }
+        }
+    }
+
+    /// The mask of the last region, and its width and height.
+    pub fn mask_mut(&mut self) -> (&mut [u8], usize, usize) {
+        let len = self.width_px * self.height_px;
+        let (w, h) = (self.width_px, self.height_px);
+        (self.mask.get_mut(..len).unwrap_or(&mut []), w, h)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::frame::FrameSize;
+
+    fn yuyv(luma: &[u8]) -> Vec<u8> {
+        luma.iter().flat_map(|&l| [l, 128]).collect()
+    }
+
+    #[test]
+    fn dark_square_on_light_keeps_a_dark_rim_even_under_a_gradient() {
+        // 16x12 frame: brightness ramps left to right (a soft shadow), a dark 6x6 square inside.
+        let (w, h) = (16, 12);
+        let luma: Vec<u8> = (0..w * h)
+            .map(|i| {
+                let (x, y) = (i % w, i / w);
+                let light = 120 + 2 * x as u8;
+                if (5..11).contains(&x) && (3..9).contains(&y) {
+                    light / 5
+                } else {
+                    light
+                }
+            })
+            .collect();
+        let bytes = yuyv(&luma);
+        let frame = Frame::new_checked(&bytes, FrameSize::new(16, 12).unwrap(), 32).unwrap();
+        let mut t = Thresholder::new(w, h);
+        let roi = Roi {
+            x_px: 0,
+            y_px: 0,
+            width_px: w,
+            height_px: h,
+        };
+        t.run(&frame, roi, 2, 5);
+        let (mask, mw, _) = t.mask_mut();
+        let picture: Vec<String> = mask
+            .chunks(mw)
+            .map(|r| {
+                r.iter()
+                    .map(|&m| if m == DARK { '#' } else { '.' })
+                    .collect()
+            })
+            .collect();
+        let want = [
+            "................",
+            "................",
+            "................",
+            ".....######.....",
+            ".....######.....",
+            ".....##..##.....",
+            ".....##..##.....",
+            ".....######.....",
+            ".....######.....",
+            "................",
+            "................",
+            "................",
+        ];
+        assert_eq!(picture, want);
+    }
+}
