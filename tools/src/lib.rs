@@ -1,1 +1,2 @@
 //! Host-only tools for glint.
+pub mod markers;

@@ -2,9 +2,9 @@
 //!
 //! The four corners fix a homography from grid cells to the image, so each cell is sampled where
 //! perspective really puts it, at a few points around its centre (away from the blur at its
-//! edges). Cells are split into black and white at the largest gap in their sorted brightness
-//! (the threshold that best separates two groups, as Otsu's method does), which holds up under
-//! shadows and studio-range cameras. The border ring must be black; the inner cells become the
+//! edges). Each cell's brightness is divided by the light falling on it, measured on the white
+//! margin around the marker, so a shadow across the marker doesn't turn white cells black; then
+//! cells are split into black and white by Otsu's threshold. The border ring must be black; the inner cells become the
 //! bits, first cell in the most significant bit, white as 1.
 
 use crate::frame::Frame;
@@ -16,6 +16,8 @@ pub const MAX_GRID_CELLS: usize = 9;
 const SAMPLE_OFFSETS: [f64; 3] = [-0.2, 0.0, 0.2];
 /// Least brightness difference between the black and white cells' means.
 pub const MIN_CELL_CONTRAST: f64 = 20.0;
+/// A white margin is at least this many times brighter than the black border next to it.
+const MARGIN_TO_BORDER_RATIO: f64 = 1.5;
 /// Share of border cells allowed to read white (OpenCV allows 0.35; a tighter bound rejects
 /// more of a textured floor's false candidates).
 const MAX_BORDER_ERROR_RATE: f64 = 0.1;
@@ -49,28 +51,48 @@ pub fn read_bits(
         Point::new(0.0, side),
     ];
     let to_image = Homography::from_four(&grid, corners).map_err(|_| GridRejection::Unsampled)?;
-    let mut means = [0.0f64; MAX_GRID_CELLS * MAX_GRID_CELLS];
+    // Mean luma of the cell whose top-left grid corner is (col, row); -1 and `cells` reach
+    // one cell into the white margin around the marker.
+    let cell_mean = |col: f64, row: f64| -> Option<f64> {
+        let mut sum = 0.0;
+        for dy in SAMPLE_OFFSETS {
+            for dx in SAMPLE_OFFSETS {
+                let g = Point::new(col + 0.5 + dx, row + 0.5 + dy);
+                let p = to_image.apply(&g).ok()?;
+                sum += luma_bilinear(frame, p.x, p.y)?;
+            }
+        }
+        Some(sum / (SAMPLE_OFFSETS.len() * SAMPLE_OFFSETS.len()) as f64)
+    };
+    let mut raw = [0.0f64; MAX_GRID_CELLS * MAX_GRID_CELLS];
     for row in 0..cells {
         for col in 0..cells {
-            let mut sum = 0.0;
-            for dy in SAMPLE_OFFSETS {
-                for dx in SAMPLE_OFFSETS {
-                    let g = Point::new(col as f64 + 0.5 + dx, row as f64 + 0.5 + dy);
-                    let p = to_image.apply(&g).map_err(|_| GridRejection::Unsampled)?;
-                    sum += luma_bilinear(frame, p.x, p.y).ok_or(GridRejection::Unsampled)?;
-                }
-            }
-            means[row * cells + col] = sum;
+            raw[row * cells + col] =
+                cell_mean(col as f64, row as f64).ok_or(GridRejection::Unsampled)?;
         }
     }
-    let means = &means[..cells * cells];
-    let threshold = split_threshold(means).ok_or(GridRejection::LowContrast)?;
+    let raw = &raw[..cells * cells];
+    let mut normalised = [0.0f64; MAX_GRID_CELLS * MAX_GRID_CELLS];
+    let normalised = &mut normalised[..cells * cells];
+    if !normalise_by_margin(raw, cells, &cell_mean, normalised) {
+        normalised.copy_from_slice(raw);
+    }
+    let threshold = otsu_threshold(normalised).ok_or(GridRejection::LowContrast)?;
 
+    let (mut dark_sum, mut dark_n, mut light_sum, mut light_n) = (0.0, 0.0, 0.0, 0.0);
     let mut border_white = 0usize;
     let mut code = 0u64;
     for row in 0..cells {
         for col in 0..cells {
-            let white = means[row * cells + col] > threshold;
+            let i = row * cells + col;
+            let white = normalised[i] > threshold;
+            if white {
+                light_sum += raw[i];
+                light_n += 1.0;
+            } else {
+                dark_sum += raw[i];
+                dark_n += 1.0;
+            }
             let on_border = row == 0 || col == 0 || row == cells - 1 || col == cells - 1;
             if on_border {
                 border_white += usize::from(white);
@@ -79,6 +101,12 @@ pub fn read_bits(
             }
         }
     }
+    if light_n == 0.0
+        || dark_n == 0.0
+        || light_sum / light_n - dark_sum / dark_n < MIN_CELL_CONTRAST
+    {
+        return Err(GridRejection::LowContrast);
+    }
     let border_cells = 4 * (cells - 1);
     if border_white as f64 > MAX_BORDER_ERROR_RATE * border_cells as f64 {
         return Err(GridRejection::Border);
@@ -86,17 +114,70 @@ pub fn read_bits(
     Ok(code)
 }
 
-/// The threshold at the widest gap between sorted cell values, if the groups either side of it
-/// differ enough in mean to be black and white (sums of nine samples each).
-fn split_threshold(values: &[f64]) -> Option<f64> {
-    let samples = (SAMPLE_OFFSETS.len() * SAMPLE_OFFSETS.len()) as f64;
+/// Divides each cell by the light falling on it, estimated from the white margin just outside
+/// the border: the four margin cells in line with it, nearer ones weighing more. A shadow across
+/// the marker then no longer makes shadowed white cells look like black ones. Returns false
+/// (leaving `out` unspecified) when the margin can't be sampled or is not clearly brighter than
+/// the black border, i.e. there is no white margin to measure the light by.
+fn normalise_by_margin(
+    raw: &[f64],
+    cells: usize,
+    cell_mean: &impl Fn(f64, f64) -> Option<f64>,
+    out: &mut [f64],
+) -> bool {
+    let mut top = [0.0f64; MAX_GRID_CELLS];
+    let mut bottom = [0.0f64; MAX_GRID_CELLS];
+    let mut left = [0.0f64; MAX_GRID_CELLS];
+    let mut right = [0.0f64; MAX_GRID_CELLS];
+    let last = cells - 1;
+    let outside = cells as f64;
+    for k in 0..cells {
+        let kf = k as f64;
+        let samples = (
+            cell_mean(kf, -1.0),
+            cell_mean(kf, outside),
+            cell_mean(-1.0, kf),
+            cell_mean(outside, kf),
+        );
+        let (Some(t), Some(b), Some(l), Some(r)) = samples else {
+            return false;
+        };
+        let clearly_brighter = |margin: f64, border: f64| margin > MARGIN_TO_BORDER_RATIO * border;
+        if !(clearly_brighter(t, raw[k])
+            && clearly_brighter(b, raw[last * cells + k])
+            && clearly_brighter(l, raw[k * cells])
+            && clearly_brighter(r, raw[k * cells + last]))
+        {
+            return false;
+        }
+        (top[k], bottom[k], left[k], right[k]) = (t, b, l, r);
+    }
+    for row in 0..cells {
+        for col in 0..cells {
+            let weights = [
+                1.0 / (row + 1) as f64,
+                1.0 / (cells - row) as f64,
+                1.0 / (col + 1) as f64,
+                1.0 / (cells - col) as f64,
+            ];
+            let light = weights[0] * top[col]
+                + weights[1] * bottom[col]
+                + weights[2] * left[row]
+                + weights[3] * right[row];
+            out[row * cells + col] = raw[row * cells + col] * weights.iter().sum::<f64>() / light;
+        }
+    }
+    true
+}
+
+/// Otsu's threshold: the split of the sorted values that maximises the between-class variance.
+fn otsu_threshold(values: &[f64]) -> Option<f64> {
     let mut sorted = [0.0f64; MAX_GRID_CELLS * MAX_GRID_CELLS];
     let sorted = sorted.get_mut(..values.len())?;
     sorted.copy_from_slice(values);
     sorted.sort_unstable_by(f64::total_cmp);
     let n = sorted.len();
     let total: f64 = sorted.iter().sum();
-    // Otsu: maximise the between-class variance over the split points.
     let mut best = (0.0, None);
     let mut below = 0.0;
     for k in 1..n {
@@ -105,13 +186,10 @@ fn split_threshold(values: &[f64]) -> Option<f64> {
         let (m0, m1) = (below / n0, (total - below) / n1);
         let score = n0 * n1 * (m1 - m0) * (m1 - m0);
         if score > best.0 {
-            best = (score, Some((k, m0, m1)));
+            best = (score, Some(k));
         }
     }
-    let (k, m0, m1) = best.1?;
-    if (m1 - m0) / samples < MIN_CELL_CONTRAST {
-        return None;
-    }
+    let k = best.1?;
     Some(0.5 * (sorted[k - 1] + sorted[k]))
 }
 

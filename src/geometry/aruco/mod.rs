@@ -144,6 +144,7 @@ pub struct Detector {
     size: FrameSize,
     thresholder: threshold::Thresholder,
     contour: Vec<(i32, i32)>,
+    edge_samples: Vec<refine::EdgeSample>,
     markers: heapless::Vec<Marker, MAX_MARKERS>,
     stats: DetectionStats,
 }
@@ -156,6 +157,8 @@ impl Detector {
             size,
             thresholder: threshold::Thresholder::new(size.width(), size.height()),
             contour: Vec::with_capacity(config.max_perimeter_px.max(4)),
+            // One profile every half pixel along the longest side a traced border allows.
+            edge_samples: Vec::with_capacity(config.max_perimeter_px.max(4)),
             markers: heapless::Vec::new(),
             stats: DetectionStats::default(),
         }
@@ -201,6 +204,7 @@ impl Detector {
         let origin = nalgebra::Vector2::new(roi.x_px as f64, roi.y_px as f64);
         let markers = &mut self.markers;
         let stats = &mut self.stats;
+        let edge_samples = &mut self.edge_samples;
         contour::trace_borders(mask, w, h, min_border_len, &mut self.contour, |border| {
             stats.borders += 1;
             let quad = match quad::fit_quad(border, &limits) {
@@ -213,7 +217,7 @@ impl Detector {
             };
             stats.quads += 1;
             let corners = quad.map(|p| p + origin);
-            if let Some(marker) = decode_candidate(frame, &corners, &cfg) {
+            if let Some(marker) = decode_candidate(frame, &corners, &cfg, edge_samples) {
                 stats.decoded += 1;
                 let duplicate = markers.iter().any(|m| {
                     m.id == marker.id && (m.centre() - marker.centre()).norm() < DUPLICATE_CENTRE_PX
@@ -232,6 +236,7 @@ fn decode_candidate(
     frame: &Frame<'_>,
     corners: &[Point; 4],
     cfg: &DetectorConfig,
+    edge_samples: &mut Vec<refine::EdgeSample>,
 ) -> Option<Marker> {
     let dict = cfg.dictionary;
     let bits = grid::read_bits(frame, corners, dict.marker_bits()).ok()?;
@@ -243,7 +248,7 @@ fn decode_candidate(
         *o = corners[(k + r) % 4];
     }
     let refined = if cfg.refine {
-        refine::refine_corners(frame, &ordered, dict.marker_bits() + 2).ok()
+        refine::refine_corners(frame, &ordered, dict.marker_bits() + 2, edge_samples).ok()
     } else {
         None
     };

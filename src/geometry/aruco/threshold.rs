@@ -1,8 +1,12 @@
 //! Adaptive threshold: a pixel is dark when it is darker than the mean of its square window by
-//! a margin.
+//! a margin, and by a ratio.
 //!
 //! A fixed threshold fails under shadows and studio-range cameras; comparing with the local mean
-//! keeps the marker's black border dark wherever it lies. The window mean comes from an integral
+//! keeps the marker's black border dark wherever it lies. The margin alone would also mark the
+//! shadowed side of a hard shadow edge as dark, in a band that joins the marker's border to the
+//! shadow's and hides the marker's square outline. A shadow scales brightness, so the ratio of a
+//! pixel to its surroundings tells ink from shadow: black ink on white paper is a few times darker
+//! than its surroundings, the shadowed side of a shadow edge only about half as bright. The window mean comes from an integral
 //! image of the luma, so the cost does not depend on the window size. Both buffers are sized once
 //! for the whole frame; a region of interest uses their first `width × height` entries.
 
@@ -12,6 +16,10 @@ use crate::frame::Frame;
 pub const LIGHT: u8 = 0;
 /// A mask pixel darker than its surroundings.
 pub const DARK: u8 = 1;
+/// A dark pixel is below this share of its window's mean, in percent.
+pub const MAX_DARK_RATIO_PCT: u32 = 50;
+/// Largest window radius: keeps the integral sums (times 100) within `u32`.
+pub const MAX_RADIUS_PX: usize = 100;
 
 /// A rectangle of the frame, in pixels.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -45,7 +53,8 @@ impl Thresholder {
     }
 
     /// Thresholds `roi` of `frame` (already clipped to it and no larger than the scratch):
-    /// dark where `luma + offset < window mean`, the window being `2 × radius + 1` pixels square,
+    /// dark where `luma + offset < window mean` and `luma < MAX_DARK_RATIO_PCT % × window mean`,
+    /// the window being `2 × radius + 1` pixels square (radius at most [`MAX_RADIUS_PX`]),
     /// cut at the region's edges.
     pub fn run(&mut self, frame: &Frame<'_>, roi: Roi, radius_px: usize, offset: u8) {
         let (w, h) = (roi.width_px, roi.height_px);
@@ -78,6 +87,7 @@ impl Thresholder {
             }
         }
         let offset = u32::from(offset);
+        let radius_px = radius_px.min(MAX_RADIUS_PX);
         for y in 0..h {
             let y0 = y.saturating_sub(radius_px);
             let y1 = (y + radius_px + 1).min(h);
@@ -94,7 +104,8 @@ impl Thresholder {
                 let x1 = (x + radius_px + 1).min(w);
                 let sum = bottom[x1] + top[x0] - bottom[x0] - top[x1];
                 let area = rows * (x1 - x0) as u32;
-                *m = if (u32::from(*l) + offset) * area < sum {
+                let l = u32::from(*l);
+                *m = if (l + offset) * area < sum && l * area * 100 < sum * MAX_DARK_RATIO_PCT {
                     DARK
                 } else {
                     LIGHT
@@ -154,20 +165,42 @@ mod tests {
                     .collect()
             })
             .collect();
+        // The ring inside the square's outline is as wide as the window lets light in; deeper
+        // in, the window sees only ink, which is not darker than itself.
         let want = [
             "................",
             "................",
             "................",
             ".....######.....",
-            ".....######.....",
             ".....##..##.....",
+            ".....#....#.....",
+            ".....#....#.....",
             ".....##..##.....",
-            ".....######.....",
             ".....######.....",
             "................",
             "................",
             "................",
         ];
         assert_eq!(picture, want);
+    }
+
+    #[test]
+    fn a_hard_shadow_edge_is_not_dark() {
+        // White paper, the right half in a shadow that takes 60 % of the light.
+        let (w, h) = (16, 6);
+        let luma: Vec<u8> = (0..w * h)
+            .map(|i| if i % w < 8 { 215 } else { 86 })
+            .collect();
+        let bytes = yuyv(&luma);
+        let frame = Frame::new_checked(&bytes, FrameSize::new(16, 6).unwrap(), 32).unwrap();
+        let mut t = Thresholder::new(w, h);
+        let roi = Roi {
+            x_px: 0,
+            y_px: 0,
+            width_px: w,
+            height_px: h,
+        };
+        t.run(&frame, roi, 3, 7);
+        assert!(t.mask_mut().0.iter().all(|&m| m == LIGHT));
     }
 }
