@@ -275,8 +275,8 @@ fn a_region_of_interest_limits_detection() {
     };
     let found = detector.detect(&frame, Some(around)).unwrap();
     assert_eq!(found.len(), 1);
-    for k in 0..4 {
-        assert!((found[0].corners[k] - truth[k]).norm() <= CORNER_TARGET_PX);
+    for (got, want) in found[0].corners.iter().zip(&truth) {
+        assert!((got - want).norm() <= CORNER_TARGET_PX);
     }
     let elsewhere = Roi {
         x_px: 0,

@@ -22,6 +22,8 @@ const STEPS: [(i32, i32); 8] = [
     (0, -1),
     (1, -1),
 ];
+/// Mask bytes tested at once while scanning for dark pixels.
+const SKIP_BYTES: usize = 8;
 /// Index in [`STEPS`] of the west neighbour.
 const WEST: usize = 4;
 
@@ -45,16 +47,30 @@ pub fn trace_borders(
         return;
     }
     for y in 0..height {
-        for x in 0..width {
+        let mut x = 0;
+        while x < width {
+            // Most of the mask is light: skip it eight pixels at a time.
             let i = y * width + x;
-            if mask[i] != DARK || (x > 0 && mask[i - 1] != LIGHT) {
-                continue;
+            if x + SKIP_BYTES <= width {
+                if let Some(chunk) = mask.get(i..i + SKIP_BYTES) {
+                    let mut word = [0u8; SKIP_BYTES];
+                    word.copy_from_slice(chunk);
+                    if u64::from_ne_bytes(word) == 0 {
+                        x += SKIP_BYTES;
+                        continue;
+                    }
+                }
             }
-            contour.clear();
-            let complete = follow(mask, width, height, (x as i32, y as i32), contour, max_len);
-            if complete && contour.len() >= min_len && signed_area2(contour) > 0 {
-                on_contour(contour);
+            let starts_border =
+                mask.get(i) == Some(&DARK) && (x == 0 || mask.get(i - 1) == Some(&LIGHT));
+            if starts_border {
+                contour.clear();
+                let complete = follow(mask, width, height, (x as i32, y as i32), contour, max_len);
+                if complete && contour.len() >= min_len && signed_area2(contour) > 0 {
+                    on_contour(contour);
+                }
             }
+            x += 1;
         }
     }
 }

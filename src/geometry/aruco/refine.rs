@@ -22,7 +22,7 @@ const PROFILE_CELL_SHARE: f64 = 0.45;
 /// Spacing of profile samples across the edge, in pixels.
 const PROFILE_STEP_PX: f64 = 0.25;
 /// Spacing of profiles along the edge, in pixels.
-const ALONG_STEP_PX: f64 = 0.5;
+const ALONG_STEP_PX: f64 = 1.0;
 /// Samples at each end of a profile averaged for the dark and light levels.
 const LEVEL_SAMPLES: usize = 3;
 /// Least contrast across the edge (luma levels) for a profile to count.
@@ -30,8 +30,8 @@ const MIN_EDGE_CONTRAST: f64 = 15.0;
 /// Half-length of the second, narrow profile around the first estimate, in pixels at most:
 /// fewer noisy pixels in the area, still wider than an edge blurred by a webcam.
 const NARROW_HALF_PX: f64 = 1.5;
-/// Profiles either side averaged for the dark and light levels (at 0.5 px apart: ±4 px).
-const LEVEL_SMOOTHING: usize = 8;
+/// Profiles either side averaged for the dark and light levels (at 1 px apart: ±4 px).
+const LEVEL_SMOOTHING: usize = 4;
 /// A profile whose own levels differ from the averaged ones by more than this share of its
 /// contrast sits at a shadow's edge and keeps its own levels.
 const LEVEL_JUMP_SHARE: f64 = 0.1;
@@ -42,7 +42,7 @@ const OUTLIER_FACTOR: f64 = 3.0;
 /// ...but never closer than this, in pixels (noise alone reaches it).
 const MIN_OUTLIER_PX: f64 = 0.05;
 /// Refinement passes: each re-samples along the lines of the previous one.
-const PASSES: usize = 3;
+const PASSES: usize = 2;
 /// Most profile samples (`2 × MAX_PROFILE_HALF_PX / PROFILE_STEP_PX + 1`).
 const MAX_PROFILE_SAMPLES: usize = 25;
 

@@ -6,9 +6,11 @@
 //! shadowed side of a hard shadow edge as dark, in a band that joins the marker's border to the
 //! shadow's and hides the marker's square outline. A shadow scales brightness, so the ratio of a
 //! pixel to its surroundings tells ink from shadow: black ink on white paper is a few times darker
-//! than its surroundings, the shadowed side of a shadow edge only about half as bright. The window mean comes from an integral
-//! image of the luma, so the cost does not depend on the window size. Both buffers are sized once
-//! for the whole frame; a region of interest uses their first `width × height` entries.
+//! than its surroundings, the shadowed side of a shadow edge only about half as bright.
+//!
+//! The window mean comes from running box sums (per column over the window's rows, then along
+//! the row): a few additions per pixel whatever the window size. The buffers are sized once for
+//! the whole frame; a region of interest uses their first entries.
 
 use crate::frame::Frame;
 
@@ -30,11 +32,25 @@ pub struct Roi {
     pub height_px: usize,
 }
 
+/// `DARK` if `luma` is darker than the window mean (`sum / area`) by `offset` and by the ratio.
+#[inline(always)]
+fn classify(luma: u8, sum: u32, area: u32, offset: u32) -> u8 {
+    let l = u32::from(luma);
+    let by_margin = (l + offset) * area < sum;
+    let by_ratio = l * area * 100 < sum * MAX_DARK_RATIO_PCT;
+    u8::from(by_margin & by_ratio) * DARK
+}
+
 /// Threshold scratch, allocated once for the largest region (the whole frame).
 #[derive(Debug)]
 pub struct Thresholder {
-    /// Integral of luma, `(width + 1) × (height + 1)`, row `y` holding sums of rows `< y`.
-    integral: Vec<u32>,
+    /// Per column, the sum of luma over the window's rows (a running box filter: each row is
+    /// added once when the window reaches it and subtracted once when it leaves).
+    column_sums: Vec<u32>,
+    /// Prefix sums of `column_sums` along the current row, `width + 1` entries.
+    prefix: Vec<u32>,
+    /// The current row's luma, gathered from the YUYV pairs.
+    luma: Vec<u8>,
     /// The mask of the current region, `width × height`, row-major: `LIGHT` or `DARK`.
     mask: Vec<u8>,
     width_px: usize,
@@ -45,7 +61,9 @@ impl Thresholder {
     /// Scratch for regions up to `max_width_px × max_height_px`.
     pub fn new(max_width_px: usize, max_height_px: usize) -> Self {
         Thresholder {
-            integral: vec![0; (max_width_px + 1) * (max_height_px + 1)],
+            column_sums: vec![0; max_width_px],
+            prefix: vec![0; max_width_px + 1],
+            luma: vec![0; max_width_px],
             mask: vec![LIGHT; max_width_px * max_height_px],
             width_px: 0,
             height_px: 0,
@@ -58,11 +76,12 @@ impl Thresholder {
     /// cut at the region's edges.
     pub fn run(&mut self, frame: &Frame<'_>, roi: Roi, radius_px: usize, offset: u8) {
         let (w, h) = (roi.width_px, roi.height_px);
-        let stride = w + 1;
         self.width_px = w;
         self.height_px = h;
-        let (Some(integral), Some(mask)) = (
-            self.integral.get_mut(..stride * (h + 1)),
+        let (Some(columns), Some(prefix), Some(luma), Some(mask)) = (
+            self.column_sums.get_mut(..w),
+            self.prefix.get_mut(..w + 1),
+            self.luma.get_mut(..w),
             self.mask.get_mut(..w * h),
         ) else {
             // The caller sizes regions within the scratch; an oversize one yields an empty mask.
@@ -70,46 +89,59 @@ impl Thresholder {
             self.height_px = 0;
             return;
         };
-        integral[..stride].fill(0);
-        for y in 0..h {
-            let luma = frame
+        let r = radius_px.min(MAX_RADIUS_PX);
+        let offset = u32::from(offset);
+        let luma_row = |y: usize| {
+            frame
                 .row(roi.y_px + y)
-                .and_then(|r| r.get(2 * roi.x_px..2 * (roi.x_px + w)))
-                .unwrap_or(&[]);
-            let (above, here) = integral.split_at_mut((y + 1) * stride);
-            let above = &above[y * stride..];
-            let here = &mut here[..stride];
-            here[0] = 0;
-            let mut row_sum = 0u32;
-            for (x, l) in luma.iter().step_by(2).enumerate() {
-                row_sum += u32::from(*l);
-                here[x + 1] = above[x + 1] + row_sum;
+                .and_then(|row| row.get(2 * roi.x_px..2 * (roi.x_px + w)))
+                .unwrap_or(&[])
+        };
+        columns.fill(0);
+        for y in 0..r.min(h) {
+            for (c, l) in columns.iter_mut().zip(luma_row(y).iter().step_by(2)) {
+                *c += u32::from(*l);
             }
         }
-        let offset = u32::from(offset);
-        let radius_px = radius_px.min(MAX_RADIUS_PX);
         for y in 0..h {
-            let y0 = y.saturating_sub(radius_px);
-            let y1 = (y + radius_px + 1).min(h);
-            let top = &integral[y0 * stride..(y0 + 1) * stride];
-            let bottom = &integral[y1 * stride..(y1 + 1) * stride];
-            let luma = frame
-                .row(roi.y_px + y)
-                .and_then(|r| r.get(2 * roi.x_px..2 * (roi.x_px + w)))
-                .unwrap_or(&[]);
+            // Window rows are [y − r, y + r], cut at the region: add the row entering it and
+            // drop the one that left.
+            if y + r < h {
+                for (c, l) in columns.iter_mut().zip(luma_row(y + r).iter().step_by(2)) {
+                    *c += u32::from(*l);
+                }
+            }
+            if y > r {
+                for (c, l) in columns
+                    .iter_mut()
+                    .zip(luma_row(y - r - 1).iter().step_by(2))
+                {
+                    *c -= u32::from(*l);
+                }
+            }
+            let rows = ((y + r + 1).min(h) - y.saturating_sub(r)) as u32;
+            // Prefix sums along the row turn every window sum into one subtraction.
+            prefix[0] = 0;
+            for x in 0..w {
+                prefix[x + 1] = prefix[x] + columns[x];
+            }
+            for (d, l) in luma.iter_mut().zip(luma_row(y).iter().step_by(2)) {
+                *d = *l;
+            }
             let out = &mut mask[y * w..(y + 1) * w];
-            let rows = (y1 - y0) as u32;
-            for (x, (m, l)) in out.iter_mut().zip(luma.iter().step_by(2)).enumerate() {
-                let x0 = x.saturating_sub(radius_px);
-                let x1 = (x + radius_px + 1).min(w);
-                let sum = bottom[x1] + top[x0] - bottom[x0] - top[x1];
+            // Columns whose window is cut by the region's sides, one by one...
+            for x in (0..r.min(w)).chain(w.saturating_sub(r).max(r.min(w))..w) {
+                let (x0, x1) = (x.saturating_sub(r), (x + r + 1).min(w));
                 let area = rows * (x1 - x0) as u32;
-                let l = u32::from(*l);
-                *m = if (l + offset) * area < sum && l * area * 100 < sum * MAX_DARK_RATIO_PCT {
-                    DARK
-                } else {
-                    LIGHT
-                };
+                out[x] = classify(luma[x], prefix[x1] - prefix[x0], area, offset);
+            }
+            // ...and the rest with a full window, in a loop the compiler can vectorise.
+            if w > 2 * r {
+                let area = rows * (2 * r + 1) as u32;
+                let ends = prefix[2 * r + 1..=w].iter().zip(&prefix[..w - 2 * r]);
+                for ((m, &l), (hi, lo)) in out[r..w - r].iter_mut().zip(&luma[r..w - r]).zip(ends) {
+                    *m = classify(l, hi - lo, area, offset);
+                }
             }
         }
     }
