@@ -3,12 +3,21 @@
 //! # Memory model
 //!
 //! Everything the per-frame path needs is allocated once, at start-up, from the frame size:
-//! the read buffer of a dump source, the bit-packed masks, the morphology scratch and the
-//! bounded blob list. After that, processing a frame performs **zero heap allocations**:
-//! frames are borrowed views of the source's buffer, bounded lists are `heapless` with their
-//! capacity in the type, and output is formatted into reused buffers. The test
-//! `tests/alloc_free.rs` installs a counting global allocator and holds the pipeline to this.
+//! the read buffer of a dump source, the bit-packed masks, the morphology and skeleton scratch,
+//! the bounded run and blob tables, and the output writer's buffer. After that, processing a
+//! frame performs **zero heap allocations**: frames are borrowed views of the source's buffer,
+//! bounded lists are `heapless` with their capacity in the type, and reports are formatted
+//! straight into the reused writer. `tests/alloc_free.rs` installs a counting global
+//! allocator and holds the whole per-frame path to this.
+//!
+//! # The per-frame path
+//!
+//! [`source`] → [`frame`] → [`detect`] (threshold → morphology → blobs → streak) →
+//! [`pipeline`] → [`sink`]. [`pipeline::Pipeline::process`] reads top to bottom.
 
+pub mod detect;
 pub mod frame;
 pub mod geometry;
+pub mod pipeline;
+pub mod sink;
 pub mod source;

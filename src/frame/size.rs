@@ -50,7 +50,7 @@ impl FrameSize {
         if width_px > MAX_SIDE_PX || height_px > MAX_SIDE_PX {
             return Err(SizeError::TooLarge);
         }
-        if width_px % 2 != 0 {
+        if !width_px.is_multiple_of(2) {
             return Err(SizeError::OddWidth(width_px));
         }
         Ok(FrameSize {

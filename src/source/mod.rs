@@ -3,6 +3,8 @@
 //! A source lends out one frame at a time from a buffer it owns (a read buffer sized once, or a
 //! driver's mmap buffer); the frame borrows the source until the next call, so nothing is copied.
 
+pub mod dump;
+
 use crate::frame::Frame;
 
 /// What a source knows about a frame besides its pixels.
@@ -26,3 +28,6 @@ pub trait FrameSource {
     /// The next frame, or `Ok(None)` at a clean end of the stream.
     fn next_frame(&mut self) -> Result<Option<(Frame<'_>, FrameMeta)>, Self::Error>;
 }
+
+#[cfg(feature = "v4l2")]
+pub mod v4l2;

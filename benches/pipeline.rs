@@ -1,0 +1,72 @@
+//! Per-stage and whole-path timings of detection on rendered frames, at 640×480 and 1280×720.
+//!
+//! Stages: the threshold into the bit mask (at a fixed level, and automatic), blob labelling, streak
+//! analysis (skeleton, centroid, ends), and the whole `Pipeline::process`. The frames are
+//! rendered scenes with a moving LED streak on a textured floor.
+
+use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
+use std::hint::black_box;
+
+use glint::detect::bitimage::BitImage;
+use glint::detect::blobs::Labeler;
+use glint::detect::threshold;
+use glint::detect::{Detector, DetectorConfig};
+use glint::frame::{Frame, FrameSize};
+use glint::pipeline::{Pipeline, PipelineConfig};
+use glint::source::FrameMeta;
+use glint_tools::scene::Scene;
+
+/// One frame of a scene, mid-way through it so the LED is streaked and in view.
+fn rendered(name: &str) -> (FrameSize, Vec<u8>) {
+    let scene = Scene::preset(name).expect("preset");
+    let size = FrameSize::new(scene.width_px(), scene.height_px()).unwrap();
+    let mut bytes = vec![0u8; size.frame_bytes()];
+    scene
+        .render(scene.frame_count() / 2, &mut bytes)
+        .expect("render");
+    (size, bytes)
+}
+
+fn stages(c: &mut Criterion) {
+    for name in ["fast-line", "hd-720"] {
+        let (size, bytes) = rendered(name);
+        let frame = Frame::new_checked(&bytes, size, size.row_bytes()).unwrap();
+        let mut group = c.benchmark_group(format!("detect/{size}"));
+        group.throughput(Throughput::Elements(1));
+
+        let mut mask = BitImage::new(size);
+        group.bench_function("threshold_fixed", |b| {
+            b.iter(|| threshold::threshold_into(black_box(&frame), 247, &mut mask))
+        });
+        group.bench_function("threshold_auto", |b| {
+            b.iter(|| threshold::apply(black_box(&frame), threshold::Threshold::Auto, &mut mask))
+        });
+
+        let mut labeler = Labeler::new();
+        group.bench_function("label", |b| b.iter(|| labeler.label(black_box(&mask))));
+
+        let mut detector = Detector::new(size, DetectorConfig::default());
+        group.bench_function("detect", |b| b.iter(|| detector.detect(black_box(&frame))));
+
+        let mut pipeline = Pipeline::new(size, PipelineConfig::default());
+        let meta = FrameMeta {
+            index: 0,
+            sequence: 0,
+            dropped: 0,
+            timestamp_us: 0,
+        };
+        group.bench_with_input(BenchmarkId::new("pipeline", name), &frame, |b, frame| {
+            b.iter(|| pipeline.process(black_box(frame), meta))
+        });
+        group.finish();
+    }
+}
+
+criterion_group! {
+    name = benches;
+    config = Criterion::default()
+        .warm_up_time(std::time::Duration::from_millis(500))
+        .measurement_time(std::time::Duration::from_secs(2));
+    targets = stages
+}
+criterion_main!(benches);

@@ -1,0 +1,92 @@
+//! The receiving end of the serial link: UART bytes in, decoded messages out to a control loop.
+
+use embedded_io::Read;
+use glint_protocol::{Decoder, Message, Received};
+
+use crate::control::ControlLoop;
+
+/// Bytes read from the UART per call. Small: a frame is at most 24 bytes for positions, and a
+/// small read keeps the latency between a byte arriving and its position being used low.
+const READ_CHUNK_LEN: usize = 32;
+
+/// What the link has seen since start-up, for a status LED or a debug console.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct LinkStats {
+    /// Position updates handed to the control loop.
+    pub positions: u32,
+    /// Heartbeats received.
+    pub heartbeats: u32,
+    /// Frames with a message id this firmware does not know (from a newer glint), skipped.
+    pub unknown: u32,
+    /// Frames dropped as corrupt (CRC, COBS, overflow, malformed).
+    pub dropped: u32,
+    /// Position updates that never arrived, from gaps in the sequence numbers.
+    pub missed: u32,
+}
+
+/// A UART carrying glint's frames, with its decoder and counters.
+pub struct Link<R: Read> {
+    uart: R,
+    decoder: Decoder,
+    chunk: [u8; READ_CHUNK_LEN],
+    last_seq: Option<u8>,
+    stats: LinkStats,
+}
+
+impl<R: Read> Link<R> {
+    /// Wraps a UART (anything implementing `embedded_io::Read`).
+    pub fn new(uart: R) -> Self {
+        Link {
+            uart,
+            decoder: Decoder::new(),
+            chunk: [0; READ_CHUNK_LEN],
+            last_seq: None,
+            stats: LinkStats::default(),
+        }
+    }
+
+    /// Counters since start-up.
+    pub fn stats(&self) -> LinkStats {
+        self.stats
+    }
+
+    /// Reads what the UART has (blocking until at least one byte, as `embedded_io::Read` does),
+    /// decodes it and calls the control loop for each complete message. Returns the number of
+    /// bytes read; 0 means the UART reported end of input.
+    ///
+    /// A UART error (overrun, framing) also drops the partial frame: the bytes around it are
+    /// suspect, and the next delimiter would only find a CRC error later.
+    pub fn poll<C: ControlLoop>(&mut self, control: &mut C) -> Result<usize, R::Error> {
+        let read = match self.uart.read(&mut self.chunk) {
+            Ok(n) => n,
+            Err(e) => {
+                self.decoder.reset();
+                return Err(e);
+            }
+        };
+        let bytes = self.chunk.get(..read).unwrap_or(&[]);
+        for event in self.decoder.feed(bytes) {
+            match event {
+                Ok(Received::Message(Message::Position(p))) => {
+                    if let Some(last) = self.last_seq {
+                        // seq wraps at 256, so the gap is taken modulo 256 too.
+                        self.stats.missed += u32::from(p.seq.wrapping_sub(last).wrapping_sub(1));
+                    }
+                    self.last_seq = Some(p.seq);
+                    self.stats.positions += 1;
+                    control.on_position(&p);
+                }
+                Ok(Received::Message(Message::Heartbeat(h))) => {
+                    self.stats.heartbeats += 1;
+                    control.on_heartbeat(&h);
+                }
+                Ok(Received::Unknown { .. }) => self.stats.unknown += 1,
+                Err(e) => {
+                    self.stats.dropped += 1;
+                    control.on_link_error(e);
+                }
+            }
+        }
+        Ok(read)
+    }
+}

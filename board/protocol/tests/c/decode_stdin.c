@@ -1,0 +1,67 @@
+/* Test driver for board/arduino/glint.h: decodes stdin byte by byte and prints one line per
+ * event, in the text form of SPEC.md's test vectors, for tests/c_decoder.rs to compare. */
+#include <stdio.h>
+
+#include "glint.h"
+
+static const char *units_name(uint8_t units) {
+    return units == GLINT_UNITS_FLOOR ? "floor" : "pixels";
+}
+
+static const char *status_name(uint8_t status) {
+    static const char *const names[] = {"lost", "found", "predicted"};
+    return status <= GLINT_STATUS_PREDICTED ? names[status] : "?";
+}
+
+static const char *tracker_name(uint8_t state) {
+    static const char *const names[] = {"starting", "searching", "tracking", "coasting"};
+    return state <= GLINT_TRACKER_COASTING ? names[state] : "?";
+}
+
+int main(void) {
+    struct glint_decoder decoder;
+    struct glint_message msg;
+    int c;
+    glint_decoder_init(&decoder);
+    while ((c = getchar()) != EOF) {
+        switch (glint_decoder_push(&decoder, (uint8_t)c, &msg)) {
+        case GLINT_NONE:
+            break;
+        case GLINT_POSITION:
+            printf("position seq=%u timestamp_us=%lu units=%s x=%d y=%d vx_per_s=%d vy_per_s=%d "
+                   "status=%s quality=%u\n",
+                   (unsigned)msg.position.seq, (unsigned long)msg.position.timestamp_us,
+                   units_name(msg.position.units), (int)msg.position.x, (int)msg.position.y,
+                   (int)msg.position.vx_per_s, (int)msg.position.vy_per_s,
+                   status_name(msg.position.status), (unsigned)msg.position.quality);
+            break;
+        case GLINT_HEARTBEAT:
+            printf("heartbeat protocol_version=%u frame_rate_centihz=%u dropped_frames=%lu "
+                   "tracker_state=%s\n",
+                   (unsigned)msg.heartbeat.protocol_version,
+                   (unsigned)msg.heartbeat.frame_rate_centihz,
+                   (unsigned long)msg.heartbeat.dropped_frames,
+                   tracker_name(msg.heartbeat.tracker_state));
+            break;
+        case GLINT_UNKNOWN:
+            printf("unknown id=0x%02x\n", (unsigned)msg.id);
+            break;
+        case GLINT_ERR_OVERFLOW:
+            printf("error overflow\n");
+            break;
+        case GLINT_ERR_COBS:
+            printf("error cobs\n");
+            break;
+        case GLINT_ERR_SHORT:
+            printf("error short\n");
+            break;
+        case GLINT_ERR_CRC:
+            printf("error crc\n");
+            break;
+        case GLINT_ERR_MALFORMED:
+            printf("error malformed id=0x%02x\n", (unsigned)msg.id);
+            break;
+        }
+    }
+    return 0;
+}

@@ -1,0 +1,199 @@
+//! The C decoder in `board/arduino/glint.h`, compiled with gcc (and g++, as Arduino sketches are
+//! C++) and run against the SPEC's test vectors and against long streams that the Rust encoder
+//! produced and then corrupted: its output must match the Rust decoder's event for event.
+//!
+//! Needs gcc and g++ on the PATH (Debian: `apt-get install gcc g++`); the test fails, with that
+//! message, if they are missing.
+
+mod common;
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::sync::OnceLock;
+
+use common::{describe, spec_vectors, SplitMix64};
+use glint_protocol::{encode, Decoder, MAX_ENCODED_LEN};
+
+const MANIFEST_DIR: &str = env!("CARGO_MANIFEST_DIR");
+/// Warnings the header must compile cleanly under, on both compilers.
+const STRICT_FLAGS: [&str; 5] = ["-Wall", "-Wextra", "-Wpedantic", "-Wconversion", "-Werror"];
+
+/// A compiled build of the C test driver.
+struct Driver {
+    name: &'static str,
+    binary: PathBuf,
+}
+
+fn compile(name: &'static str, compiler: &str, extra: &[&str]) -> Driver {
+    let source = Path::new(MANIFEST_DIR).join("tests/c/decode_stdin.c");
+    let include = Path::new(MANIFEST_DIR).join("../arduino");
+    let binary = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("glint_{name}"));
+    let output = Command::new(compiler)
+        .args(extra)
+        .args(STRICT_FLAGS)
+        .arg("-I")
+        .arg(&include)
+        .arg(&source)
+        .arg("-o")
+        .arg(&binary)
+        .output()
+        .unwrap_or_else(|e| {
+            panic!("cannot run `{compiler}` ({e}): the C decoder test needs gcc and g++ (apt-get install gcc g++)")
+        });
+    assert!(
+        output.status.success(),
+        "{compiler} failed to compile glint.h ({name}):\n{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    Driver { name, binary }
+}
+
+/// The C driver in its three builds: C99 with address and undefined-behaviour sanitizers, C++11
+/// (as the Arduino IDE compiles it), and C99 with the smallest buffer a position-only robot uses.
+fn drivers() -> &'static [Driver; 3] {
+    static DRIVERS: OnceLock<[Driver; 3]> = OnceLock::new();
+    DRIVERS.get_or_init(|| {
+        [
+            compile(
+                "c99",
+                "gcc",
+                &[
+                    "-std=c99",
+                    "-O1",
+                    "-g",
+                    "-fsanitize=address,undefined",
+                    "-fno-sanitize-recover=all",
+                ],
+            ),
+            compile("cxx11", "g++", &["-x", "c++", "-std=c++11", "-O2"]),
+            compile(
+                "c99_buf23",
+                "gcc",
+                &["-std=c99", "-O2", "-DGLINT_BUFFER_LEN=23"],
+            ),
+        ]
+    })
+}
+
+fn run(driver: &Driver, input: &[u8]) -> Vec<String> {
+    let mut child = Command::new(&driver.binary)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap_or_else(|e| panic!("cannot run {}: {e}", driver.binary.display()));
+    let mut stdin = child.stdin.take().expect("piped stdin");
+    let input = input.to_vec();
+    // Write from a thread so a large input cannot deadlock against a full stdout pipe.
+    let writer = std::thread::spawn(move || stdin.write_all(&input));
+    let output = child.wait_with_output().expect("driver ran");
+    writer.join().expect("writer thread").expect("wrote stdin");
+    assert!(
+        output.status.success(),
+        "C driver {} failed: {}",
+        driver.name,
+        String::from_utf8_lossy(&output.stderr)
+    );
+    String::from_utf8(output.stdout)
+        .expect("ASCII output")
+        .lines()
+        .map(str::to_owned)
+        .collect()
+}
+
+#[test]
+fn c_decoder_passes_the_spec_vectors() {
+    let vectors = spec_vectors();
+    assert!(!vectors.is_empty());
+    for driver in &drivers()[..2] {
+        for v in &vectors {
+            assert_eq!(
+                run(driver, &v.wire),
+                v.decodes,
+                "{} on {}",
+                driver.name,
+                v.name
+            );
+        }
+    }
+}
+
+/// A long stream of frames from the Rust encoder, a fifth of them damaged, with garbage between.
+fn hostile_stream(seed: u64, frames: usize) -> Vec<u8> {
+    let mut rng = SplitMix64(seed);
+    let mut stream = Vec::new();
+    let mut out = [0u8; MAX_ENCODED_LEN + 1];
+    for _ in 0..frames {
+        let mut frame = encode(&rng.message(), &mut out).expect("fits").to_vec();
+        match rng.below(10) {
+            0 => {
+                let i = rng.below(frame.len());
+                frame[i] ^= 1 << rng.below(8);
+            }
+            1 => frame.truncate(rng.below(frame.len())),
+            2 => stream.extend((0..rng.below(90)).map(|_| rng.byte())),
+            3 => {
+                // A frame with a good CRC and a malformed body or an unknown id.
+                let payload_len = frame.len() - 1;
+                let mut payload = cobs::decode_vec(&frame[..payload_len]).expect("valid");
+                let body_end = payload.len() - 2;
+                payload.truncate(body_end);
+                let j = rng.below(body_end);
+                payload[j] = rng.byte();
+                let crc = glint_protocol::FRAME_CRC.checksum(&payload);
+                payload.extend(crc.to_le_bytes());
+                frame = cobs::encode_vec(&payload);
+                frame.push(0);
+            }
+            _ => {}
+        }
+        stream.extend(frame);
+    }
+    stream
+}
+
+/// Compares event lists, reporting the first difference rather than thousands of lines.
+fn assert_same_events(actual: &[String], expected: &[String], what: &str) {
+    if let Some(i) =
+        (0..actual.len().max(expected.len())).find(|&i| actual.get(i) != expected.get(i))
+    {
+        panic!(
+            "{what}: event {i} differs (of {} actual, {} expected):\n  actual:   {:?}\n  expected: {:?}",
+            actual.len(),
+            expected.len(),
+            actual.get(i),
+            expected.get(i)
+        );
+    }
+}
+
+fn rust_events<const N: usize>(mut decoder: Decoder<N>, stream: &[u8]) -> Vec<String> {
+    decoder.feed(stream).map(|e| describe(&e)).collect()
+}
+
+#[test]
+fn c_decoder_matches_the_rust_decoder_on_hostile_streams() {
+    let stream = hostile_stream(0x6c69_6e74_0c0c, 5_000);
+    let expected = rust_events(Decoder::new(), &stream);
+    // The stream must exercise every kind of outcome, or the comparison proves little.
+    for kind in [
+        "position",
+        "heartbeat",
+        "unknown",
+        "error crc",
+        "error cobs",
+        "error malformed",
+        "error overflow",
+    ] {
+        assert!(
+            expected.iter().any(|e| e.starts_with(kind)),
+            "stream has no `{kind}` event"
+        );
+    }
+    for driver in &drivers()[..2] {
+        assert_same_events(&run(driver, &stream), &expected, driver.name);
+    }
+    let small = rust_events(Decoder::<23>::with_capacity(), &stream);
+    assert_same_events(&run(&drivers()[2], &stream), &small, "23-byte buffers");
+}

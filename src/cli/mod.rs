@@ -1,0 +1,62 @@
+//! Command-line interface: one file per subcommand.
+
+mod logger;
+mod track;
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+/// Exit code for bad arguments (as clap uses).
+const EXIT_USAGE: u8 = 2;
+
+/// glint tracks a saturated LED in YUYV video and reports its position per frame.
+#[derive(Debug, Parser)]
+#[command(name = "glint", version, about)]
+struct Cli {
+    /// More log output on standard error (-v info, -vv debug).
+    #[arg(short, long, action = clap::ArgAction::Count, global = true)]
+    verbose: u8,
+
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Track the LED in a raw YUYV dump (file or `-` for standard input).
+    Track(track::TrackArgs),
+}
+
+/// Parses the arguments, runs the command, and turns any error into one line on standard
+/// error and a non-zero exit code.
+pub fn main() -> ExitCode {
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) if !e.use_stderr() => {
+            // --help and --version go to standard output as usual.
+            let _ = e.print();
+            return ExitCode::SUCCESS;
+        }
+        Err(e) => {
+            let rendered = e.render().to_string();
+            let first = rendered
+                .lines()
+                .next()
+                .unwrap_or("error: invalid arguments");
+            eprintln!("glint: {}", first.trim_start_matches("error: "));
+            return ExitCode::from(EXIT_USAGE);
+        }
+    };
+    logger::init(cli.verbose);
+    let result = match cli.command {
+        Command::Track(args) => track::run(args),
+    };
+    match result {
+        Ok(code) => code,
+        Err(e) => {
+            eprintln!("glint: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}

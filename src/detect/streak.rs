@@ -1,0 +1,382 @@
+//! Streak geometry of one blob: sub-pixel centroid, skeleton, the seed's point, and the ends.
+//!
+//! A moving LED smears into a streak whose middle is where the LED was halfway through the
+//! exposure. The intensity-weighted centroid finds that middle to a fraction of a pixel on a
+//! straight streak, but on a curved one (small fast circles) it lies inside the curve. The
+//! seed's answer is the skeleton pixel nearest the mass centre. Here that pixel is refined: by
+//! symmetry, the arc's middle lies on the line through the centroid perpendicular to the chord
+//! between the streak's ends, so the middle is the centroid moved along that line to the
+//! intensity centre of the streak's cross-section there.
+
+use heapless::Deque;
+
+use super::bitimage::{BitImage, Window};
+use super::blobs::{Blob, Labeler};
+use super::morph::{self, Kernel};
+use super::skeleton::{self, SkeletonMethod, SkeletonScratch, SEED_PRE_DILATIONS};
+use crate::frame::Frame;
+
+/// Pixels around a blob whose partial brightness still says where its edge is.
+pub const HALO_PX: u32 = 2;
+
+/// Below this fraction of the threshold a pixel carries no weight in the centroid: it is floor.
+pub const WEIGHT_FLOOR_FRACTION: f32 = 0.6;
+
+/// A chord shorter than this gives no direction; the streak is treated as a dot.
+pub const MIN_CHORD_PX: f32 = 2.0;
+
+/// Skeleton pixels the walk to the ends may visit; more belong to no LED.
+pub const MAX_SKELETON_PX: usize = 2048;
+
+/// The geometry of one streak, in image pixels with (0, 0) the centre of the top-left pixel.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Streak {
+    /// Intensity-weighted centroid of the blob and its rim.
+    pub centroid_px: (f32, f32),
+    /// The skeleton pixel nearest the centroid (the seed's point).
+    pub seed_point_px: (u16, u16),
+    /// The streak's middle, the seed's point refined to sub-pixel.
+    pub mid_px: (f32, f32),
+    /// The two ends of the skeleton, farthest apart along it.
+    pub ends_px: [(f32, f32); 2],
+    /// Steps along the skeleton from one end to the other.
+    pub skeleton_length_px: u32,
+    /// Pixels in the skeleton.
+    pub skeleton_px: u32,
+    /// Mean thickness: area over skeleton length.
+    pub thickness_px: f32,
+}
+
+/// Scratch for the streak stage, sized once to the frame.
+pub struct StreakScratch {
+    blob: BitImage,
+    halo: BitImage,
+    skeleton: BitImage,
+    visited: BitImage,
+    skeleton_scratch: SkeletonScratch,
+    queue: Deque<(u16, u16), MAX_SKELETON_PX>,
+    /// Where the last analysis wrote, cleared before the next one so no stale pixels remain.
+    last_window: Option<Window>,
+}
+
+impl StreakScratch {
+    /// Images of `width × height`.
+    pub fn new(width_px: usize, height_px: usize) -> Self {
+        let image = || BitImage::with_dimensions(width_px, height_px);
+        StreakScratch {
+            blob: image(),
+            halo: image(),
+            skeleton: image(),
+            visited: image(),
+            skeleton_scratch: SkeletonScratch::new(width_px, height_px),
+            queue: Deque::new(),
+            last_window: None,
+        }
+    }
+
+    /// Clears what the last analysis left in the scratch images.
+    pub fn reset(&mut self) {
+        if let Some(window) = self.last_window.take() {
+            clear(self, window);
+        }
+    }
+
+    /// The skeleton of the last analysed blob (valid inside its window).
+    pub fn skeleton(&self) -> &BitImage {
+        &self.skeleton
+    }
+}
+
+/// Analyses blob `index` of `labeler` on `frame`. `threshold_luma` is the level the mask was
+/// cut at; rim pixels are weighted by how close they come to it.
+pub fn analyze(
+    frame: &Frame<'_>,
+    labeler: &Labeler,
+    index: usize,
+    blob: &Blob,
+    threshold_luma: u8,
+    method: SkeletonMethod,
+    scratch: &mut StreakScratch,
+) -> Streak {
+    let b = blob.bbox;
+    let margin = (SEED_PRE_DILATIONS + HALO_PX + 1) as usize;
+    let window = scratch
+        .blob
+        .window_around(b.x_min_px, b.y_min_px, b.x_max_px, b.y_max_px, margin);
+    scratch.reset();
+    scratch.last_window = Some(window);
+    for run in labeler.runs_of(index) {
+        scratch
+            .blob
+            .set_run(run.y.into(), run.x0.into(), run.x1.into());
+    }
+
+    scratch.halo.copy_window_from(&scratch.blob, window);
+    morph::dilate_n(
+        &mut scratch.halo,
+        &mut scratch.visited,
+        Kernel::Square,
+        HALO_PX,
+        window,
+    );
+    scratch.visited.clear_window(window);
+    skeleton::skeletonize(
+        method,
+        &scratch.blob,
+        &mut scratch.skeleton,
+        &mut scratch.skeleton_scratch,
+        window,
+    );
+
+    let weights = Weights::new(threshold_luma);
+    let centroid_px =
+        weighted_centroid(frame, &scratch.halo, window, &weights).unwrap_or(blob.mass_centre_px);
+    let source = if scratch.skeleton.window_is_empty(window) {
+        &scratch.blob
+    } else {
+        &scratch.skeleton
+    };
+    let (seed_point, skeleton_px) = nearest_set_pixel(source, window, centroid_px);
+    let seed_point_px = seed_point.unwrap_or((
+        centroid_px.0.round().max(0.0) as u16,
+        centroid_px.1.round().max(0.0) as u16,
+    ));
+
+    let (end_a, _) = farthest_along(
+        &scratch.skeleton,
+        &mut scratch.visited,
+        &mut scratch.queue,
+        window,
+        seed_point_px,
+    );
+    scratch.visited.clear_window(window);
+    let (end_b, steps) = farthest_along(
+        &scratch.skeleton,
+        &mut scratch.visited,
+        &mut scratch.queue,
+        window,
+        end_a,
+    );
+    let ends_px = [to_f32(end_a), to_f32(end_b)];
+    let thickness_px = blob.area_px as f32 / (steps as f32 + 1.0);
+
+    let mid_px = middle(
+        frame,
+        &scratch.halo,
+        window,
+        &weights,
+        centroid_px,
+        ends_px,
+        seed_point_px,
+        thickness_px,
+    );
+
+    Streak {
+        centroid_px,
+        seed_point_px,
+        mid_px,
+        ends_px,
+        skeleton_length_px: steps,
+        skeleton_px: skeleton_px as u32,
+        thickness_px,
+    }
+}
+
+fn clear(scratch: &mut StreakScratch, window: Window) {
+    scratch.blob.clear_window(window);
+    scratch.halo.clear_window(window);
+    scratch.skeleton.clear_window(window);
+    scratch.visited.clear_window(window);
+}
+
+fn to_f32(p: (u16, u16)) -> (f32, f32) {
+    (f32::from(p.0), f32::from(p.1))
+}
+
+/// Rim weighting: 1 at and above the threshold, falling linearly to 0 at the floor level.
+struct Weights {
+    floor_luma: f32,
+    span_luma: f32,
+}
+
+impl Weights {
+    fn new(threshold_luma: u8) -> Self {
+        let threshold = f32::from(threshold_luma);
+        let floor_luma = threshold * WEIGHT_FLOOR_FRACTION;
+        Weights {
+            floor_luma,
+            span_luma: (threshold - floor_luma).max(1.0),
+        }
+    }
+
+    #[inline]
+    fn of(&self, luma: u8) -> f32 {
+        ((f32::from(luma) - self.floor_luma) / self.span_luma).clamp(0.0, 1.0)
+    }
+}
+
+/// Calls `f(x, y, weight)` for every pixel of `region` inside `window` with a positive weight.
+fn for_each_weighted(
+    frame: &Frame<'_>,
+    region: &BitImage,
+    window: Window,
+    weights: &Weights,
+    mut f: impl FnMut(f32, f32, f32),
+) {
+    for y in window.y0..window.y1 {
+        let Some(row) = frame.row(y) else { continue };
+        for k in window.k0..window.k1 {
+            let mut bits = region.row(y).get(k).copied().unwrap_or(0);
+            while bits != 0 {
+                let x = k * 64 + bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                let Some(&luma) = row.get(2 * x) else {
+                    continue;
+                };
+                let w = weights.of(luma);
+                if w > 0.0 {
+                    f(x as f32, y as f32, w);
+                }
+            }
+        }
+    }
+}
+
+fn weighted_centroid(
+    frame: &Frame<'_>,
+    region: &BitImage,
+    window: Window,
+    weights: &Weights,
+) -> Option<(f32, f32)> {
+    let (mut sw, mut sx, mut sy) = (0.0f32, 0.0f32, 0.0f32);
+    for_each_weighted(frame, region, window, weights, |x, y, w| {
+        sw += w;
+        sx += w * x;
+        sy += w * y;
+    });
+    (sw > 0.0).then(|| (sx / sw, sy / sw))
+}
+
+/// The set pixel of `image` in `window` nearest `target`, and how many pixels are set there.
+fn nearest_set_pixel(
+    image: &BitImage,
+    window: Window,
+    target: (f32, f32),
+) -> (Option<(u16, u16)>, usize) {
+    let mut best = None;
+    let mut best_d2 = f32::INFINITY;
+    let mut count = 0;
+    for y in window.y0..window.y1 {
+        for k in window.k0..window.k1 {
+            let mut bits = image.row(y).get(k).copied().unwrap_or(0);
+            while bits != 0 {
+                let x = k * 64 + bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                count += 1;
+                let (dx, dy) = (x as f32 - target.0, y as f32 - target.1);
+                let d2 = dx * dx + dy * dy;
+                if d2 < best_d2 {
+                    best_d2 = d2;
+                    best = Some((x as u16, y as u16));
+                }
+            }
+        }
+    }
+    (best, count)
+}
+
+/// Breadth-first walk over the 8-connected skeleton from `start`: the last pixel reached is
+/// the farthest, in steps. Returns it and its distance.
+fn farthest_along(
+    skeleton: &BitImage,
+    visited: &mut BitImage,
+    queue: &mut Deque<(u16, u16), MAX_SKELETON_PX>,
+    window: Window,
+    start: (u16, u16),
+) -> ((u16, u16), u32) {
+    queue.clear();
+    let inside = |x: usize, y: usize| {
+        y >= window.y0 && y < window.y1 && x / 64 >= window.k0 && x / 64 < window.k1
+    };
+    let mut farthest = (start, 0u32);
+    // Distances ride along in the queue as a layer marker: process one layer at a time.
+    visited.set(start.0.into(), start.1.into());
+    if queue.push_back(start).is_err() {
+        return farthest;
+    }
+    let mut depth = 0u32;
+    while !queue.is_empty() {
+        let layer = queue.len();
+        for _ in 0..layer {
+            let Some((x, y)) = queue.pop_front() else {
+                break;
+            };
+            farthest = ((x, y), depth);
+            for (dx, dy) in NEIGHBOURS_8 {
+                let (Some(nx), Some(ny)) = (
+                    usize::from(x).checked_add_signed(dx),
+                    usize::from(y).checked_add_signed(dy),
+                ) else {
+                    continue;
+                };
+                if !inside(nx, ny) || !skeleton.get(nx, ny) || visited.get(nx, ny) {
+                    continue;
+                }
+                visited.set(nx, ny);
+                // A full queue means a skeleton no LED makes; the walk stops growing there.
+                let _ = queue.push_back((nx as u16, ny as u16));
+            }
+        }
+        depth += 1;
+    }
+    farthest
+}
+
+const NEIGHBOURS_8: [(isize, isize); 8] = [
+    (0, -1),
+    (1, -1),
+    (1, 0),
+    (1, 1),
+    (0, 1),
+    (-1, 1),
+    (-1, 0),
+    (-1, -1),
+];
+
+/// The streak's middle: the centroid moved across the streak to the centre of its
+/// cross-section through the centroid, perpendicular to the chord between the ends.
+#[allow(clippy::too_many_arguments)]
+fn middle(
+    frame: &Frame<'_>,
+    region: &BitImage,
+    window: Window,
+    weights: &Weights,
+    centroid: (f32, f32),
+    ends: [(f32, f32); 2],
+    seed_point: (u16, u16),
+    thickness_px: f32,
+) -> (f32, f32) {
+    let chord = (ends[1].0 - ends[0].0, ends[1].1 - ends[0].1);
+    let length = (chord.0 * chord.0 + chord.1 * chord.1).sqrt();
+    if length < MIN_CHORD_PX {
+        return centroid;
+    }
+    let d = (chord.0 / length, chord.1 / length);
+    let n = (-d.1, d.0);
+    let p = to_f32(seed_point);
+    let reach = 0.5 * thickness_px + HALO_PX as f32 + 0.5;
+    let (mut sw, mut s_off) = (0.0f32, 0.0f32);
+    for_each_weighted(frame, region, window, weights, |x, y, w| {
+        let along = (x - centroid.0) * d.0 + (y - centroid.1) * d.1;
+        let across_seed = (x - p.0) * n.0 + (y - p.1) * n.1;
+        if along.abs() <= 1.0 && across_seed.abs() <= reach {
+            sw += w;
+            s_off += w * ((x - centroid.0) * n.0 + (y - centroid.1) * n.1);
+        }
+    });
+    if sw <= 0.0 {
+        return p;
+    }
+    let offset = s_off / sw;
+    (centroid.0 + offset * n.0, centroid.1 + offset * n.1)
+}

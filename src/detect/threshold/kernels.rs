@@ -1,0 +1,140 @@
+//! Row kernels of the threshold stage: a portable version, and an SSE2 one on x86_64 (SSE2
+//! is part of the x86_64 baseline, so no run-time detection is needed). Tests hold the two to
+//! the same output on random rows.
+
+/// Bytes of packed YUYV that hold one 64-pixel mask word.
+const BYTES_PER_WORD: usize = 128;
+
+/// Portable reference kernels.
+pub(crate) mod portable {
+    use super::BYTES_PER_WORD;
+
+    /// [`row_threshold`], also returning the brightest luma of the row.
+    pub fn row_threshold_max(row: &[u8], threshold: u8, words: &mut [u64]) -> (usize, u8) {
+        let top = row.iter().step_by(2).copied().max().unwrap_or(0);
+        (row_threshold(row, threshold, words), top)
+    }
+
+    /// Sets bit `x` of `words` where the luma of pixel `x` is at least `threshold`; returns
+    /// the number of bits set.
+    pub fn row_threshold(row: &[u8], threshold: u8, words: &mut [u64]) -> usize {
+        let mut count = 0;
+        for (word, chunk) in words.iter_mut().zip(row.chunks(BYTES_PER_WORD)) {
+            let mut bits = 0u64;
+            for (i, pixel) in chunk.chunks_exact(2).enumerate() {
+                bits |= u64::from(pixel[0] >= threshold) << i;
+            }
+            *word = bits;
+            count += bits.count_ones() as usize;
+        }
+        count
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+mod sse2 {
+    use core::arch::x86_64::*;
+
+    use super::{portable, BYTES_PER_WORD};
+
+    pub fn row_threshold(row: &[u8], threshold: u8, words: &mut [u64]) -> usize {
+        kernel::<false>(row, threshold, words).0
+    }
+
+    pub fn row_threshold_max(row: &[u8], threshold: u8, words: &mut [u64]) -> (usize, u8) {
+        kernel::<true>(row, threshold, words)
+    }
+
+    /// Both kernels in one body; `MAX` adds the running maximum, which costs one
+    /// instruction per 16 pixels.
+    #[inline(always)]
+    fn kernel<const MAX: bool>(row: &[u8], threshold: u8, words: &mut [u64]) -> (usize, u8) {
+        let full_words = (row.len() / BYTES_PER_WORD).min(words.len());
+        let mut count = 0;
+        let mut top_lanes = [0u8; 16];
+        // SAFETY: SSE2 is always available on x86_64; word `k < full_words` reads bytes
+        // `128 k .. 128 k + 128`, all within `row`.
+        unsafe {
+            let luma_mask = _mm_set1_epi16(0x00FF);
+            let level = _mm_set1_epi8(threshold as i8);
+            let mut top = _mm_setzero_si128();
+            for (k, word) in words.iter_mut().enumerate().take(full_words) {
+                let base = row.as_ptr().add(k * BYTES_PER_WORD);
+                let mut bits = 0u64;
+                for quarter in 0..4 {
+                    let a = _mm_loadu_si128(base.add(32 * quarter).cast());
+                    let b = _mm_loadu_si128(base.add(32 * quarter + 16).cast());
+                    let luma =
+                        _mm_packus_epi16(_mm_and_si128(a, luma_mask), _mm_and_si128(b, luma_mask));
+                    if MAX {
+                        top = _mm_max_epu8(top, luma);
+                    }
+                    let at_least = _mm_cmpeq_epi8(_mm_max_epu8(luma, level), luma);
+                    let lanes = _mm_movemask_epi8(at_least) as u32 as u64;
+                    bits |= lanes << (16 * quarter);
+                }
+                *word = bits;
+                count += bits.count_ones() as usize;
+            }
+            _mm_storeu_si128(top_lanes.as_mut_ptr().cast(), top);
+        }
+        let tail_row = row.get(full_words * BYTES_PER_WORD..).unwrap_or(&[]);
+        let tail_words = words.get_mut(full_words..).unwrap_or(&mut []);
+        let (tail_count, tail_top) = portable::row_threshold_max(tail_row, threshold, tail_words);
+        let top = top_lanes.iter().copied().max().unwrap_or(0).max(tail_top);
+        (count + tail_count, top)
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+pub(crate) use sse2::{row_threshold, row_threshold_max};
+
+#[cfg(not(target_arch = "x86_64"))]
+pub(crate) use portable::{row_threshold, row_threshold_max};
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        #[test]
+        fn vector_kernels_match_the_portable_ones(
+            pixels in 1usize..300,
+            seed in any::<u64>(),
+            threshold in any::<u8>(),
+        ) {
+            let mut state = seed | 1;
+            let row: Vec<u8> = (0..pixels * 2)
+                .map(|_| {
+                    state ^= state << 13;
+                    state ^= state >> 7;
+                    state ^= state << 17;
+                    (state >> 24) as u8
+                })
+                .collect();
+            let words_len = pixels.div_ceil(64);
+            let mut fast = vec![!0u64; words_len];
+            let mut reference = vec![!0u64; words_len];
+            let n_fast = row_threshold(&row, threshold, &mut fast);
+            let n_ref = portable::row_threshold(&row, threshold, &mut reference);
+            prop_assert_eq!(&fast, &reference);
+            prop_assert_eq!(n_fast, n_ref);
+            let mut fast_max = vec![0u64; words_len];
+            let got = row_threshold_max(&row, threshold, &mut fast_max);
+            let want = portable::row_threshold_max(&row, threshold, &mut reference);
+            prop_assert_eq!(got, want);
+            prop_assert_eq!(&fast_max, &reference);
+        }
+    }
+
+    #[test]
+    fn portable_threshold_reads_only_luma() {
+        // Chroma bytes of 255 must not set bits; luma 200 must, at threshold 200.
+        let row = [200, 255, 10, 255, 199, 255, 201, 255];
+        let mut words = [0u64; 1];
+        assert_eq!(portable::row_threshold(&row, 200, &mut words), 2);
+        assert_eq!(words[0], 0b1001);
+        assert_eq!(portable::row_threshold_max(&row, 200, &mut words), (2, 201));
+    }
+}

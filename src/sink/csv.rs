@@ -1,0 +1,79 @@
+//! The same columns as the JSON lines, as CSV with a header; empty cells where unknown.
+
+use std::io::{self, Write};
+
+use super::Sink;
+use crate::pipeline::FrameReport;
+
+/// The header line.
+pub const CSV_HEADER: &str =
+    "frame,t,found,x,y,mid_x,mid_y,area_px,len_px,seq,dropped,blobs,threshold,blinded,overflow";
+
+/// Writes reports as CSV rows under [`CSV_HEADER`].
+pub struct CsvSink<W: Write> {
+    out: W,
+    live: bool,
+    header_written: bool,
+}
+
+impl<W: Write> CsvSink<W> {
+    /// A sink on `out`; flushes after each row when `live`.
+    pub fn new(out: W, live: bool) -> Self {
+        CsvSink {
+            out,
+            live,
+            header_written: false,
+        }
+    }
+}
+
+impl<W: Write> Sink for CsvSink<W> {
+    fn write(&mut self, r: &FrameReport) -> io::Result<()> {
+        let out = &mut self.out;
+        if !self.header_written {
+            writeln!(out, "{CSV_HEADER}")?;
+            self.header_written = true;
+        }
+        let d = &r.detection;
+        write!(
+            out,
+            "{},{:.6},{}",
+            r.meta.index,
+            r.t_s(),
+            r.position.is_some()
+        )?;
+        match r.position {
+            Some(p) => write!(
+                out,
+                ",{:.3},{:.3},{:.3},{:.3}",
+                p.x_px, p.y_px, p.mid_x_px, p.mid_y_px
+            )?,
+            None => write!(out, ",,,,")?,
+        }
+        match d.best.filter(|_| r.position.is_some()) {
+            Some((blob, streak)) => write!(out, ",{},{}", blob.area_px, streak.skeleton_length_px)?,
+            None => write!(out, ",,")?,
+        }
+        write!(
+            out,
+            ",{},{},{},",
+            r.meta.sequence, r.meta.dropped, d.blob_count
+        )?;
+        if let Some(level) = d.levels.threshold_luma {
+            write!(out, "{level}")?;
+        }
+        writeln!(out, ",{},{}", d.blinded, d.overflow.any())?;
+        if self.live {
+            out.flush()?;
+        }
+        Ok(())
+    }
+
+    fn finish(&mut self) -> io::Result<()> {
+        if !self.header_written {
+            writeln!(self.out, "{CSV_HEADER}")?;
+            self.header_written = true;
+        }
+        self.out.flush()
+    }
+}

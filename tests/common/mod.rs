@@ -1,0 +1,121 @@
+//! Helpers shared by the integration tests: render a scene to a real dump file, run the real
+//! `glint` binary on it, and compare its reports with the renderer's ground truth.
+
+#![allow(dead_code)] // each test file uses its own subset
+
+use std::path::PathBuf;
+use std::process::{Command, Output};
+
+use glint_tools::scene::{Scene, Truth, Visibility};
+use serde_json::Value;
+
+/// A rendered scene written to a temporary dump file.
+pub struct Rendered {
+    pub scene: Scene,
+    pub truths: Vec<Truth>,
+    pub dump: PathBuf,
+    _dir: tempfile::TempDir,
+}
+
+/// Renders preset `name` into a dump file.
+pub fn render(name: &str) -> Rendered {
+    let scene = Scene::preset(name).unwrap_or_else(|| panic!("no scene preset {name}"));
+    let (bytes, truths) = scene.render_dump();
+    let dir = tempfile::tempdir().expect("temp dir");
+    let dump = dir.path().join(format!("{name}.yuv"));
+    std::fs::write(&dump, bytes).expect("write dump");
+    Rendered {
+        scene,
+        truths,
+        dump,
+        _dir: dir,
+    }
+}
+
+/// The `glint` binary built for this test run.
+pub fn glint() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_glint"))
+}
+
+/// `glint track` on a rendered scene, with extra arguments.
+pub fn track(r: &Rendered, extra: &[&str]) -> Output {
+    let size = format!("{}x{}", r.scene.width_px(), r.scene.height_px());
+    let fps = r.scene.fps().to_string();
+    let mut cmd = glint();
+    cmd.args(["track", "--input"])
+        .arg(&r.dump)
+        .args(["--size", &size, "--fps", &fps])
+        .args(extra);
+    cmd.output().expect("run glint")
+}
+
+/// Parses JSON lines, one object per line.
+pub fn parse_jsonl(stdout: &[u8]) -> Vec<Value> {
+    std::str::from_utf8(stdout)
+        .expect("utf-8 output")
+        .lines()
+        .map(|line| {
+            serde_json::from_str(line).unwrap_or_else(|e| panic!("bad JSON line {line:?}: {e}"))
+        })
+        .collect()
+}
+
+/// The q-quantile (0..=1) of `values`, by nearest rank.
+pub fn quantile(values: &[f64], q: f64) -> f64 {
+    assert!(!values.is_empty(), "no values");
+    let mut sorted = values.to_vec();
+    sorted.sort_by(f64::total_cmp);
+    let rank = ((q * sorted.len() as f64).ceil() as usize).clamp(1, sorted.len());
+    sorted[rank - 1]
+}
+
+/// Per-scene comparison of reports with the truth.
+#[derive(Debug, Default)]
+pub struct Score {
+    /// Visible frames in the truth.
+    pub visible: usize,
+    /// Visible frames reported found.
+    pub detected: usize,
+    /// Hidden frames reported found.
+    pub false_reports: usize,
+    /// Distances between reported and true streak middles, in visible frames found.
+    pub mid_errors_px: Vec<f64>,
+    /// Distances between reported and true current positions.
+    pub pos_errors_px: Vec<f64>,
+}
+
+/// Compares `reports` with `truths`, frame by frame.
+pub fn score(reports: &[Value], truths: &[Truth]) -> Score {
+    assert_eq!(reports.len(), truths.len(), "one report per frame");
+    let mut s = Score::default();
+    for (r, t) in reports.iter().zip(truths) {
+        assert_eq!(r["frame"].as_u64(), Some(t.frame as u64), "frames in order");
+        let found = r["found"].as_bool().expect("found is a bool");
+        match t.visible {
+            Visibility::Visible => {
+                s.visible += 1;
+                if found {
+                    s.detected += 1;
+                    let d = |kx: &str, ky: &str, tx: Option<f64>, ty: Option<f64>| {
+                        let (x, y) = (r[kx].as_f64().unwrap(), r[ky].as_f64().unwrap());
+                        (x - tx.unwrap()).hypot(y - ty.unwrap())
+                    };
+                    s.mid_errors_px
+                        .push(d("mid_x", "mid_y", t.mid_x_px, t.mid_y_px));
+                    s.pos_errors_px.push(d("x", "y", t.x_px, t.y_px));
+                }
+            }
+            Visibility::Hidden => s.false_reports += usize::from(found),
+            Visibility::Partial => {}
+        }
+    }
+    s
+}
+
+/// Writes `bytes` to a new file in a fresh temporary directory.
+pub fn temp_file(name: &str, bytes: &[u8]) -> (tempfile::TempDir, PathBuf) {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let path = dir.path().join(name);
+    std::fs::write(&path, bytes).expect("write");
+    (dir, path)
+}

@@ -1,0 +1,434 @@
+//! Capture against a real V4L2 driver: the kernel's `vivid` virtual video driver, in a small
+//! qemu VM (tests/vm/). One boot runs all scenarios (tests/vm/guest-suite.sh) with the
+//! `capture_probe` example as the guest program; each test below checks one scenario's output.
+//!
+//! Needs the packages of tools/setup-system.sh. `GLINT_SKIP_VM=1` skips these tests (loudly);
+//! otherwise a VM that fails to boot fails them.
+
+#![cfg(feature = "v4l2")]
+
+use std::collections::HashMap;
+use std::fs;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::OnceLock;
+use std::time::Instant;
+
+const WIDTH_PX: usize = 640;
+const HEIGHT_PX: usize = 480;
+const ROW_BYTES: usize = WIDTH_PX * 2;
+/// Distinct pictures fed through vivid's loop.
+const LOOP_FRAMES: u8 = 6;
+
+/// The scenario outputs, read once.
+struct Suite {
+    out: PathBuf,
+}
+
+static SUITE: OnceLock<Result<Suite, String>> = OnceLock::new();
+
+/// The suite's output, booting the VM on first use; `None` when skipped.
+fn suite() -> Option<&'static Suite> {
+    if std::env::var("GLINT_SKIP_VM").is_ok_and(|v| v == "1") {
+        eprintln!(
+            "\n*** GLINT_SKIP_VM=1: SKIPPING the vivid VM tests; V4L2 capture is NOT tested ***\n"
+        );
+        return None;
+    }
+    match SUITE.get_or_init(run_suite) {
+        Ok(suite) => Some(suite),
+        Err(e) => panic!("vivid VM suite failed to run: {e}"),
+    }
+}
+
+fn repo() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// The probe `cargo test` built beside this test (examples are built with the tests).
+fn probe_binary() -> Result<PathBuf, String> {
+    let exe = std::env::current_exe().map_err(|e| e.to_string())?;
+    // target/<profile>/deps/vivid-HASH → target/<profile>/examples/capture_probe
+    let profile_dir = exe
+        .parent()
+        .and_then(Path::parent)
+        .ok_or("cannot locate the target directory")?;
+    let probe = profile_dir.join("examples").join("capture_probe");
+    if probe.exists() {
+        Ok(probe)
+    } else {
+        Err(format!(
+            "{} is missing: run the whole `cargo test` (which builds examples) or `cargo build --example capture_probe` first",
+            probe.display()
+        ))
+    }
+}
+
+/// Frame `k` of the loop input: a gradient with a bright disk whose place depends on `k`, and
+/// the frame id in the first four luma bytes. Values stay in video range (16..=235).
+fn loop_frame(k: u8) -> Vec<u8> {
+    let mut frame = vec![0u8; ROW_BYTES * HEIGHT_PX];
+    let (cx, cy, r) = (80 + 90 * i64::from(k), 240i64, 24i64);
+    for (y, row) in frame.chunks_exact_mut(ROW_BYTES).enumerate() {
+        for (x, px) in row.chunks_exact_mut(2).enumerate() {
+            let (dx, dy) = (x as i64 - cx, y as i64 - cy);
+            px[0] = if dx * dx + dy * dy <= r * r {
+                235
+            } else {
+                (16 + (x + y) % 160) as u8
+            };
+            // U on even pixels, V on odd ones.
+            px[1] = if x % 2 == 0 { 100 + k * 5 } else { 160 - k * 5 };
+        }
+    }
+    for (i, b) in loop_frame_id(k).to_le_bytes().into_iter().enumerate() {
+        frame[2 * i] = b;
+    }
+    frame
+}
+
+fn loop_frame_id(k: u8) -> u32 {
+    u32::from_le_bytes([0x40 + k, 0x51, 0x62, 0x73])
+}
+
+/// The probe's frame hash: FNV-1a 64 over the unpadded rows.
+fn fnv1a(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| {
+        (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3)
+    })
+}
+
+fn run_suite() -> Result<Suite, String> {
+    let probe = probe_binary()?;
+    // Cargo's per-target scratch directory: reused (not accumulated) across runs, and kept
+    // after a failure for a look at the guest's logs.
+    let share = Path::new(env!("CARGO_TARGET_TMPDIR")).join("vivid-vm");
+    let _ = fs::remove_dir_all(&share);
+    fs::create_dir_all(share.join("in")).map_err(|e| e.to_string())?;
+    // Without its debug info the probe is 10x smaller, which saves seconds of 9p copying
+    // under TCG; copy it whole where binutils' strip is missing.
+    let stripped = Command::new("strip")
+        .arg("-o")
+        .arg(share.join("capture_probe"))
+        .arg(&probe)
+        .status()
+        .is_ok_and(|s| s.success());
+    if !stripped {
+        fs::copy(&probe, share.join("capture_probe")).map_err(|e| e.to_string())?;
+    }
+    fs::copy(
+        repo().join("tests/vm/guest-suite.sh"),
+        share.join("guest.sh"),
+    )
+    .map_err(|e| e.to_string())?;
+    let input: Vec<u8> = (0..LOOP_FRAMES).flat_map(loop_frame).collect();
+    fs::write(share.join("in/loop.yuv"), input).map_err(|e| e.to_string())?;
+
+    let started = Instant::now();
+    let prepare = Command::new(repo().join("tests/vm/prepare.sh"))
+        .output()
+        .map_err(|e| format!("tests/vm/prepare.sh: {e}"))?;
+    if !prepare.status.success() {
+        return Err(format!(
+            "tests/vm/prepare.sh failed: {}",
+            String::from_utf8_lossy(&prepare.stderr)
+        ));
+    }
+    let prepared = Instant::now();
+    let run = Command::new(repo().join("tests/vm/run.sh"))
+        .arg(&share)
+        .output()
+        .map_err(|e| format!("tests/vm/run.sh: {e}"))?;
+    let guest_log = fs::read_to_string(share.join("guest.log")).unwrap_or_default();
+    if !run.status.success() {
+        return Err(format!(
+            "tests/vm/run.sh failed ({}): {}\nguest log:\n{guest_log}",
+            run.status,
+            String::from_utf8_lossy(&run.stderr)
+        ));
+    }
+    let timing = fs::read_to_string(share.join("out/timing")).unwrap_or_default();
+    eprintln!(
+        "vivid VM suite: prepare {:.1} s, VM run {:.1} s; guest uptime marks: {}",
+        (prepared - started).as_secs_f64(),
+        prepared.elapsed().as_secs_f64(),
+        timing.replace('\n', ", ")
+    );
+    Ok(Suite {
+        out: share.join("out"),
+    })
+}
+
+/// One JSON line of the probe, as flat `key → raw value` (the probe prints no nesting).
+#[derive(Debug)]
+struct Line(HashMap<String, String>);
+
+impl Line {
+    fn parse(line: &str) -> Line {
+        let body = line.trim().trim_start_matches('{').trim_end_matches('}');
+        let mut map = HashMap::new();
+        let mut rest = body;
+        while let Some(key_start) = rest.find('"') {
+            let after = &rest[key_start + 1..];
+            let Some(key_end) = after.find('"') else {
+                break;
+            };
+            let key = &after[..key_end];
+            let value_part = after[key_end + 1..].trim_start_matches(':');
+            let (value, next) = if let Some(s) = value_part.strip_prefix('"') {
+                let mut end = 0;
+                let bytes = s.as_bytes();
+                while end < bytes.len()
+                    && !(bytes[end] == b'"' && (end == 0 || bytes[end - 1] != b'\\'))
+                {
+                    end += 1;
+                }
+                (s[..end].to_string(), s.get(end + 1..).unwrap_or(""))
+            } else {
+                let end = value_part.find(',').unwrap_or(value_part.len());
+                (value_part[..end].to_string(), &value_part[end..])
+            };
+            map.insert(key.to_string(), value);
+            rest = next.trim_start_matches(',');
+        }
+        Line(map)
+    }
+
+    fn str(&self, key: &str) -> &str {
+        self.0.get(key).map_or("", String::as_str)
+    }
+
+    fn num(&self, key: &str) -> u64 {
+        self.str(key)
+            .parse()
+            .unwrap_or_else(|_| panic!("{key} is not a number in {self:?}"))
+    }
+}
+
+impl Suite {
+    fn lines(&self, name: &str) -> Vec<Line> {
+        fs::read_to_string(self.out.join(format!("{name}.jsonl")))
+            .unwrap_or_default()
+            .lines()
+            .map(Line::parse)
+            .collect()
+    }
+
+    fn frames(&self, name: &str) -> Vec<Line> {
+        self.lines(name)
+            .into_iter()
+            .filter(|l| l.str("event") == "frame")
+            .collect()
+    }
+
+    fn status(&self, name: &str) -> String {
+        fs::read_to_string(self.out.join(format!("{name}.status")))
+            .unwrap_or_default()
+            .trim()
+            .to_string()
+    }
+
+    fn log(&self, name: &str) -> String {
+        fs::read_to_string(self.out.join(format!("{name}.err"))).unwrap_or_default()
+    }
+
+    fn file(&self, name: &str) -> String {
+        fs::read_to_string(self.out.join(name)).unwrap_or_default()
+    }
+}
+
+/// Sequence numbers step by one plus the drops reported, and time only moves forward.
+fn assert_timeline(frames: &[Line]) {
+    assert_eq!(frames[0].num("t_us"), 0, "the first frame is t = 0");
+    for (i, pair) in frames.windows(2).enumerate() {
+        let (a, b) = (&pair[0], &pair[1]);
+        assert_eq!(b.num("index"), a.num("index") + 1, "frame {i}: index");
+        assert_eq!(
+            b.num("seq"),
+            a.num("seq") + 1 + b.num("dropped"),
+            "frame {i}: sequence step vs dropped"
+        );
+        assert!(
+            b.num("t_us") > a.num("t_us"),
+            "frame {i}: time must increase"
+        );
+    }
+}
+
+#[test]
+fn test_pattern_capture_negotiates_and_times_frames() {
+    let Some(suite) = suite() else { return };
+    assert_eq!(
+        suite.status("pattern"),
+        "0",
+        "probe log: {}",
+        suite.log("pattern")
+    );
+    let lines = suite.lines("pattern");
+    let open = lines.first().expect("an open line");
+    assert_eq!(open.str("event"), "open");
+    assert_eq!((open.num("width"), open.num("height")), (640, 480));
+    assert!(open.num("stride") >= 1280);
+    assert_eq!(open.str("fps"), "10.000");
+    assert_eq!(open.num("buffers"), 3, "the buffer count asked for");
+
+    let frames = suite.frames("pattern");
+    assert_eq!(frames.len(), 12);
+    assert!(frames.iter().all(|f| f.num("stride") == open.num("stride")));
+    assert_timeline(&frames);
+    // Real capture times, not counters: 11 intervals at 10 fps span about 1.1 s.
+    let span_us = frames[11].num("t_us");
+    assert!(
+        (550_000..=3_300_000).contains(&span_us),
+        "11 frames at 10 fps took {span_us} µs"
+    );
+    // vivid's picture carries a running counter: every frame differs.
+    let hashes: std::collections::HashSet<_> = frames.iter().map(|f| f.str("hash")).collect();
+    assert_eq!(hashes.len(), frames.len());
+}
+
+#[test]
+fn controls_report_what_was_set_and_refused() {
+    let Some(suite) = suite() else { return };
+    let controls = suite
+        .lines("pattern")
+        .into_iter()
+        .find(|l| l.str("event") == "controls")
+        .expect("a controls line");
+    let report = controls.str("report");
+    assert!(
+        report.contains("set brightness = 200 (now 200)"),
+        "{report}"
+    );
+    assert!(
+        report.contains("refused no_such_control = 1: the camera has no such control"),
+        "{report}"
+    );
+    assert!(
+        report.contains("exposure_time_absolute = 5 (500 µs"),
+        "{report}"
+    );
+    assert_eq!(controls.num("set"), 1, "{report}");
+}
+
+#[test]
+fn unsupported_formats_are_refused_with_what_the_camera_offers() {
+    let Some(suite) = suite() else { return };
+    for name in ["bad_size", "bad_fps"] {
+        assert_eq!(
+            suite.status(name),
+            "2",
+            "{name} exits with an error, not a panic"
+        );
+        let error = suite.lines(name).into_iter().last().expect("an error line");
+        assert_eq!(error.str("event"), "error");
+        let message = error.str("message");
+        assert!(message.contains("The camera offers:"), "{message}");
+        assert!(
+            message.contains("640x480 @ 1, 2, 4, 5, 10, 12.5, 15, 25 fps"),
+            "{message}"
+        );
+    }
+    assert!(suite.lines("bad_size")[0]
+        .str("message")
+        .contains("cannot capture YUYV 800x600"));
+    assert!(suite.lines("bad_fps")[0]
+        .str("message")
+        .contains("at 30 fps"));
+}
+
+#[test]
+fn devices_lists_vivid_with_formats_and_controls() {
+    let Some(suite) = suite() else { return };
+    let list = suite.file("list.txt");
+    assert!(list.contains("/dev/video0: vivid (driver vivid"), "{list}");
+    assert!(list.contains("YUYV (YUYV 4:2:2): 320x180 @"), "{list}");
+    assert!(list.contains("brightness (int 0..=255 step 1"), "{list}");
+    // Output-only nodes are not capture devices.
+    assert!(!list.contains("/dev/video1:"), "{list}");
+}
+
+#[test]
+fn loopback_frames_come_back_byte_exact() {
+    let Some(suite) = suite() else { return };
+    assert_eq!(
+        suite.status("loop"),
+        "0",
+        "probe log: {}",
+        suite.log("loop")
+    );
+    let fed: HashMap<u64, String> = (0..LOOP_FRAMES)
+        .map(|k| {
+            (
+                u64::from(loop_frame_id(k)),
+                format!("{:016x}", fnv1a(&loop_frame(k))),
+            )
+        })
+        .collect();
+    let frames = suite.frames("loop");
+    assert_eq!(frames.len(), 16);
+    for frame in &frames {
+        let id = frame.num("id");
+        let expected = fed
+            .get(&id)
+            .unwrap_or_else(|| panic!("frame {} carries unknown id {id:#x}", frame.num("index")));
+        assert_eq!(
+            frame.str("hash"),
+            expected,
+            "frame {} (id {id:#x})",
+            frame.num("index")
+        );
+    }
+    let ids: std::collections::HashSet<_> = frames.iter().map(|f| f.num("id")).collect();
+    assert!(
+        ids.len() >= 2,
+        "the loop should advance through the fed frames: {ids:?}"
+    );
+    assert_timeline(&frames);
+}
+
+#[test]
+fn a_vanishing_device_is_a_typed_error_not_a_panic() {
+    let Some(suite) = suite() else { return };
+    let log = suite.log("unplug_plain");
+    assert_eq!(suite.status("unplug_plain"), "2", "log: {log}");
+    assert!(!log.contains("panicked"), "{log}");
+    assert!(
+        suite.frames("unplug_plain").len() >= 3,
+        "frames before the unbind"
+    );
+    let last = suite
+        .lines("unplug_plain")
+        .into_iter()
+        .last()
+        .expect("output");
+    assert_eq!(last.str("event"), "error");
+    assert_eq!(last.str("disconnected"), "true", "{:?}", last);
+}
+
+#[test]
+fn the_reopening_source_resumes_after_the_device_returns() {
+    let Some(suite) = suite() else { return };
+    let log = suite.log("unplug_reopen");
+    assert_eq!(suite.status("unplug_reopen"), "0", "log: {log}");
+    assert!(!log.contains("panicked"), "{log}");
+    assert!(log.contains("disappeared"), "the fault is logged: {log}");
+    assert!(log.contains("reopened, resuming capture"), "{log}");
+    let frames = suite.frames("unplug_reopen");
+    assert_eq!(frames.len(), 30);
+    assert_timeline(&frames);
+    // The outage (1 s unbound) shows as one long gap in frame time, not as a reset to 0.
+    let longest_gap_us = frames
+        .windows(2)
+        .map(|p| p[1].num("t_us") - p[0].num("t_us"))
+        .max()
+        .unwrap_or(0);
+    assert!(longest_gap_us >= 900_000, "longest gap {longest_gap_us} µs");
+    let end = suite
+        .lines("unplug_reopen")
+        .into_iter()
+        .last()
+        .expect("output");
+    assert_eq!(end.str("event"), "end");
+    assert!(end.num("reopens") >= 1);
+}

@@ -1,0 +1,88 @@
+# The vivid checks, run inside the test VM by /init as /mnt/guest.sh (busybox sh).
+# Inputs: /mnt/capture_probe, /mnt/in/loop.yuv. Outputs: /mnt/out/<check>.jsonl (the probe's
+# JSON lines), <check>.err (its log), <check>.status (its exit status). The host-side test
+# (tests/vivid.rs) asserts on them; this script only drives the driver.
+# Run the probe from RAM: loading it through 9p at every start is slow under TCG.
+cp /mnt/capture_probe /tmp/capture_probe
+PROBE=/tmp/capture_probe
+OUT=/mnt/out
+VIVID=/lib/modules/vivid.ko
+UNBIND=/sys/bus/platform/drivers/vivid/unbind
+BIND=/sys/bus/platform/drivers/vivid/bind
+mkdir -p "$OUT"
+echo "boot_s $(cut -d' ' -f1 /proc/uptime)" >"$OUT/timing"
+
+probe() { # probe NAME ARGS...: runs the probe, keeping its output, log and status
+    name=$1
+    shift
+    "$PROBE" "$@" >"$OUT/$name.jsonl" 2>"$OUT/$name.err"
+    echo $? >"$OUT/$name.status"
+}
+
+# Waits until a device node exists (udev-less: devtmpfs creates it when the driver registers).
+wait_node() {
+    for _ in 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16 17 18 19 20; do
+        [ -e "$1" ] && return 0
+        sleep 0.1
+    done
+    echo "no $1"
+    return 1
+}
+
+# Waits until probe NAME has printed N frames (so it is streaming), for at most 10 s.
+wait_frames() {
+    for _ in $(seq 100); do
+        [ "$(grep -c '"event":"frame"' "$OUT/$1.jsonl" 2>/dev/null)" -ge "$2" ] && return 0
+        sleep 0.1
+    done
+    echo "probe $1 did not stream"
+    return 1
+}
+
+# 1. The default webcam input: colour bars, 640x480 YUYV, frame rate set to 10 fps.
+insmod "$VIVID"
+wait_node /dev/video0
+probe pattern --device /dev/video0 --size 640x480 --fps 10 --frames 12 --buffers 3 \
+    --control brightness=200 --control no_such_control=1 --exposure-us 500
+probe bad_size --device /dev/video0 --size 800x600 --frames 1
+probe bad_fps --device /dev/video0 --size 640x480 --fps 30 --frames 1
+"$PROBE" --list >"$OUT/list.txt" 2>&1
+echo "pattern_done_s $(cut -d' ' -f1 /proc/uptime)" >>"$OUT/timing"
+
+# 3. The device disappears while streaming: unbinding the vivid platform device unregisters its
+#    nodes under the open file, as unplugging a USB camera does.
+probe unplug_plain --device /dev/video0 --fps 10 --frames 1000 --stall-ms 3000 &
+pid=$!
+wait_frames unplug_plain 3
+echo vivid.0 >"$UNBIND"
+wait $pid
+echo vivid.0 >"$BIND"
+wait_node /dev/video0
+probe unplug_reopen --device /dev/video0 --fps 10 --frames 30 --reopen --stall-ms 1000 &
+pid=$!
+wait_frames unplug_reopen 5
+echo vivid.0 >"$UNBIND"
+sleep 1
+echo vivid.0 >"$BIND"
+wait $pid
+echo "unplug_done_s $(cut -d' ' -f1 /proc/uptime)" >>"$OUT/timing"
+
+# 2. vivid's output-to-capture loop: one HDMI capture node (video0) and one HDMI output node
+#    (video1) at 640x480p59.94, OSD text off so frames come back byte-exact. The output streams
+#    first; in the other order capture shows noise.
+rmmod vivid
+insmod "$VIVID" n_devs=1 node_types=0x101 num_inputs=1 input_types=0x3 num_outputs=1 output_types=0x1
+wait_node /dev/video1
+v4l2-ctl -d /dev/video0 --set-dv-bt-timings index=0
+v4l2-ctl -d /dev/video1 --set-dv-bt-timings index=0
+v4l2-ctl -d /dev/video0 -c loop_video=1,osd_text_mode=2
+v4l2-ctl -d /dev/video1 --set-fmt-video-out=width=640,height=480,pixelformat=YUYV
+v4l2-ctl -d /dev/video1 --stream-out-mmap --stream-from=/mnt/in/loop.yuv --stream-loop \
+    >"$OUT/feed.log" 2>&1 &
+feeder=$!
+sleep 0.5
+probe loop --device /dev/video0 --size 640x480 --frames 16
+kill $feeder
+wait $feeder 2>/dev/null
+echo "loop_done_s $(cut -d' ' -f1 /proc/uptime)" >>"$OUT/timing"
+exit 0

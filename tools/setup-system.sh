@@ -1,0 +1,37 @@
+#!/bin/sh
+# Installs the Debian packages glint's build and tests need. Idempotent: prints nothing and
+# touches nothing when everything is already installed.
+#
+#   libclang-dev     bindgen, used by the `v4l` crate's build script
+#   qemu-system-x86  boots the VM that runs the kernel's `vivid` V4L2 driver (tests/vm/)
+#   busybox-static   the VM's userland
+#   v4l-utils        v4l2-ctl in the VM (DV timings, controls, feeding vivid's output node)
+#   cpio, kmod       building the VM's initramfs (cpio) and module dependencies (depmod, modprobe)
+#   socat            serial port pairs for UART tests
+#   binutils         strip, to shrink the test programs copied into the VM
+#   xz-utils         unpacking the kernel image to the uncompressed vmlinux qemu boots fastest
+#
+# The VM runs host-built (glibc) test programs: tests/vm/prepare.sh copies the C libraries they
+# need into the guest, so no extra Rust target is needed.
+set -eu
+
+PACKAGES="libclang-dev qemu-system-x86 busybox-static v4l-utils cpio kmod socat xz-utils binutils"
+
+missing=""
+for pkg in $PACKAGES; do
+    if ! dpkg-query -W -f='${Status}' "$pkg" 2>/dev/null | grep -q "install ok installed"; then
+        missing="$missing $pkg"
+    fi
+done
+
+if [ -n "$missing" ]; then
+    SUDO=""
+    if [ "$(id -u)" -ne 0 ]; then
+        SUDO="sudo"
+    fi
+    echo "setup-system: installing$missing" >&2
+    $SUDO apt-get update -qq
+    # shellcheck disable=SC2086 # word splitting of the package list is intended
+    DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends $missing >/dev/null
+fi
+

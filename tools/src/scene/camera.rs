@@ -1,0 +1,146 @@
+//! Camera response: sensor noise, clipping at the sensor's full well, and quantisation to
+//! 8-bit luma in full or studio range, packed as YUYV 4:2:2.
+
+use super::rng::SplitMix64;
+
+/// How the camera maps clipped linear signal `v ∈ [0, 1]` to 8-bit luma.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Range {
+    /// `Y = round(255 v)`: white is 255.
+    Full,
+    /// `Y = 16 + round(219 v)`: white clips at 235, as many real webcams deliver.
+    Studio,
+}
+
+impl Range {
+    /// Luma of a clipped (saturated) pixel.
+    pub fn white_luma(self) -> u8 {
+        self.luma(1.0)
+    }
+
+    /// Quantises a linear value; values outside `[0, 1]` are clipped first.
+    pub fn luma(self, v: f32) -> u8 {
+        let (black, span) = self.black_and_span();
+        round_to_u8(black + span * v.clamp(0.0, 1.0))
+    }
+
+    /// Luma of black, and the luma span from black to white.
+    fn black_and_span(self) -> (f32, f32) {
+        match self {
+            Range::Full => (0.0, 255.0),
+            Range::Studio => (16.0, 219.0),
+        }
+    }
+}
+
+/// Rounds a value in `0.0..=255.0` to the nearest integer, halves up. Adding one half and
+/// truncating avoids `f32::round`, which is a library call on baseline x86-64 and would
+/// dominate the per-pixel cost.
+fn round_to_u8(x: f32) -> u8 {
+    (x + 0.5) as u8
+}
+
+/// Neutral chroma.
+const CHROMA_NEUTRAL: f32 = 128.0;
+/// Chroma offsets of the floor at black, fading to neutral at white: a warm floor under a
+/// white LED. glint ignores chroma; this only makes the dump a plausible colour image.
+const FLOOR_TINT_U: f32 = -6.0;
+const FLOOR_TINT_V: f32 = 9.0;
+
+/// Sensor noise and output range.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Camera {
+    /// Standard deviation of additive Gaussian read noise, in clip units (0.01 ≈ 2.5 luma
+    /// levels in full range).
+    pub noise_sigma: f64,
+    /// Output range.
+    pub range: Range,
+}
+
+impl Camera {
+    /// Adds noise to one row of linear radiance and writes it as YUYV bytes. `out` holds
+    /// `2 * radiance.len()` bytes; an odd trailing pixel (never produced by a validated
+    /// scene) is left untouched.
+    pub(crate) fn expose_row(
+        &self,
+        radiance: &[f32],
+        rng: &mut Option<SplitMix64>,
+        out: &mut [u8],
+    ) {
+        let sigma = self.noise_sigma as f32;
+        // Two monomorphised loops rather than a per-pixel branch on the noise.
+        match rng {
+            Some(rng) => self.pack_row(radiance, out, || sigma * rng.next_gaussian()),
+            None => self.pack_row(radiance, out, || 0.0),
+        }
+    }
+
+    fn pack_row(&self, radiance: &[f32], out: &mut [u8], mut noise: impl FnMut() -> f32) {
+        let (black, span) = self.range.black_and_span();
+        for (pair, quad) in radiance.chunks_exact(2).zip(out.chunks_exact_mut(4)) {
+            let [a, b] = *pair else { continue };
+            let v0 = (a + noise()).clamp(0.0, 1.0);
+            let v1 = (b + noise()).clamp(0.0, 1.0);
+            let fade = 1.0 - 0.5 * (v0 + v1);
+            quad.copy_from_slice(&[
+                round_to_u8(black + span * v0),
+                round_to_u8(CHROMA_NEUTRAL + FLOOR_TINT_U * fade),
+                round_to_u8(black + span * v1),
+                round_to_u8(CHROMA_NEUTRAL + FLOOR_TINT_V * fade),
+            ]);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn full_and_studio_ranges_map_black_and_white() {
+        assert_eq!(Range::Full.luma(-0.3), 0);
+        assert_eq!(Range::Full.luma(0.0), 0);
+        assert_eq!(Range::Full.luma(1.0), 255);
+        assert_eq!(Range::Full.luma(7.0), 255);
+        assert_eq!(Range::Full.luma(0.5), 128);
+        assert_eq!(Range::Studio.luma(0.0), 16);
+        assert_eq!(Range::Studio.luma(1.0), 235);
+        assert_eq!(Range::Studio.luma(40.0), 235);
+        assert_eq!(Range::Studio.white_luma(), 235);
+    }
+
+    #[test]
+    fn row_is_packed_as_y0_u_y1_v() {
+        let camera = Camera {
+            noise_sigma: 0.0,
+            range: Range::Full,
+        };
+        let mut out = [0u8; 12];
+        camera.expose_row(&[0.0, 1.0, 2.0, 1.5, 0.2, 0.2], &mut None, &mut out);
+        assert_eq!(
+            [out[0], out[2], out[4], out[6], out[8], out[10]],
+            [0, 255, 255, 255, 51, 51]
+        );
+        // White pairs carry neutral chroma, darker pairs the floor tint.
+        assert_eq!((out[5], out[7]), (128, 128));
+        assert!(out[1] < 128 && out[3] > 128);
+        assert!(out[9] < out[1] && out[11] > out[3]);
+    }
+
+    #[test]
+    fn noise_has_the_configured_spread() {
+        let camera = Camera {
+            noise_sigma: 0.04,
+            range: Range::Full,
+        };
+        let row = vec![0.5f32; 20_000];
+        let mut out = vec![0u8; 40_000];
+        camera.expose_row(&row, &mut Some(SplitMix64::new(3)), &mut out);
+        let lumas: Vec<f64> = out.iter().step_by(2).map(|&y| f64::from(y)).collect();
+        let mean = lumas.iter().sum::<f64>() / lumas.len() as f64;
+        let sd =
+            (lumas.iter().map(|y| (y - mean).powi(2)).sum::<f64>() / lumas.len() as f64).sqrt();
+        assert!((mean - 127.5).abs() < 0.3, "mean {mean}");
+        assert!((sd - 0.04 * 255.0).abs() < 0.3, "sd {sd}");
+    }
+}

@@ -1,0 +1,541 @@
+//! Synthetic scenes with exact ground truth, for testing glint's accuracy.
+//!
+//! A scene is a camera looking down on a textured floor while a bright LED moves along an
+//! analytic trajectory. Each frame is rendered physically, in linear units where 1.0 is the
+//! sensor's clip level: the floor's radiance, plus the LED disk (several times the clip level)
+//! integrated over the pixel area AND over the exposure window `[t - exposure, t]`, so fast
+//! motion makes real streaks; static glare; opaque occluders on top; then sensor noise,
+//! clipping and 8-bit quantisation to packed YUYV 4:2:2.
+//!
+//! The ground truth ([`Truth`]) is computed from the trajectory's formulas, not from the
+//! pixels. Everything is deterministic for a seed, and any single frame can be rendered on
+//! its own.
+//!
+//! This module does not use glint: glint's own tests render their scenes with it.
+
+mod camera;
+mod floor;
+mod occlusion;
+mod optics;
+mod presets;
+mod rng;
+mod trajectory;
+mod truth;
+
+use std::fmt;
+
+pub use camera::{Camera, Range};
+pub use floor::Floor;
+pub use occlusion::Occluder;
+pub use optics::{Glare, Led};
+pub use trajectory::{Motion, Point, Trajectory};
+pub use truth::{read_truth_csv, write_truth_csv, Truth, TruthCsvError, Visibility, CSV_HEADER};
+
+use optics::Patch;
+use rng::{mix64, SplitMix64};
+
+/// At most this much LED motion between two time samples of an exposure, so a streak is a
+/// continuous smear rather than a row of separate disks.
+const MAX_DISK_STEP_PX: f64 = 0.1;
+/// The glow is smooth and wide, so it needs far fewer time samples than the disk.
+const MAX_GLOW_STEP_PX: f64 = 0.5;
+/// Caps the time samples of one exposure (a 2000 px streak at the disk step), so an absurd
+/// custom speed costs a bounded time instead of hanging.
+const MAX_TIME_STEPS: usize = 20_000;
+/// Largest accepted frame side, which bounds the scene's memory.
+const MAX_SIDE_PX: u32 = 4096;
+/// Most frames a scene may have (55 minutes at 30 fps), which bounds a dump's size.
+const MAX_FRAMES: usize = 100_000;
+/// Separates the per-frame noise streams from the floor texture's seed.
+const NOISE_SALT: u64 = 0x0015_E1CE_0015_E1CE;
+const MICROS_PER_S: f64 = 1e6;
+
+/// Everything that defines a scene. Presets fill one in; tests may build their own.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SceneConfig {
+    /// Stable name (a preset's name, or anything for a custom scene).
+    pub name: String,
+    /// One line saying what the scene shows.
+    pub summary: String,
+    /// Frame width, even (YUYV packs pixel pairs).
+    pub width_px: u32,
+    /// Frame height.
+    pub height_px: u32,
+    /// Frames per second; frame `i` ends its exposure at `i / fps`.
+    pub fps: f64,
+    /// Exposure time, at most one frame period.
+    pub exposure_us: u32,
+    /// Number of frames in a dump of the scene.
+    pub frame_count: usize,
+    /// Seed of the floor texture and the sensor noise.
+    pub seed: u64,
+    /// How the LED moves.
+    pub trajectory: Trajectory,
+    /// The LED's size and brightness.
+    pub led: Led,
+    /// Static saturated spots.
+    pub glare: Vec<Glare>,
+    /// Opaque rectangles drawn over everything, the LED included.
+    pub occluders: Vec<Occluder>,
+    /// The floor's texture.
+    pub floor: Floor,
+    /// Noise and output range.
+    pub camera: Camera,
+}
+
+/// Why a scene cannot be built or rendered.
+#[derive(Clone, Debug, PartialEq)]
+pub enum SceneError {
+    /// A configuration value is out of range.
+    Invalid {
+        /// The offending field.
+        field: &'static str,
+        /// What is wrong with it.
+        reason: &'static str,
+    },
+    /// The output buffer does not hold exactly one frame.
+    BufferLength {
+        /// `width * height * 2`.
+        expected: usize,
+        /// The buffer's length.
+        actual: usize,
+    },
+}
+
+impl fmt::Display for SceneError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            SceneError::Invalid { field, reason } => write!(f, "invalid scene {field}: {reason}"),
+            SceneError::BufferLength { expected, actual } => write!(
+                f,
+                "frame buffer holds {actual} bytes, a YUYV frame of this scene needs {expected}"
+            ),
+        }
+    }
+}
+
+impl std::error::Error for SceneError {}
+
+/// A validated scene, ready to render any frame.
+#[derive(Clone)]
+pub struct Scene {
+    config: SceneConfig,
+    /// Radiance of everything that does not move (floor, glare, occluders), row-major.
+    static_radiance: Vec<f32>,
+}
+
+/// Shows the configuration only: the precomputed radiance map is a frame's worth of floats.
+impl fmt::Debug for Scene {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Scene")
+            .field("config", &self.config)
+            .finish_non_exhaustive()
+    }
+}
+
+/// When, and how finely, one frame's exposure is sampled.
+struct Exposure {
+    end_s: f64,
+    duration_s: f64,
+}
+
+impl Exposure {
+    /// Mid-point sample times: for motion at constant velocity their mean position is
+    /// exactly the position at the middle of the exposure.
+    fn sample_times(&self, steps: usize) -> impl Iterator<Item = f64> + '_ {
+        let dt = self.duration_s / steps as f64;
+        let start = self.end_s - self.duration_s;
+        (0..steps).map(move |k| start + (k as f64 + 0.5) * dt)
+    }
+
+    fn steps_for(streak_px: f64, max_step_px: f64) -> usize {
+        let steps = (streak_px / max_step_px).ceil();
+        if steps.is_finite() && steps >= 1.0 {
+            (steps as usize).min(MAX_TIME_STEPS)
+        } else {
+            1
+        }
+    }
+}
+
+impl Scene {
+    /// Validates a configuration and precomputes the static part of the image.
+    pub fn new(config: SceneConfig) -> Result<Scene, SceneError> {
+        validate(&config)?;
+        let (width, height) = (config.width_px as usize, config.height_px as usize);
+        let mut static_radiance = config.floor.render(width, height, config.seed);
+        for glare in &config.glare {
+            let mut patch = Patch::around(
+                glare.centre_px,
+                glare.centre_px,
+                glare.radius_px + 1.0,
+                width,
+                height,
+            );
+            patch.add_disk(glare.centre_px, glare.radius_px, glare.peak);
+            add_patch(&mut static_radiance, width, &patch);
+        }
+        for occluder in &config.occluders {
+            for (y, row) in static_radiance.chunks_exact_mut(width).enumerate() {
+                for (x, value) in row.iter_mut().enumerate() {
+                    if occluder.covers(x, y) {
+                        *value = occluder.radiance as f32;
+                    }
+                }
+            }
+        }
+        Ok(Scene {
+            config,
+            static_radiance,
+        })
+    }
+
+    /// A preset by its stable name (see [`Scene::names`]).
+    pub fn preset(name: &str) -> Option<Scene> {
+        Scene::new(presets::config(name)?).ok()
+    }
+
+    /// A preset's configuration, to change (frames, seed, noise...) before [`Scene::new`].
+    pub fn preset_config(name: &str) -> Option<SceneConfig> {
+        presets::config(name)
+    }
+
+    /// The preset names, in a stable order.
+    pub fn names() -> &'static [&'static str] {
+        presets::NAMES
+    }
+
+    /// The configuration this scene was built from.
+    pub fn config(&self) -> &SceneConfig {
+        &self.config
+    }
+
+    /// The scene's name.
+    pub fn name(&self) -> &str {
+        &self.config.name
+    }
+
+    /// Frame width.
+    pub fn width_px(&self) -> u32 {
+        self.config.width_px
+    }
+
+    /// Frame height.
+    pub fn height_px(&self) -> u32 {
+        self.config.height_px
+    }
+
+    /// Frames per second.
+    pub fn fps(&self) -> f64 {
+        self.config.fps
+    }
+
+    /// Exposure time per frame.
+    pub fn exposure_us(&self) -> u32 {
+        self.config.exposure_us
+    }
+
+    /// Number of frames in [`Scene::render_dump`].
+    pub fn frame_count(&self) -> usize {
+        self.config.frame_count
+    }
+
+    /// The LED disk's radius.
+    pub fn led_radius_px(&self) -> f64 {
+        self.config.led.radius_px
+    }
+
+    /// Luma of a saturated pixel (255 in full range, 235 in studio range).
+    pub fn white_luma(&self) -> u8 {
+        self.config.camera.range.white_luma()
+    }
+
+    /// Bytes in one packed YUYV frame: `width * height * 2` (stride = `2 * width`).
+    pub fn frame_len_bytes(&self) -> usize {
+        self.config.width_px as usize * self.config.height_px as usize * 2
+    }
+
+    fn exposure(&self, frame: usize) -> Exposure {
+        Exposure {
+            end_s: frame as f64 / self.config.fps,
+            duration_s: f64::from(self.config.exposure_us) / MICROS_PER_S,
+        }
+    }
+
+    /// The ground truth of frame `frame`, without rendering it.
+    pub fn truth(&self, frame: usize) -> Truth {
+        let exposure = self.exposure(frame);
+        let trajectory = &self.config.trajectory;
+        let streak_px =
+            trajectory.path_length_px(exposure.end_s - exposure.duration_s, exposure.end_s);
+        let steps = Exposure::steps_for(streak_px, MAX_DISK_STEP_PX);
+        let start_s = exposure.end_s - exposure.duration_s;
+        let times = [start_s, exposure.end_s]
+            .into_iter()
+            .chain(exposure.sample_times(steps));
+        let visible = occlusion::classify(
+            times.map(|t| trajectory.motion(t).position_px),
+            self.config.led.radius_px,
+            self.config.width_px,
+            self.config.height_px,
+            &self.config.occluders,
+        );
+        let end = trajectory.motion(exposure.end_s);
+        let mid = trajectory
+            .motion(exposure.end_s - 0.5 * exposure.duration_s)
+            .position_px;
+        let known = |v: f64| (visible != Visibility::Hidden).then_some(v);
+        Truth {
+            frame,
+            t_s: exposure.end_s,
+            visible,
+            x_px: known(end.position_px.x),
+            y_px: known(end.position_px.y),
+            mid_x_px: known(mid.x),
+            mid_y_px: known(mid.y),
+            vx_px_s: known(end.velocity_px_s.x),
+            vy_px_s: known(end.velocity_px_s.y),
+            streak_px: known(streak_px),
+        }
+    }
+
+    /// The LED's light on the sensor during frame `frame`'s exposure, before occluders,
+    /// noise and clipping: linear radiance over the LED's bounding box.
+    fn led_radiance(&self, frame: usize) -> Patch {
+        let exposure = self.exposure(frame);
+        let trajectory = &self.config.trajectory;
+        let led = &self.config.led;
+        let streak_px =
+            trajectory.path_length_px(exposure.end_s - exposure.duration_s, exposure.end_s);
+        let disk_steps = Exposure::steps_for(streak_px, MAX_DISK_STEP_PX);
+        let positions: Vec<Point> = exposure
+            .sample_times(disk_steps)
+            .map(|t| trajectory.motion(t).position_px)
+            .collect();
+        let glow_reach_px = if led.glow_peak > 0.0 {
+            led.glow_radius_px
+        } else {
+            0.0
+        };
+        let (min, max) = bounds(&positions);
+        let (width, height) = (
+            self.config.width_px as usize,
+            self.config.height_px as usize,
+        );
+        let mut patch = Patch::around(
+            min,
+            max,
+            led.radius_px.max(glow_reach_px) + 1.0,
+            width,
+            height,
+        );
+        if patch.values.is_empty() {
+            return patch;
+        }
+        let weight = led.peak / disk_steps as f64;
+        for &centre in &positions {
+            patch.add_disk(centre, led.radius_px, weight);
+        }
+        if led.glow_peak > 0.0 {
+            let glow_steps = Exposure::steps_for(streak_px, MAX_GLOW_STEP_PX);
+            let weight = led.glow_peak / glow_steps as f64;
+            for t in exposure.sample_times(glow_steps) {
+                patch.add_glow(trajectory.motion(t).position_px, led.glow_radius_px, weight);
+            }
+        }
+        patch
+    }
+
+    /// Renders frame `frame` as packed YUYV into `out` (exactly [`Scene::frame_len_bytes`]
+    /// long) and returns its ground truth.
+    pub fn render(&self, frame: usize, out: &mut [u8]) -> Result<Truth, SceneError> {
+        let expected = self.frame_len_bytes();
+        if out.len() != expected {
+            return Err(SceneError::BufferLength {
+                expected,
+                actual: out.len(),
+            });
+        }
+        self.render_into(frame, out);
+        Ok(self.truth(frame))
+    }
+
+    /// Renders into a buffer of the right length (shorter buffers get whole rows only).
+    fn render_into(&self, frame: usize, out: &mut [u8]) {
+        let width = self.config.width_px as usize;
+        let mut patch = self.led_radiance(frame);
+        for occluder in &self.config.occluders {
+            hide(&mut patch, occluder);
+        }
+        let mut rng = (self.config.camera.noise_sigma > 0.0)
+            .then(|| SplitMix64::new(mix64(self.config.seed ^ mix64(frame as u64 ^ NOISE_SALT))));
+        let mut row = vec![0.0f32; width];
+        for (y, (out_row, static_row)) in out
+            .chunks_exact_mut(2 * width)
+            .zip(self.static_radiance.chunks_exact(width))
+            .enumerate()
+        {
+            row.copy_from_slice(static_row);
+            if let Some(led_row) = patch_row(&patch, y) {
+                if let Some(dst) = row.get_mut(patch.left..patch.left + led_row.len()) {
+                    for (d, s) in dst.iter_mut().zip(led_row) {
+                        *d += s;
+                    }
+                }
+            }
+            self.config.camera.expose_row(&row, &mut rng, out_row);
+        }
+    }
+
+    /// Renders every frame back to back (a raw YUYV dump) with their truths. The whole dump
+    /// is held in memory (`frame_count × frame_len_bytes`); stream with [`Scene::render`]
+    /// for long scenes.
+    pub fn render_dump(&self) -> (Vec<u8>, Vec<Truth>) {
+        let len = self.frame_len_bytes();
+        let mut dump = vec![0u8; len.saturating_mul(self.config.frame_count)];
+        let truths = dump
+            .chunks_exact_mut(len.max(1))
+            .enumerate()
+            .map(|(frame, out)| {
+                self.render_into(frame, out);
+                self.truth(frame)
+            })
+            .collect();
+        (dump, truths)
+    }
+}
+
+/// Smallest box holding all points (a degenerate box at the origin when there are none).
+fn bounds(points: &[Point]) -> (Point, Point) {
+    let mut iter = points.iter();
+    let Some(&first) = iter.next() else {
+        return (Point::default(), Point::default());
+    };
+    iter.fold((first, first), |(lo, hi), p| {
+        (
+            Point::new(lo.x.min(p.x), lo.y.min(p.y)),
+            Point::new(hi.x.max(p.x), hi.y.max(p.y)),
+        )
+    })
+}
+
+/// Row `y` (frame coordinates) of a patch, if the patch covers it.
+fn patch_row(patch: &Patch, y: usize) -> Option<&[f32]> {
+    let row = y.checked_sub(patch.top)?;
+    if row >= patch.height {
+        return None;
+    }
+    patch.values.get(row * patch.width..(row + 1) * patch.width)
+}
+
+/// Adds a patch into a full-frame radiance map of width `width`.
+fn add_patch(map: &mut [f32], width: usize, patch: &Patch) {
+    for (row_index, src) in patch.values.chunks_exact(patch.width.max(1)).enumerate() {
+        let start = (patch.top + row_index) * width + patch.left;
+        if let Some(dst) = map.get_mut(start..start + src.len()) {
+            for (d, s) in dst.iter_mut().zip(src) {
+                *d += s;
+            }
+        }
+    }
+}
+
+/// Removes the light an occluder blocks.
+fn hide(patch: &mut Patch, occluder: &Occluder) {
+    let (left, top, width) = (patch.left, patch.top, patch.width.max(1));
+    for (row_index, row) in patch.values.chunks_exact_mut(width).enumerate() {
+        for (col, value) in row.iter_mut().enumerate() {
+            if occluder.covers(left + col, top + row_index) {
+                *value = 0.0;
+            }
+        }
+    }
+}
+
+fn invalid(field: &'static str, reason: &'static str) -> SceneError {
+    SceneError::Invalid { field, reason }
+}
+
+fn finite_at_least(value: f64, min: f64) -> bool {
+    value.is_finite() && value >= min
+}
+
+fn validate(c: &SceneConfig) -> Result<(), SceneError> {
+    if c.width_px == 0 || !c.width_px.is_multiple_of(2) || c.width_px > MAX_SIDE_PX {
+        return Err(invalid(
+            "width_px",
+            "must be even, non-zero and at most 4096",
+        ));
+    }
+    if c.height_px == 0 || c.height_px > MAX_SIDE_PX {
+        return Err(invalid("height_px", "must be non-zero and at most 4096"));
+    }
+    if !(c.fps.is_finite() && c.fps > 0.0) {
+        return Err(invalid("fps", "must be positive"));
+    }
+    if c.frame_count > MAX_FRAMES {
+        return Err(invalid("frame_count", "must be at most 100000"));
+    }
+    let frame_period_us = MICROS_PER_S / c.fps;
+    if c.exposure_us == 0 || f64::from(c.exposure_us) > frame_period_us {
+        return Err(invalid(
+            "exposure_us",
+            "must be positive and at most one frame period",
+        ));
+    }
+    c.trajectory
+        .validate()
+        .map_err(|reason| invalid("trajectory", reason))?;
+    let led = &c.led;
+    if !(finite_at_least(led.radius_px, 0.0) && led.radius_px > 0.0) {
+        return Err(invalid("led.radius_px", "must be positive"));
+    }
+    if !finite_at_least(led.peak, 0.0) || !finite_at_least(led.glow_peak, 0.0) {
+        return Err(invalid(
+            "led",
+            "peak and glow_peak must be finite and not negative",
+        ));
+    }
+    if led.glow_peak > 0.0 && !(led.glow_radius_px.is_finite() && led.glow_radius_px > 0.0) {
+        return Err(invalid(
+            "led.glow_radius_px",
+            "must be positive when there is a glow",
+        ));
+    }
+    let glare_ok = c.glare.iter().all(|g| {
+        g.centre_px.is_finite()
+            && g.radius_px.is_finite()
+            && g.radius_px > 0.0
+            && finite_at_least(g.peak, 0.0)
+    });
+    if !glare_ok {
+        return Err(invalid(
+            "glare",
+            "centres must be finite, radii positive, peaks not negative",
+        ));
+    }
+    let occluders_ok = c.occluders.iter().all(|o| {
+        u64::from(o.left) + u64::from(o.width) <= u64::from(c.width_px)
+            && u64::from(o.top) + u64::from(o.height) <= u64::from(c.height_px)
+            && finite_at_least(o.radiance, 0.0)
+    });
+    if !occluders_ok {
+        return Err(invalid(
+            "occluders",
+            "must lie inside the frame with a radiance of at least 0",
+        ));
+    }
+    if !(c.floor.mean.is_finite() && c.floor.contrast.is_finite()) {
+        return Err(invalid("floor", "mean and contrast must be finite"));
+    }
+    if !finite_at_least(c.camera.noise_sigma, 0.0) {
+        return Err(invalid(
+            "camera.noise_sigma",
+            "must be finite and not negative",
+        ));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,370 @@
+//! Whole-renderer tests: the pixels agree with the ground truth, physics is conserved, and
+//! every preset behaves as its name says.
+
+use super::*;
+
+/// A small custom scene: flat floor, no noise, no glow, LED standing still at `at`.
+fn static_scene(at: Point, peak: f64, range: Range) -> Scene {
+    let mut config = presets::config("slow-line").unwrap();
+    config.width_px = 64;
+    config.height_px = 48;
+    config.trajectory = Trajectory::Line {
+        start_px: at,
+        velocity_px_s: Point::default(),
+    };
+    config.led = Led {
+        radius_px: 3.5,
+        peak,
+        glow_peak: 0.0,
+        glow_radius_px: 0.0,
+    };
+    config.floor = Floor {
+        mean: 0.2,
+        contrast: 0.0,
+        tile_px: 0,
+    };
+    config.camera = Camera {
+        noise_sigma: 0.0,
+        range,
+    };
+    Scene::new(config).unwrap()
+}
+
+fn lumas(frame: &[u8]) -> impl Iterator<Item = u8> + '_ {
+    frame.iter().step_by(2).copied()
+}
+
+/// Weighted centroid of `weight(x, y)` over a `width`-wide image given as row-major values.
+fn centroid(values: impl Iterator<Item = f64>, width: usize) -> (f64, f64, f64) {
+    let (mut sum, mut sx, mut sy) = (0.0, 0.0, 0.0);
+    for (i, v) in values.enumerate() {
+        sum += v;
+        sx += v * (i % width) as f64;
+        sy += v * (i / width) as f64;
+    }
+    (sum, sx / sum, sy / sum)
+}
+
+/// Sum and centroid of a patch's radiance, in frame coordinates.
+fn patch_moments(patch: &Patch) -> (f64, f64, f64) {
+    let (sum, cx, cy) = centroid(patch.values.iter().map(|&v| f64::from(v)), patch.width);
+    (sum, cx + patch.left as f64, cy + patch.top as f64)
+}
+
+fn render(scene: &Scene, frame: usize) -> Vec<u8> {
+    let mut out = vec![0u8; scene.frame_len_bytes()];
+    scene.render(frame, &mut out).unwrap();
+    out
+}
+
+#[test]
+fn presets_have_stable_names_and_sane_sizes() {
+    assert_eq!(Scene::names().len(), 10);
+    for &name in Scene::names() {
+        let scene = Scene::preset(name).unwrap_or_else(|| panic!("preset {name} must build"));
+        assert_eq!(scene.name(), name);
+        assert!((90..=150).contains(&scene.frame_count()), "{name}");
+        assert!((4_000..=25_000).contains(&scene.exposure_us()), "{name}");
+        let expected = if name == "hd-720" {
+            (1280, 720)
+        } else {
+            (640, 480)
+        };
+        assert_eq!((scene.width_px(), scene.height_px()), expected, "{name}");
+        assert_eq!(
+            scene.frame_len_bytes(),
+            (expected.0 * expected.1 * 2) as usize
+        );
+    }
+    assert!(Scene::preset("no-such-scene").is_none());
+}
+
+/// The pipeline end to end, coordinates included: the luma-weighted centroid of a static,
+/// unsaturated LED lands on the truth position, wherever it sits inside a pixel.
+#[test]
+fn static_led_centroid_matches_truth() {
+    for at in [
+        Point::new(30.0, 20.0),
+        Point::new(30.5, 20.5),
+        Point::new(31.27, 22.83),
+        Point::new(28.91, 19.12),
+    ] {
+        // Peak 0.7 over a 0.2 floor never clips, so luma is linear in light (up to rounding).
+        let scene = static_scene(at, 0.7, Range::Full);
+        let frame = render(&scene, 3);
+        let floor_luma = f64::from(Range::Full.luma(0.2));
+        let (_, cx, cy) = centroid(lumas(&frame).map(|y| f64::from(y) - floor_luma), 64);
+        let truth = scene.truth(3);
+        assert_eq!(truth.visible, Visibility::Visible);
+        let (tx, ty) = (truth.x_px.unwrap(), truth.y_px.unwrap());
+        assert!(
+            (cx - tx).abs() < 0.05 && (cy - ty).abs() < 0.05,
+            "centroid ({cx}, {cy}) truth ({tx}, {ty})"
+        );
+        assert_eq!((truth.mid_x_px, truth.mid_y_px), (truth.x_px, truth.y_px));
+        assert_eq!(truth.streak_px, Some(0.0));
+    }
+}
+
+/// The same with the glow on, on a preset while it stands still.
+#[test]
+fn standing_led_with_glow_is_centred_on_truth() {
+    let scene = Scene::preset("stop-go").unwrap();
+    let truth = scene.truth(0);
+    assert_eq!(truth.streak_px, Some(0.0), "stop-go starts standing still");
+    let (_, cx, cy) = patch_moments(&scene.led_radiance(0));
+    assert!((cx - truth.x_px.unwrap()).abs() < 0.01 && (cy - truth.y_px.unwrap()).abs() < 0.01);
+}
+
+/// Motion spreads the LED's light but never creates or loses any of it.
+#[test]
+fn streak_energy_equals_static_disk_energy() {
+    let mut config = presets::config("fast-line").unwrap();
+    config.led.glow_peak = 0.0;
+    let scene = Scene::new(config).unwrap();
+    let (streak_sum, _, _) = patch_moments(&scene.led_radiance(4));
+    let disk = std::f64::consts::PI * scene.led_radius_px().powi(2) * scene.config().led.peak;
+    assert!(scene.truth(4).streak_px.unwrap() > 59.0);
+    assert!(
+        (streak_sum / disk - 1.0).abs() < 1e-4,
+        "streak {streak_sum} disk {disk}"
+    );
+}
+
+/// For motion at constant velocity the streak's light is centred on the mid-exposure
+/// position, which is what `mid_x, mid_y` report.
+#[test]
+fn straight_streak_is_centred_on_mid_exposure_truth() {
+    let scene = Scene::preset("fast-line").unwrap();
+    for frame in [1, 4, 10, 13] {
+        let truth = scene.truth(frame);
+        assert_eq!(truth.visible, Visibility::Visible);
+        let (_, cx, cy) = patch_moments(&scene.led_radiance(frame));
+        let (mx, my) = (truth.mid_x_px.unwrap(), truth.mid_y_px.unwrap());
+        assert!(
+            (cx - mx).abs() < 0.02 && (cy - my).abs() < 0.02,
+            "frame {frame}: ({cx}, {cy}) vs ({mx}, {my})"
+        );
+        // The end of the exposure is half a streak further on.
+        let (x, y) = (truth.x_px.unwrap(), truth.y_px.unwrap());
+        assert!(((x - mx).hypot(y - my) - 30.0).abs() < 1e-6);
+    }
+}
+
+#[test]
+fn fast_line_streaks_are_60_px_and_rendered_that_long() {
+    let scene = Scene::preset("fast-line").unwrap();
+    let exposure_s = f64::from(scene.exposure_us()) / 1e6;
+    for frame in 0..scene.frame_count() {
+        let truth = scene.truth(frame);
+        let speed = truth.vx_px_s.unwrap().hypot(truth.vy_px_s.unwrap());
+        assert!(
+            (truth.streak_px.unwrap() - 60.0).abs() < 1e-6,
+            "frame {frame}"
+        );
+        assert!((speed * exposure_s - 60.0).abs() < 1e-6, "frame {frame}");
+    }
+    // The saturated run along the streak spans the path plus about the disk's diameter.
+    let frame = render(&scene, 4);
+    let saturated = lumas(&frame).filter(|&y| y == 255).count();
+    let led_area = 60.0 * 8.0 + std::f64::consts::PI * 16.0;
+    assert!(
+        (saturated as f64) > 0.8 * led_area && (saturated as f64) < 1.3 * led_area,
+        "{saturated} saturated pixels"
+    );
+}
+
+#[test]
+fn studio_range_clips_at_235_and_full_range_at_255() {
+    let studio = Scene::preset("studio").unwrap();
+    let frame = render(&studio, 10);
+    assert_eq!(lumas(&frame).max(), Some(235));
+    assert!(lumas(&frame).min().unwrap() >= 16);
+    assert_eq!(studio.white_luma(), 235);
+    let full = Scene::preset("figure-eight").unwrap();
+    assert_eq!(lumas(&render(&full, 10)).max(), Some(255));
+}
+
+/// Truth velocity agrees with central differences of the truth positions, and the
+/// mid-exposure position with the end position moved back half an exposure.
+#[test]
+fn truth_velocity_matches_finite_differences() {
+    for name in ["slow-line", "figure-eight", "studio", "hd-720", "glare"] {
+        let scene = Scene::preset(name).unwrap();
+        let h = 1.0 / scene.fps();
+        let half_exposure_s = 0.5 * f64::from(scene.exposure_us()) / 1e6;
+        let truths: Vec<Truth> = (0..scene.frame_count()).map(|i| scene.truth(i)).collect();
+        for w in truths.windows(3) {
+            let [a, b, c] = w else { unreachable!() };
+            if [a, b, c].iter().any(|t| t.visible != Visibility::Visible) {
+                continue;
+            }
+            let vx = (c.x_px.unwrap() - a.x_px.unwrap()) / (2.0 * h);
+            let vy = (c.y_px.unwrap() - a.y_px.unwrap()) / (2.0 * h);
+            let (tvx, tvy) = (b.vx_px_s.unwrap(), b.vy_px_s.unwrap());
+            assert!(
+                (vx - tvx).abs() < 2.0 && (vy - tvy).abs() < 2.0,
+                "{name} frame {}: ({vx}, {vy}) vs ({tvx}, {tvy})",
+                b.frame
+            );
+            let mid_x = b.x_px.unwrap() - tvx * half_exposure_s;
+            let mid_y = b.y_px.unwrap() - tvy * half_exposure_s;
+            assert!(
+                (mid_x - b.mid_x_px.unwrap()).abs() < 0.05
+                    && (mid_y - b.mid_y_px.unwrap()).abs() < 0.05
+            );
+        }
+    }
+}
+
+#[test]
+fn rendering_is_deterministic_for_a_seed() {
+    let scene = Scene::preset("dim-noisy").unwrap();
+    assert_eq!(render(&scene, 7), render(&scene, 7));
+    assert_ne!(
+        render(&scene, 7),
+        render(&scene, 8),
+        "noise differs frame to frame"
+    );
+    let mut config = presets::config("dim-noisy").unwrap();
+    config.seed = 99;
+    let reseeded = Scene::new(config).unwrap();
+    assert_ne!(render(&scene, 7), render(&reseeded, 7));
+    assert_eq!(
+        scene.truth(7),
+        reseeded.truth(7),
+        "the seed changes pixels, never truth"
+    );
+}
+
+#[test]
+fn dump_is_the_frames_back_to_back() {
+    let mut config = presets::config("circles").unwrap();
+    config.frame_count = 3;
+    let scene = Scene::new(config).unwrap();
+    let (dump, truths) = scene.render_dump();
+    assert_eq!(dump.len(), 3 * scene.frame_len_bytes());
+    for (i, chunk) in dump.chunks_exact(scene.frame_len_bytes()).enumerate() {
+        assert_eq!(chunk, render(&scene, i).as_slice());
+        assert_eq!(truths[i], scene.truth(i));
+    }
+}
+
+/// Visibility in truth agrees with the pixels: a visible LED saturates pixels, a hidden one
+/// none, and hidden frames carry no numbers.
+#[test]
+fn leaving_and_occluded_frames_are_marked_and_empty() {
+    let scene = Scene::preset("leave-occlude").unwrap();
+    let white = scene.white_luma();
+    let mut counts = [0usize; 3];
+    let (mut offscreen, mut occluded) = (0, 0);
+    for frame in 0..scene.frame_count() {
+        let truth = scene.truth(frame);
+        let saturated = lumas(&render(&scene, frame))
+            .filter(|&y| y == white)
+            .count();
+        match truth.visible {
+            Visibility::Visible => {
+                counts[0] += 1;
+                assert!(
+                    saturated > 20,
+                    "frame {frame} visible but {saturated} saturated"
+                );
+                assert!(truth.x_px.is_some() && truth.streak_px.is_some());
+            }
+            Visibility::Hidden => {
+                counts[1] += 1;
+                assert_eq!(saturated, 0, "frame {frame} hidden but saturated");
+                assert!(
+                    truth.x_px.is_none() && truth.mid_y_px.is_none() && truth.vx_px_s.is_none()
+                );
+                let x = scene.config().trajectory.motion(truth.t_s).position_px.x;
+                if x > 640.0 {
+                    offscreen += 1;
+                } else {
+                    occluded += 1;
+                }
+            }
+            Visibility::Partial => counts[2] += 1,
+        }
+    }
+    assert!(counts[0] > 80, "visible {counts:?}");
+    assert!(
+        offscreen >= 10 && occluded >= 2,
+        "off-screen {offscreen}, occluded {occluded}"
+    );
+    assert!(counts[2] >= 2, "partial {counts:?}");
+}
+
+#[test]
+fn glare_spots_saturate_and_never_move() {
+    let scene = Scene::preset("glare").unwrap();
+    let (a, b) = (render(&scene, 0), render(&scene, 60));
+    for (x, y) in [(120usize, 100usize), (470, 262)] {
+        let i = 2 * (y * 640 + x);
+        assert_eq!((a[i], b[i]), (255, 255), "glare at ({x}, {y})");
+    }
+}
+
+#[test]
+fn wrong_buffer_length_is_an_error_not_a_panic() {
+    let scene = Scene::preset("slow-line").unwrap();
+    let mut short = vec![0u8; 100];
+    assert_eq!(
+        scene.render(0, &mut short),
+        Err(SceneError::BufferLength {
+            expected: 640 * 480 * 2,
+            actual: 100
+        })
+    );
+}
+
+#[test]
+fn invalid_configurations_are_rejected() {
+    let base = presets::config("slow-line").unwrap();
+    let mut odd = base.clone();
+    odd.width_px = 641;
+    let mut long_exposure = base.clone();
+    long_exposure.exposure_us = 40_000;
+    let mut no_led = base.clone();
+    no_led.led.radius_px = f64::NAN;
+    let mut endless = base.clone();
+    endless.frame_count = usize::MAX;
+    let mut stray_box = base.clone();
+    stray_box.occluders.push(Occluder {
+        left: 600,
+        top: 0,
+        width: 100,
+        height: 10,
+        radiance: 0.0,
+    });
+    for (config, field) in [
+        (odd, "width_px"),
+        (long_exposure, "exposure_us"),
+        (no_led, "led.radius_px"),
+        (endless, "frame_count"),
+        (stray_box, "occluders"),
+    ] {
+        match Scene::new(config) {
+            Err(SceneError::Invalid { field: f, .. }) => assert_eq!(f, field),
+            other => panic!("expected an invalid {field}, got {other:?}"),
+        }
+    }
+}
+
+#[test]
+fn truth_csv_round_trips_a_preset() {
+    let scene = Scene::preset("leave-occlude").unwrap();
+    let truths: Vec<Truth> = (0..scene.frame_count()).map(|i| scene.truth(i)).collect();
+    let mut text = Vec::new();
+    write_truth_csv(&mut text, &truths).unwrap();
+    let back = read_truth_csv(text.as_slice()).unwrap();
+    assert_eq!(back.len(), truths.len());
+    for (a, b) in truths.iter().zip(&back) {
+        assert_eq!((a.frame, a.visible), (b.frame, b.visible));
+        assert_eq!(a.x_px.is_some(), b.x_px.is_some());
+        if let (Some(x), Some(y)) = (a.x_px, b.x_px) {
+            assert!((x - y).abs() < 1e-6);
+        }
+    }
+}
