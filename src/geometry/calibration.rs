@@ -136,6 +136,12 @@ pub fn calibrate(
         if matches.next().is_some() {
             return Err(CalibrationError::MarkerSeenTwice { id: p.id });
         }
+        if !marker.refined {
+            log::warn!(
+                "marker {}: corners are not sub-pixel refined; the mapping will be less accurate",
+                p.id
+            );
+        }
         for (f, s) in p.corners().iter().zip(&marker.corners) {
             // Capacity is 4 × MAX_MARKERS and placements are at most MAX_MARKERS.
             floor

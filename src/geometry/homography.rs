@@ -161,7 +161,7 @@ impl Homography {
         }
         let eigen = SymmetricEigen::new(ata);
         let mut order = [0usize, 1, 2, 3, 4, 5, 6, 7, 8];
-        order.sort_by(|&a, &b| eigen.eigenvalues[a].total_cmp(&eigen.eigenvalues[b]));
+        order.sort_unstable_by(|&a, &b| eigen.eigenvalues[a].total_cmp(&eigen.eigenvalues[b]));
         let [smallest, second, ..] = order;
         let largest = eigen.eigenvalues.amax();
         if eigen.eigenvalues[second] <= RANK_DEFICIENT_EIGENVALUE * largest {
