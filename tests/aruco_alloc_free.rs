@@ -38,18 +38,24 @@ fn detection_and_calibration_allocate_nothing() {
         size_cm: 20.0,
         origin_cm: Point::new(0.0, 0.0),
     };
-    let mut scene = MarkerScene::new(reference_camera(), vec![placed]);
+    let second = PlacedMarker {
+        id: 101,
+        origin_cm: Point::new(55.0, 45.0),
+        ..placed
+    };
+    let mut scene = MarkerScene::new(reference_camera(), vec![placed, second]);
     scene.floor = Floor::Textured { seed: 3 };
     let bytes = scene.render_yuyv();
     let size = FrameSize::new(640, 480).unwrap();
     let frame = Frame::new_checked(&bytes, size, 1280).unwrap();
     let mut detector = Detector::new(size, DetectorConfig::new(Dictionary::Aruco6x6_250));
-    let placements = [placed.placement()];
+    // Both markers: the least-squares fit (eigen-decomposition, Gauss-Newton) runs too.
+    let placements = [placed.placement(), second.placement()];
     let roi = Roi {
-        x_px: 200,
-        y_px: 100,
-        width_px: 240,
-        height_px: 200,
+        x_px: 60,
+        y_px: 60,
+        width_px: 520,
+        height_px: 300,
     };
 
     let before = ALLOCATIONS.load(Ordering::SeqCst);
@@ -61,6 +67,6 @@ fn detection_and_calibration_allocate_nothing() {
         assert!(calibration.rms_residual_px.is_finite());
     }
     let after = ALLOCATIONS.load(Ordering::SeqCst);
-    assert_eq!(found, 3);
+    assert_eq!(found, 6);
     assert_eq!(after - before, 0, "allocations during detection");
 }
