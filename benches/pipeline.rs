@@ -45,10 +45,10 @@ fn stages(c: &mut Criterion) {
         let mut labeler = Labeler::new();
         group.bench_function("label", |b| b.iter(|| labeler.label(black_box(&mask))));
 
-        let mut detector = Detector::new(size, DetectorConfig::default());
+        let mut detector = Detector::new(size, DetectorConfig::default()).unwrap();
         group.bench_function("detect", |b| b.iter(|| detector.detect(black_box(&frame))));
 
-        let mut pipeline = Pipeline::new(size, PipelineConfig::default());
+        let mut pipeline = Pipeline::new(size, PipelineConfig::default()).unwrap();
         let meta = FrameMeta {
             index: 0,
             sequence: 0,

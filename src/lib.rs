@@ -21,3 +21,4 @@ pub mod geometry;
 pub mod pipeline;
 pub mod sink;
 pub mod source;
+pub mod track;

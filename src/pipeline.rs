@@ -7,27 +7,20 @@
 use core::fmt;
 use std::io;
 
+use crate::detect::bgdiff::BackgroundError;
 use crate::detect::{Detection, Detector, DetectorConfig};
 use crate::frame::{Frame, FrameSize};
 use crate::sink::Sink;
 use crate::source::{FrameMeta, FrameSource};
+use crate::track::{Choice, Estimate, Tracker, TrackerConfig};
 
 /// Settings of the whole per-frame path.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct PipelineConfig {
     /// The detection stage.
     pub detector: DetectorConfig,
-}
-
-/// Where the LED is in one frame, in image pixels ((0, 0) is the centre of the top-left pixel).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Position {
-    /// Best estimate of the LED's position at the end of the exposure.
-    pub x_px: f32,
-    pub y_px: f32,
-    /// The middle of the streak (the seed's point, refined).
-    pub mid_x_px: f32,
-    pub mid_y_px: f32,
+    /// The tracking stage.
+    pub tracker: TrackerConfig,
 }
 
 /// Everything known about one processed frame.
@@ -37,8 +30,11 @@ pub struct FrameReport {
     pub meta: FrameMeta,
     /// The detection stage's findings.
     pub detection: Detection,
-    /// The LED's position, when found.
-    pub position: Option<Position>,
+    /// The LED's position and velocity, when found. Positions are image pixels, (0, 0) the
+    /// centre of the top-left pixel.
+    pub position: Option<Estimate>,
+    /// Several candidates and no way yet to tell the LED from glare.
+    pub ambiguous: bool,
 }
 
 impl FrameReport {
@@ -51,35 +47,53 @@ impl FrameReport {
 /// The per-frame path and its state.
 pub struct Pipeline {
     detector: Detector,
+    tracker: Tracker,
 }
 
 impl Pipeline {
     /// Allocates every stage for frames of `size`.
-    pub fn new(size: FrameSize, config: PipelineConfig) -> Self {
-        Pipeline {
-            detector: Detector::new(size, config.detector),
-        }
+    pub fn new(size: FrameSize, config: PipelineConfig) -> Result<Self, BackgroundError> {
+        Ok(Pipeline {
+            detector: Detector::new(size, config.detector)?,
+            tracker: Tracker::new(config.tracker),
+        })
     }
 
-    /// Processes one frame.
+    /// Feeds a frame of a separate background recording to the detector.
+    pub fn learn_background(&mut self, frame: &Frame<'_>) -> Result<(), BackgroundError> {
+        self.detector.learn_background(frame)
+    }
+
+    /// Processes one frame: segment, let the tracker choose the LED among the candidates,
+    /// analyse that one blob's streak, and update the track.
     pub fn process(&mut self, frame: &Frame<'_>, meta: FrameMeta) -> FrameReport {
-        let detection = self.detector.detect(frame);
-        let position = detection.best.map(|(_, streak)| Position {
-            x_px: streak.mid_px.0,
-            y_px: streak.mid_px.1,
-            mid_x_px: streak.mid_px.0,
-            mid_y_px: streak.mid_px.1,
-        });
+        let mut detection = self.detector.segment(frame);
+        let choice = self
+            .tracker
+            .choose(self.detector.candidates(), meta.index, meta.timestamp_us);
+        detection.best = match choice {
+            Choice::Blob(index) => self.detector.analyze(frame, index, detection.levels),
+            Choice::Nothing | Choice::Ambiguous => None,
+        };
+        let position = self
+            .tracker
+            .update(meta.timestamp_us, detection.best.as_ref().map(|(_, s)| s));
         FrameReport {
             meta,
             detection,
             position,
+            ambiguous: choice == Choice::Ambiguous,
         }
     }
 
     /// The detection stage, for overlays and diagnostics.
     pub fn detector(&self) -> &Detector {
         &self.detector
+    }
+
+    /// The tracking stage.
+    pub fn tracker(&self) -> &Tracker {
+        &self.tracker
     }
 }
 

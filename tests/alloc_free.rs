@@ -82,7 +82,7 @@ fn replay_allocates_nothing_per_frame() {
 
     // Start-up allocations happen here, outside the count.
     let mut source = DumpSource::new(Cursor::new(&bytes), size, 30.0);
-    let mut pipeline = Pipeline::new(size, PipelineConfig::default());
+    let mut pipeline = Pipeline::new(size, PipelineConfig::default()).unwrap();
     let mut sink = JsonLinesSink::new(BufWriter::with_capacity(64 * 1024, io::sink()), false);
     let mut summary = None;
     let allocations = allocations_during(|| {
@@ -109,14 +109,38 @@ fn replay_allocates_nothing_per_frame() {
             erosions: 1,
             ..Default::default()
         },
+        tracker: glint::track::TrackerConfig {
+            exposure_us: Some(25_000),
+        },
     };
     let mut source = DumpSource::new(Cursor::new(&bytes), size, 30.0);
-    let mut pipeline = Pipeline::new(size, config);
+    let mut pipeline = Pipeline::new(size, config).unwrap();
     let mut sink = CsvSink::new(BufWriter::with_capacity(64 * 1024, io::sink()), false);
     let allocations = allocations_during(|| {
         pipeline::run(&mut source, &mut pipeline, &mut sink)
             .1
             .unwrap();
+    });
+    assert_eq!(allocations, 0);
+
+    // So does the background-difference detector, learning included.
+    let config = PipelineConfig {
+        detector: glint::detect::DetectorConfig {
+            method: glint::detect::MaskMethod::BackgroundDifference {
+                diff_luma: 60,
+                frames: 9,
+            },
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    let mut source = DumpSource::new(Cursor::new(&bytes), size, 30.0);
+    let mut pipeline = Pipeline::new(size, config).unwrap();
+    let mut sink = JsonLinesSink::new(BufWriter::with_capacity(64 * 1024, io::sink()), false);
+    let allocations = allocations_during(|| {
+        let (s, result) = pipeline::run(&mut source, &mut pipeline, &mut sink);
+        result.unwrap();
+        assert!(s.found > s.frames / 2, "{s:?}");
     });
     assert_eq!(allocations, 0);
 }

@@ -2,19 +2,23 @@
 
 use std::fs::File;
 use std::io::{self, BufWriter, Read};
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
 
+use glint::detect::bgdiff::MAX_BACKGROUND_FRAMES;
 use glint::detect::morph::Kernel;
 use glint::detect::skeleton::SkeletonMethod;
 use glint::detect::threshold::Threshold;
-use glint::detect::DetectorConfig;
+use glint::detect::{DetectorConfig, MaskMethod};
 use glint::frame::FrameSize;
 use glint::pipeline::{self, Pipeline, PipelineConfig, RunSummary};
 use glint::sink::{CsvSink, JsonLinesSink};
 use glint::source::dump::DumpSource;
+use glint::source::FrameSource;
+use glint::track::TrackerConfig;
 
 /// Output buffer size: a few hundred report lines.
 const OUTPUT_BUFFER_BYTES: usize = 64 * 1024;
@@ -50,6 +54,31 @@ pub struct TrackArgs {
     #[arg(long, value_enum, default_value_t = KernelArg::Square)]
     erode_kernel: KernelArg,
 
+    /// The camera's exposure time in microseconds, when known: the streak's length over it
+    /// gives the speed within a single frame.
+    #[arg(long, value_name = "US", value_parser = clap::value_parser!(u32).range(1..=10_000_000))]
+    exposure_us: Option<u32>,
+
+    /// Which pixels are searched: saturated ones, or ones that differ from a background.
+    #[arg(long, value_enum, default_value_t = DetectorArg::Saturation)]
+    detector: DetectorArg,
+
+    /// With `--detector bgdiff`: learn the background from the first N frames (their
+    /// per-pixel median), which are then reported as not found.
+    #[arg(long, default_value_t = 9, value_name = "N",
+          value_parser = clap::value_parser!(u16).range(1..=MAX_BACKGROUND_FRAMES as i64))]
+    background_frames: u16,
+
+    /// With `--detector bgdiff`: learn the background from a separate raw dump of the empty
+    /// scene instead (its first `--background-frames` frames, at least one).
+    #[arg(long, value_name = "PATH")]
+    background: Option<PathBuf>,
+
+    /// With `--detector bgdiff`: the luma difference from the background that counts.
+    #[arg(long, default_value_t = 60, value_name = "LUMA",
+          value_parser = clap::value_parser!(u8).range(1..))]
+    diff: u8,
+
     /// Skeleton for the streak's middle and ends.
     #[arg(long, value_enum, default_value_t = SkeletonArg::Thinning)]
     skeleton: SkeletonArg,
@@ -59,6 +88,14 @@ pub struct TrackArgs {
 enum Format {
     Jsonl,
     Csv,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum DetectorArg {
+    /// Saturated pixels (the default).
+    Saturation,
+    /// Background difference.
+    Bgdiff,
 }
 
 #[derive(Debug, Clone, Copy, ValueEnum)]
@@ -95,6 +132,13 @@ impl TrackArgs {
     fn pipeline_config(&self) -> PipelineConfig {
         PipelineConfig {
             detector: DetectorConfig {
+                method: match self.detector {
+                    DetectorArg::Saturation => MaskMethod::Saturation,
+                    DetectorArg::Bgdiff => MaskMethod::BackgroundDifference {
+                        diff_luma: self.diff,
+                        frames: usize::from(self.background_frames),
+                    },
+                },
                 threshold: self.threshold,
                 erosions: self.erode,
                 erosion_kernel: match self.erode_kernel {
@@ -106,6 +150,9 @@ impl TrackArgs {
                     SkeletonArg::Seed => SkeletonMethod::Morphological,
                 },
                 ..DetectorConfig::default()
+            },
+            tracker: TrackerConfig {
+                exposure_us: self.exposure_us,
             },
         }
     }
@@ -124,7 +171,13 @@ pub fn run(args: TrackArgs) -> Result<ExitCode> {
         Box::new(file)
     };
     let mut source = DumpSource::new(reader, args.size, args.fps);
-    let mut pipeline = Pipeline::new(args.size, args.pipeline_config());
+    let mut pipeline = Pipeline::new(args.size, args.pipeline_config())?;
+    if let Some(path) = &args.background {
+        if args.detector != DetectorArg::Bgdiff {
+            bail!("--background goes with --detector bgdiff");
+        }
+        learn_background(&mut pipeline, path, &args)?;
+    }
     let stdout = BufWriter::with_capacity(OUTPUT_BUFFER_BYTES, io::stdout().lock());
     let (summary, result) = match args.format {
         Format::Jsonl => pipeline::run(
@@ -143,6 +196,27 @@ pub fn run(args: TrackArgs) -> Result<ExitCode> {
         }
         Err(e) => Err(e).with_context(|| format!("after {} whole frames", summary.frames)),
     }
+}
+
+/// Feeds the first `--background-frames` frames of a separate dump to the background model.
+fn learn_background(pipeline: &mut Pipeline, path: &Path, args: &TrackArgs) -> Result<()> {
+    let file =
+        File::open(path).with_context(|| format!("cannot open background {}", path.display()))?;
+    let mut source = DumpSource::new(file, args.size, args.fps);
+    let mut learned = 0;
+    while learned < args.background_frames {
+        match source.next_frame() {
+            Ok(Some((frame, _))) => pipeline.learn_background(&frame)?,
+            Ok(None) => bail!(
+                "background {} has {learned} whole frames, --background-frames wants {}",
+                path.display(),
+                args.background_frames
+            ),
+            Err(e) => return Err(e).with_context(|| format!("background {}", path.display())),
+        }
+        learned += 1;
+    }
+    Ok(())
 }
 
 fn log_summary(summary: &RunSummary) {

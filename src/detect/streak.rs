@@ -14,6 +14,8 @@ use super::bitimage::{BitImage, Window};
 use super::blobs::{Blob, Labeler};
 use super::morph::{self, Kernel};
 use super::skeleton::{self, SkeletonMethod, SkeletonScratch, SEED_PRE_DILATIONS};
+use super::threshold::Levels;
+use super::tips::{self, Tips};
 use crate::frame::Frame;
 
 /// Pixels around a blob whose partial brightness still says where its edge is.
@@ -45,6 +47,9 @@ pub struct Streak {
     pub skeleton_px: u32,
     /// Mean thickness: area over skeleton length.
     pub thickness_px: f32,
+    /// The LED's position at both ends of the exposure, when the streak is long enough to
+    /// have two ends and both ramps could be measured.
+    pub tips: Option<Tips>,
 }
 
 /// Scratch for the streak stage, sized once to the frame.
@@ -94,10 +99,11 @@ pub fn analyze(
     labeler: &Labeler,
     index: usize,
     blob: &Blob,
-    threshold_luma: u8,
+    levels: Levels,
     method: SkeletonMethod,
     scratch: &mut StreakScratch,
 ) -> Streak {
+    let threshold_luma = levels.threshold_luma.unwrap_or(levels.top_luma);
     let b = blob.bbox;
     let margin = (SEED_PRE_DILATIONS + HALO_PX + 1) as usize;
     let window = scratch
@@ -170,6 +176,18 @@ pub fn analyze(
         seed_point_px,
         thickness_px,
     );
+    let tips = (dist(ends_px[0], ends_px[1]) >= MIN_CHORD_PX)
+        .then(|| {
+            tips::refine(
+                frame,
+                &scratch.skeleton,
+                window,
+                ends_px,
+                mid_px,
+                levels.top_luma,
+            )
+        })
+        .flatten();
 
     Streak {
         centroid_px,
@@ -179,7 +197,12 @@ pub fn analyze(
         skeleton_length_px: steps,
         skeleton_px: skeleton_px as u32,
         thickness_px,
+        tips,
     }
+}
+
+fn dist(a: (f32, f32), b: (f32, f32)) -> f32 {
+    (a.0 - b.0).hypot(a.1 - b.1)
 }
 
 fn clear(scratch: &mut StreakScratch, window: Window) {

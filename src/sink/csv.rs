@@ -45,10 +45,18 @@ impl<W: Write> Sink for CsvSink<W> {
         match r.position {
             Some(p) => write!(
                 out,
-                ",{:.3},{:.3},{:.3},{:.3}",
-                p.x_px, p.y_px, p.mid_x_px, p.mid_y_px
+                ",{:.3},{:.3},{:.3},{:.3},{}",
+                p.position_px.0,
+                p.position_px.1,
+                p.mid_px.0,
+                p.mid_px.1,
+                p.position_method.name()
             )?,
-            None => write!(out, ",,,,")?,
+            None => write!(out, ",,,,,")?,
+        }
+        match r.position.and_then(|p| p.velocity_px_s) {
+            Some(((vx, vy), method)) => write!(out, ",{vx:.2},{vy:.2},{}", method.name())?,
+            None => write!(out, ",,,")?,
         }
         match d.best.filter(|_| r.position.is_some()) {
             Some((blob, streak)) => write!(out, ",{},{}", blob.area_px, streak.skeleton_length_px)?,
@@ -62,7 +70,7 @@ impl<W: Write> Sink for CsvSink<W> {
         if let Some(level) = d.levels.threshold_luma {
             write!(out, "{level}")?;
         }
-        writeln!(out, ",{},{}", d.blinded, d.overflow.any())?;
+        writeln!(out, ",{},{},{}", r.ambiguous, d.blinded, d.overflow.any())?;
         if self.live {
             out.flush()?;
         }

@@ -33,9 +33,20 @@ impl<W: Write> Sink for JsonLinesSink<W> {
         if let Some(p) = r.position {
             write!(
                 out,
-                ",\"x\":{:.3},\"y\":{:.3},\"mid_x\":{:.3},\"mid_y\":{:.3}",
-                p.x_px, p.y_px, p.mid_x_px, p.mid_y_px
+                ",\"x\":{:.3},\"y\":{:.3},\"mid_x\":{:.3},\"mid_y\":{:.3},\"pos_method\":\"{}\"",
+                p.position_px.0,
+                p.position_px.1,
+                p.mid_px.0,
+                p.mid_px.1,
+                p.position_method.name()
             )?;
+            if let Some(((vx, vy), method)) = p.velocity_px_s {
+                write!(
+                    out,
+                    ",\"vx\":{vx:.2},\"vy\":{vy:.2},\"v_method\":\"{}\"",
+                    method.name()
+                )?;
+            }
         }
         if let Some((blob, streak)) = d.best.filter(|_| r.position.is_some()) {
             write!(
@@ -51,6 +62,12 @@ impl<W: Write> Sink for JsonLinesSink<W> {
         )?;
         if let Some(level) = d.levels.threshold_luma {
             write!(out, ",\"threshold\":{level}")?;
+        }
+        if d.learning {
+            write!(out, ",\"learning\":true")?;
+        }
+        if r.ambiguous {
+            write!(out, ",\"ambiguous\":true")?;
         }
         if d.blinded {
             write!(out, ",\"blinded\":true")?;

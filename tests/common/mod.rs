@@ -41,10 +41,11 @@ pub fn glint() -> Command {
 pub fn track(r: &Rendered, extra: &[&str]) -> Output {
     let size = format!("{}x{}", r.scene.width_px(), r.scene.height_px());
     let fps = r.scene.fps().to_string();
+    let exposure = r.scene.exposure_us().to_string();
     let mut cmd = glint();
     cmd.args(["track", "--input"])
         .arg(&r.dump)
-        .args(["--size", &size, "--fps", &fps])
+        .args(["--size", &size, "--fps", &fps, "--exposure-us", &exposure])
         .args(extra);
     cmd.output().expect("run glint")
 }
@@ -76,8 +77,14 @@ pub struct Score {
     pub visible: usize,
     /// Visible frames reported found.
     pub detected: usize,
+    /// Frames in which the LED is hidden.
+    pub hidden: usize,
     /// Hidden frames reported found.
     pub false_reports: usize,
+    /// Visible frames not found because several candidates could not yet be told apart.
+    pub ambiguous: usize,
+    /// Relative error of the single-frame speed, in frames whose velocity came from the streak.
+    pub streak_speed_errors: Vec<f64>,
     /// Distances between reported and true streak middles, in visible frames found.
     pub mid_errors_px: Vec<f64>,
     /// Distances between reported and true current positions.
@@ -94,8 +101,14 @@ pub fn score(reports: &[Value], truths: &[Truth]) -> Score {
         match t.visible {
             Visibility::Visible => {
                 s.visible += 1;
+                s.ambiguous += usize::from(r["ambiguous"] == true);
                 if found {
                     s.detected += 1;
+                    if r["v_method"] == "streak" {
+                        let speed = r["vx"].as_f64().unwrap().hypot(r["vy"].as_f64().unwrap());
+                        let truth = t.vx_px_s.unwrap().hypot(t.vy_px_s.unwrap());
+                        s.streak_speed_errors.push((speed - truth).abs() / truth);
+                    }
                     let d = |kx: &str, ky: &str, tx: Option<f64>, ty: Option<f64>| {
                         let (x, y) = (r[kx].as_f64().unwrap(), r[ky].as_f64().unwrap());
                         (x - tx.unwrap()).hypot(y - ty.unwrap())
@@ -105,7 +118,10 @@ pub fn score(reports: &[Value], truths: &[Truth]) -> Score {
                     s.pos_errors_px.push(d("x", "y", t.x_px, t.y_px));
                 }
             }
-            Visibility::Hidden => s.false_reports += usize::from(found),
+            Visibility::Hidden => {
+                s.hidden += 1;
+                s.false_reports += usize::from(found);
+            }
             Visibility::Partial => {}
         }
     }

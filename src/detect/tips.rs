@@ -1,0 +1,221 @@
+//! Where the LED was at the start and the end of the exposure: the streak's tips, refined to
+//! sub-pixel from the brightness ramps at its ends.
+//!
+//! A disk of radius R swept along a path leaves a footprint whose end cap is a circle of
+//! radius R around the path's end. With saturation, the clipped region stops short of that
+//! circle: past it, the brightness falls linearly to the floor over a ramp whose length grows
+//! with the streak (a faster LED spends less time on each pixel). So, walking outward along
+//! the streak from a skeleton end, the brightness ramp is measured at two levels and
+//! extrapolated to where it meets the floor: that is the footprint's edge, R past the tip.
+//! R itself comes from the cross-section at the streak's middle, corrected for the same ramp.
+
+use super::bitimage::{BitImage, Window};
+use crate::frame::Frame;
+
+/// The two ramp levels, as fractions of the way from the local floor to the clip level. The
+/// low one stays well above the floor: the LED's faint glow and the floor's texture bend the
+/// foot of the ramp, and measured on rendered scenes a level of 0.2 was off by pixels where 0.4
+/// holds to a few tenths.
+const LEVEL_LOW: f32 = 0.4;
+const LEVEL_HIGH: f32 = 0.8;
+
+/// How far past a skeleton end the ramp is searched, in pixels.
+const MAX_REACH_PX: f32 = 14.0;
+
+/// Profile sampling step.
+const STEP_PX: f32 = 0.1;
+
+/// How far back from an end the second axis point is taken.
+const AXIS_BASE_PX: f32 = 4.0;
+
+/// Skeleton pixels within this distance of an end give the streak's direction there.
+const DIRECTION_RADIUS_PX: f32 = 6.0;
+
+/// The refined tips of a streak.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Tips {
+    /// The LED's centre at the two ends of the path, in the order of the skeleton ends.
+    pub tips_px: [(f32, f32); 2],
+    /// The LED's footprint radius.
+    pub radius_px: f32,
+    /// Path length from tip to tip through the middle.
+    pub path_length_px: f32,
+}
+
+/// Refines the skeleton `ends` of a streak with middle `mid` into path tips. `clip_luma` is
+/// the frame's top luma level. `None` when a ramp cannot be measured (a streak touching the
+/// frame edge, or another blob in the way).
+pub fn refine(
+    frame: &Frame<'_>,
+    skeleton: &BitImage,
+    window: Window,
+    ends: [(f32, f32); 2],
+    mid: (f32, f32),
+    clip_luma: u8,
+) -> Option<Tips> {
+    let clip = f32::from(clip_luma);
+    let mut ramps = [(0.0f32, 0.0f32); 2]; // (distance from the end to the floor edge, ramp length)
+    let mut dirs = [(0.0f32, 0.0f32); 2];
+    let mut origins = ends;
+    for i in 0..2 {
+        let rough = end_direction(skeleton, window, ends[i])?;
+        // A skeleton end sits up to a pixel off the streak's axis (thinning leaves stairs
+        // on a diagonal), and the skeleton's direction is as rough: centre the end and a
+        // point a little further back across the streak, and walk along the line they make.
+        let back = (
+            ends[i].0 - AXIS_BASE_PX * rough.0,
+            ends[i].1 - AXIS_BASE_PX * rough.1,
+        );
+        origins[i] = centre_across(frame, ends[i], rough, clip)?;
+        let base = centre_across(frame, back, rough, clip)?;
+        let (dx, dy) = (origins[i].0 - base.0, origins[i].1 - base.1);
+        let len = dx.hypot(dy);
+        if len < 0.5 * AXIS_BASE_PX {
+            return None;
+        }
+        let d = (dx / len, dy / len);
+        let ramp = ramp_along(frame, origins[i], d, clip)?;
+        ramps[i] = (ramp.edge_px, ramp.length_px);
+        dirs[i] = d;
+    }
+    // The cross-section at the middle, perpendicular to the chord, measured on both sides.
+    let chord = (ends[1].0 - ends[0].0, ends[1].1 - ends[0].1);
+    let chord_len = chord.0.hypot(chord.1);
+    if chord_len <= f32::EPSILON {
+        return None;
+    }
+    let n = (-chord.1 / chord_len, chord.0 / chord_len);
+    let side_a = ramp_along(frame, mid, n, clip)?;
+    let side_b = ramp_along(frame, mid, (-n.0, -n.1), clip)?;
+    let half_width_low = 0.5 * (side_a.low_px + side_b.low_px);
+    let ramp_len = 0.5 * (ramps[0].1 + ramps[1].1);
+    let radius_px = half_width_low.hypot(0.5 * LEVEL_LOW * ramp_len);
+    let tip = |i: usize| {
+        let back = ramps[i].0 - radius_px;
+        (
+            origins[i].0 + back * dirs[i].0,
+            origins[i].1 + back * dirs[i].1,
+        )
+    };
+    let tips = [tip(0), tip(1)];
+    let path_length_px = dist(tips[0], mid) + dist(mid, tips[1]);
+    Some(Tips {
+        tips_px: tips,
+        radius_px,
+        path_length_px,
+    })
+}
+
+/// `point` moved across the streak (direction `d`) to the centre of its cross-section there.
+fn centre_across(
+    frame: &Frame<'_>,
+    point: (f32, f32),
+    d: (f32, f32),
+    clip: f32,
+) -> Option<(f32, f32)> {
+    let n = (-d.1, d.0);
+    let left = ramp_along(frame, point, n, clip)?;
+    let right = ramp_along(frame, point, (-n.0, -n.1), clip)?;
+    let offset = 0.5 * (left.low_px - right.low_px);
+    Some((point.0 + offset * n.0, point.1 + offset * n.1))
+}
+
+fn dist(a: (f32, f32), b: (f32, f32)) -> f32 {
+    (a.0 - b.0).hypot(a.1 - b.1)
+}
+
+/// The outward direction of the skeleton at `end`: from the mean of the skeleton pixels near
+/// it towards the end itself.
+fn end_direction(skeleton: &BitImage, window: Window, end: (f32, f32)) -> Option<(f32, f32)> {
+    let (mut sx, mut sy, mut n) = (0.0f32, 0.0f32, 0u32);
+    let r2 = DIRECTION_RADIUS_PX * DIRECTION_RADIUS_PX;
+    for y in window.y0..window.y1 {
+        for k in window.k0..window.k1 {
+            let mut bits = skeleton.row(y).get(k).copied().unwrap_or(0);
+            while bits != 0 {
+                let x = k * 64 + bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                let (dx, dy) = (x as f32 - end.0, y as f32 - end.1);
+                if dx * dx + dy * dy <= r2 {
+                    sx += x as f32;
+                    sy += y as f32;
+                    n += 1;
+                }
+            }
+        }
+    }
+    if n == 0 {
+        return None;
+    }
+    let (ox, oy) = (end.0 - sx / n as f32, end.1 - sy / n as f32);
+    let len = ox.hypot(oy);
+    (len > 0.5).then(|| (ox / len, oy / len))
+}
+
+/// A brightness ramp measured along a ray.
+struct Ramp {
+    /// Distance from the ray's start to where the ramp meets the floor (extrapolated).
+    edge_px: f32,
+    /// Length of the ramp from clip to floor.
+    length_px: f32,
+    /// Distance to the low level.
+    low_px: f32,
+}
+
+/// Walks from `start` along unit vector `d`, and measures where the brightness falls through
+/// the high and the low level between the clip level and the local floor (the darkest sample
+/// of the ray's far part).
+fn ramp_along(frame: &Frame<'_>, start: (f32, f32), d: (f32, f32), clip: f32) -> Option<Ramp> {
+    const SAMPLES: usize = (MAX_REACH_PX / STEP_PX) as usize;
+    let at = |i: usize| {
+        let u = i as f32 * STEP_PX;
+        luma_at(frame, start.0 + u * d.0, start.1 + u * d.1)
+    };
+    // The floor: the darkest of the last two pixels of the ray.
+    let mut floor = f32::INFINITY;
+    for i in SAMPLES - (2.0 / STEP_PX) as usize..=SAMPLES {
+        floor = floor.min(at(i)?);
+    }
+    let span = clip - floor;
+    if span < 1.0 {
+        return None;
+    }
+    let level = |v: f32| (v - floor) / span;
+    let mut prev = level(at(0)?);
+    let (mut high, mut low) = (None, None);
+    for i in 1..=SAMPLES {
+        let t = level(at(i)?);
+        let cross = |target: f32| {
+            let frac = (prev - target) / (prev - t);
+            (i as f32 - 1.0 + frac) * STEP_PX
+        };
+        if high.is_none() && prev >= LEVEL_HIGH && t < LEVEL_HIGH {
+            high = Some(cross(LEVEL_HIGH));
+        }
+        if high.is_some() && prev >= LEVEL_LOW && t < LEVEL_LOW {
+            low = Some(cross(LEVEL_LOW));
+            break;
+        }
+        prev = t;
+    }
+    let (high, low) = (high?, low?);
+    let length_px = (low - high) / (LEVEL_HIGH - LEVEL_LOW);
+    Some(Ramp {
+        edge_px: low + LEVEL_LOW * length_px,
+        length_px,
+        low_px: low,
+    })
+}
+
+/// Bilinearly interpolated luma at `(x, y)`; `None` outside the frame.
+fn luma_at(frame: &Frame<'_>, x: f32, y: f32) -> Option<f32> {
+    if x < 0.0 || y < 0.0 {
+        return None;
+    }
+    let (x0, y0) = (x.floor() as usize, y.floor() as usize);
+    let (fx, fy) = (x - x0 as f32, y - y0 as f32);
+    let p = |xx: usize, yy: usize| frame.luma(xx, yy).map(f32::from);
+    let top = p(x0, y0)? * (1.0 - fx) + p(x0 + 1, y0)? * fx;
+    let bottom = p(x0, y0 + 1)? * (1.0 - fx) + p(x0 + 1, y0 + 1)? * fx;
+    Some(top * (1.0 - fy) + bottom * fy)
+}

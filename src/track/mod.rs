@@ -1,0 +1,277 @@
+//! Tracking over time: which blob is the LED, which end of its streak is the head, and how
+//! fast it moves.
+//!
+//! The state is fixed-size: the last position, the velocity, a gate around the prediction, a
+//! short history ring, and a table of static distractors. Each frame the tracker picks a
+//! candidate blob (the nearest to the prediction inside the gate, else a fresh acquisition
+//! among blobs that are not known distractors), the detector analyses only that blob, and the
+//! tracker turns its streak into the current position:
+//!
+//! - The streak's tips are where the LED was at the start and the end of the exposure. The
+//!   head is the tip farther from the previous position: after a straight move the far end is
+//!   ahead, and it stays right on small fast circles (the arc ends farther round the circle)
+//!   and even after a reversal between frames, where predicting with the old velocity would
+//!   pick the wrong end. Without a previous position (first frame, re-acquisition) the
+//!   position falls back to the streak's middle.
+//! - With the exposure time known, the path length over the exposure is the speed within
+//!   one frame; otherwise the velocity comes from consecutive streak middles and frame times.
+
+pub mod statics;
+
+use heapless::HistoryBuf;
+
+use crate::detect::blobs::Blob;
+use crate::detect::streak::Streak;
+use statics::Statics;
+
+/// Frames the history ring keeps.
+pub const HISTORY_FRAMES: usize = 16;
+
+/// The gate's radius with no motion known, in pixels.
+pub const GATE_MIN_PX: f32 = 24.0;
+
+/// The gate grows with the predicted travel by this factor, covering a reversal between
+/// frames (which lands twice the travel away from the prediction).
+pub const GATE_TRAVEL_FACTOR: f32 = 2.5;
+
+/// After this many frames without the LED the track is dropped and acquisition starts over.
+pub const MAX_MISSED_FRAMES: u32 = 15;
+
+/// Settings of the tracker.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct TrackerConfig {
+    /// The camera's exposure time, when known: enables speed from a single frame.
+    pub exposure_us: Option<u32>,
+}
+
+/// How a velocity was measured.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum VelocityMethod {
+    /// Streak length over exposure time, within one frame.
+    Streak,
+    /// Difference of consecutive streak middles over the frame interval.
+    Frames,
+}
+
+impl VelocityMethod {
+    /// The name used in the output.
+    pub fn name(self) -> &'static str {
+        match self {
+            VelocityMethod::Streak => "streak",
+            VelocityMethod::Frames => "frames",
+        }
+    }
+}
+
+/// Which point `x, y` is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PositionMethod {
+    /// The streak's head: the LED at the end of the exposure.
+    Head,
+    /// The streak's middle, while the direction of travel is not yet known (or the LED is
+    /// so slow that the two coincide).
+    Mid,
+}
+
+impl PositionMethod {
+    /// The name used in the output.
+    pub fn name(self) -> &'static str {
+        match self {
+            PositionMethod::Head => "head",
+            PositionMethod::Mid => "mid",
+        }
+    }
+}
+
+/// The tracker's answer for one frame in which the LED was found.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Estimate {
+    /// The LED at the end of the exposure.
+    pub position_px: (f32, f32),
+    /// How `position_px` was found.
+    pub position_method: PositionMethod,
+    /// The streak's middle.
+    pub mid_px: (f32, f32),
+    /// Velocity in px/s and how it was measured, when known.
+    pub velocity_px_s: Option<((f32, f32), VelocityMethod)>,
+}
+
+/// One frame of the history ring.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sample {
+    /// Frame time.
+    pub t_us: u64,
+    /// The estimate of that frame.
+    pub estimate: Estimate,
+}
+
+/// What the tracker chose among the candidates.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Choice {
+    /// This blob is the LED.
+    Blob(usize),
+    /// No candidate is the LED.
+    Nothing,
+    /// Several candidates, none known to be static and none tracked: the LED cannot be told
+    /// from glare until one of them moves.
+    Ambiguous,
+}
+
+/// The tracker's state across frames.
+#[derive(Debug, Default)]
+pub struct Tracker {
+    config: TrackerConfig,
+    history: HistoryBuf<Sample, HISTORY_FRAMES>,
+    /// The last frame the LED was found in, and when.
+    last: Option<Sample>,
+    missed_frames: u32,
+    statics: Statics,
+    /// Whether the previous frame had the LED: the head needs the position just before.
+    previous_found: bool,
+}
+
+impl Tracker {
+    /// A tracker with no history.
+    pub fn new(config: TrackerConfig) -> Self {
+        Tracker {
+            config,
+            ..Tracker::default()
+        }
+    }
+
+    /// The recent estimates, oldest first.
+    pub fn history(&self) -> impl Iterator<Item = &Sample> {
+        self.history.oldest_ordered()
+    }
+
+    /// Where the streak's middle is expected at `t_us`, and the gate radius around it.
+    pub fn prediction(&self, t_us: u64) -> Option<((f32, f32), f32)> {
+        let last = self.last?;
+        if self.missed_frames > MAX_MISSED_FRAMES {
+            return None;
+        }
+        let dt_s = t_us.saturating_sub(last.t_us) as f32 * 1e-6;
+        let (vx, vy) = last.estimate.velocity_px_s.map_or((0.0, 0.0), |(v, _)| v);
+        let mid = last.estimate.mid_px;
+        let predicted = (mid.0 + vx * dt_s, mid.1 + vy * dt_s);
+        let travel = vx.hypot(vy) * dt_s;
+        Some((predicted, GATE_MIN_PX + GATE_TRAVEL_FACTOR * travel))
+    }
+
+    /// Picks the LED among `candidates` (index and blob) of frame `frame_index` at `t_us`,
+    /// and remembers the others as possible static distractors.
+    pub fn choose(
+        &mut self,
+        candidates: impl Iterator<Item = (usize, Blob)> + Clone,
+        frame_index: u64,
+        t_us: u64,
+    ) -> Choice {
+        let choice = self.pick(candidates.clone(), t_us);
+        for (index, blob) in candidates {
+            if choice != Choice::Blob(index) {
+                self.statics.observe(blob.mass_centre_px, frame_index);
+            }
+        }
+        self.statics.expire(frame_index);
+        choice
+    }
+
+    fn pick(&self, candidates: impl Iterator<Item = (usize, Blob)> + Clone, t_us: u64) -> Choice {
+        if let Some((predicted, gate_px)) = self.prediction(t_us) {
+            let nearest = candidates
+                .clone()
+                .map(|(i, b)| (i, dist(b.mass_centre_px, predicted)))
+                .filter(|&(_, d)| d <= gate_px)
+                .min_by(|a, b| a.1.total_cmp(&b.1));
+            if let Some((index, _)) = nearest {
+                return Choice::Blob(index);
+            }
+        }
+        let mut fresh = candidates.filter(|(_, b)| !self.statics.is_distractor(b.mass_centre_px));
+        match (fresh.next(), fresh.next()) {
+            (None, _) => Choice::Nothing,
+            (Some((index, _)), None) => Choice::Blob(index),
+            (Some(_), Some(_)) => Choice::Ambiguous,
+        }
+    }
+
+    /// Updates the state with the frame at `t_us`: `streak` is the chosen blob's geometry, or
+    /// `None` when the LED was not found. Returns the estimate for a found frame.
+    pub fn update(&mut self, t_us: u64, streak: Option<&Streak>) -> Option<Estimate> {
+        let Some(streak) = streak else {
+            self.missed_frames = self.missed_frames.saturating_add(1);
+            self.previous_found = false;
+            return None;
+        };
+        let previous = self.last.filter(|_| self.previous_found);
+        let mid_px = streak.mid_px;
+        let head = streak.tips.and_then(|tips| {
+            let before = previous?.estimate.position_px;
+            let [a, b] = tips.tips_px;
+            Some(if dist(a, before) >= dist(b, before) {
+                a
+            } else {
+                b
+            })
+        });
+        let velocity_px_s = self.velocity(streak, head.unwrap_or(mid_px), previous, t_us);
+        // A streak too short for its tips to be measured still moved: with the exposure
+        // known, the head is half an exposure's travel ahead of the middle.
+        let extrapolated = || {
+            let exposure_s = self.config.exposure_us? as f32 * 1e-6;
+            let ((vx, vy), _) = velocity_px_s?;
+            Some((
+                mid_px.0 + 0.5 * exposure_s * vx,
+                mid_px.1 + 0.5 * exposure_s * vy,
+            ))
+        };
+        let (position_px, position_method) = match head.or_else(extrapolated) {
+            Some(h) => (h, PositionMethod::Head),
+            None => (mid_px, PositionMethod::Mid),
+        };
+        let estimate = Estimate {
+            position_px,
+            position_method,
+            mid_px,
+            velocity_px_s,
+        };
+        let sample = Sample { t_us, estimate };
+        self.last = Some(sample);
+        self.history.write(sample);
+        self.missed_frames = 0;
+        self.previous_found = true;
+        Some(estimate)
+    }
+
+    fn velocity(
+        &self,
+        streak: &Streak,
+        head_px: (f32, f32),
+        previous: Option<Sample>,
+        t_us: u64,
+    ) -> Option<((f32, f32), VelocityMethod)> {
+        if let (Some(exposure_us), Some(tips)) = (self.config.exposure_us, streak.tips) {
+            let speed = tips.path_length_px / (exposure_us as f32 * 1e-6);
+            // The direction of travel at the head: from the middle towards the head. Until
+            // the head is known, the streak's axis gives the direction up to its sign, and the
+            // previous middle settles the sign when there is one.
+            let (dx, dy) = (head_px.0 - streak.mid_px.0, head_px.1 - streak.mid_px.1);
+            let len = dx.hypot(dy);
+            if len > 0.0 && head_px != streak.mid_px {
+                return Some(((speed * dx / len, speed * dy / len), VelocityMethod::Streak));
+            }
+        }
+        let previous = previous?;
+        let dt_s = t_us.checked_sub(previous.t_us).filter(|&dt| dt > 0)? as f32 * 1e-6;
+        let before = previous.estimate.mid_px;
+        let v = (
+            (streak.mid_px.0 - before.0) / dt_s,
+            (streak.mid_px.1 - before.1) / dt_s,
+        );
+        Some((v, VelocityMethod::Frames))
+    }
+}
+
+fn dist(a: (f32, f32), b: (f32, f32)) -> f32 {
+    (a.0 - b.0).hypot(a.1 - b.1)
+}
