@@ -17,6 +17,7 @@
 
 pub mod detect;
 pub mod frame;
+pub mod geometry;
 pub mod pipeline;
 pub mod sink;
 pub mod source;

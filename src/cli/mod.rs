@@ -1,5 +1,6 @@
 //! Command-line interface: one file per subcommand.
 
+mod calibrate;
 mod logger;
 mod track;
 
@@ -26,6 +27,8 @@ struct Cli {
 enum Command {
     /// Track the LED in a raw YUYV dump (file or `-` for standard input).
     Track(track::TrackArgs),
+    /// Calibrate screen to floor from ArUco markers at known floor positions in a dump.
+    Calibrate(calibrate::CalibrateArgs),
 }
 
 /// Parses the arguments, runs the command, and turns any error into one line on standard
@@ -51,6 +54,7 @@ pub fn main() -> ExitCode {
     logger::init(cli.verbose);
     let result = match cli.command {
         Command::Track(args) => track::run(args),
+        Command::Calibrate(args) => calibrate::run(args),
     };
     match result {
         Ok(code) => code,
