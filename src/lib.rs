@@ -17,6 +17,8 @@
 
 pub mod detect;
 pub mod frame;
+pub mod monitor;
 pub mod pipeline;
 pub mod sink;
 pub mod source;
+pub mod stats;

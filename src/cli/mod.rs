@@ -1,6 +1,13 @@
 //! Command-line interface: one file per subcommand.
 
+#[cfg(feature = "v4l2")]
+mod camera;
+#[cfg(feature = "v4l2")]
+mod devices;
+mod input;
 mod logger;
+#[cfg(feature = "v4l2")]
+mod record;
 mod track;
 
 use std::process::ExitCode;
@@ -24,8 +31,14 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
-    /// Track the LED in a raw YUYV dump (file or `-` for standard input).
+    /// Track the LED in a raw YUYV dump (file or `-` for standard input) or from a camera.
     Track(track::TrackArgs),
+    /// List the V4L2 cameras with their formats, sizes, frame intervals and controls.
+    #[cfg(feature = "v4l2")]
+    Devices,
+    /// Record frames from a camera into a raw dump plus a sidecar with their timing.
+    #[cfg(feature = "v4l2")]
+    Record(record::RecordArgs),
 }
 
 /// Parses the arguments, runs the command, and turns any error into one line on standard
@@ -51,6 +64,10 @@ pub fn main() -> ExitCode {
     logger::init(cli.verbose);
     let result = match cli.command {
         Command::Track(args) => track::run(args),
+        #[cfg(feature = "v4l2")]
+        Command::Devices => devices::run(),
+        #[cfg(feature = "v4l2")]
+        Command::Record(args) => record::run(args),
     };
     match result {
         Ok(code) => code,

@@ -1,37 +1,38 @@
-//! `glint track`: replay a raw YUYV dump through the pipeline and print one report per frame.
+//! `glint track`: run the pipeline on a raw YUYV dump or a camera and print one report per frame.
 
-use std::fs::File;
-use std::io::{self, BufWriter, Read};
+use std::io::{self, BufWriter};
 use std::process::ExitCode;
 
-use anyhow::{bail, Context, Result};
+use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
+
+use super::input;
 
 use glint::detect::morph::Kernel;
 use glint::detect::skeleton::SkeletonMethod;
 use glint::detect::threshold::Threshold;
 use glint::detect::DetectorConfig;
 use glint::frame::FrameSize;
+use glint::monitor;
 use glint::pipeline::{self, Pipeline, PipelineConfig, RunSummary};
 use glint::sink::{CsvSink, JsonLinesSink};
-use glint::source::dump::DumpSource;
 
 /// Output buffer size: a few hundred report lines.
 const OUTPUT_BUFFER_BYTES: usize = 64 * 1024;
 
 #[derive(Debug, Args)]
 pub struct TrackArgs {
-    /// A raw YUYV dump, or `-` for standard input.
-    #[arg(long, value_name = "PATH|-")]
-    input: String,
+    #[command(flatten)]
+    input: input::InputArgs,
 
     /// Frame size in pixels.
     #[arg(long, value_name = "WxH")]
     size: FrameSize,
 
-    /// Frame rate of the dump, for timestamps.
-    #[arg(long, default_value_t = 30.0, value_parser = parse_fps)]
-    fps: f64,
+    /// Frame rate: of a dump without a sidecar, for timestamps (default 30); of a camera, to
+    /// ask for (default: its current one).
+    #[arg(long, value_parser = parse_fps)]
+    fps: Option<f64>,
 
     /// Saturation threshold (luma 0–255), or `auto` to follow each frame's top level.
     #[arg(long, default_value = "auto", value_parser = parse_threshold)]
@@ -112,28 +113,28 @@ impl TrackArgs {
 }
 
 pub fn run(args: TrackArgs) -> Result<ExitCode> {
-    let live = args.input == "-";
-    let reader: Box<dyn Read> = if live {
-        Box::new(io::stdin().lock())
-    } else {
-        let file =
-            File::open(&args.input).with_context(|| format!("cannot open {}", args.input))?;
-        if file.metadata().map(|m| m.is_dir()).unwrap_or(false) {
-            bail!("{} is a directory, not a dump", args.input);
-        }
-        Box::new(file)
-    };
-    let mut source = DumpSource::new(reader, args.size, args.fps);
+    let input::Input {
+        mut source,
+        live,
+        mut monitor,
+    } = input::open(&args.input, args.size, args.fps)?;
     let mut pipeline = Pipeline::new(args.size, args.pipeline_config());
     let stdout = BufWriter::with_capacity(OUTPUT_BUFFER_BYTES, io::stdout().lock());
     let (summary, result) = match args.format {
-        Format::Jsonl => pipeline::run(
+        Format::Jsonl => monitor::run(
             &mut source,
             &mut pipeline,
             &mut JsonLinesSink::new(stdout, live),
+            &mut monitor,
         ),
-        Format::Csv => pipeline::run(&mut source, &mut pipeline, &mut CsvSink::new(stdout, live)),
+        Format::Csv => monitor::run(
+            &mut source,
+            &mut pipeline,
+            &mut CsvSink::new(stdout, live),
+            &mut monitor,
+        ),
     };
+    input::report(&monitor);
     log_summary(&summary);
     match result {
         Ok(()) => Ok(ExitCode::SUCCESS),
