@@ -30,32 +30,27 @@ pub struct CameraArgs {
 
     /// Manual exposure time in microseconds (turns auto exposure off unless
     /// --auto-exposure on). A short exposure leaves the LED the only saturated thing.
-    #[arg(long, value_name = "MICROSECONDS", requires = "device")]
+    #[arg(long, value_name = "MICROSECONDS")]
     exposure_us: Option<u32>,
 
     /// Sensor gain, in the camera's own units (see `glint devices`).
-    #[arg(
-        long,
-        value_name = "N",
-        requires = "device",
-        allow_negative_numbers = true
-    )]
+    #[arg(long, value_name = "N", allow_negative_numbers = true)]
     gain: Option<i64>,
 
     /// Automatic exposure.
-    #[arg(long, value_enum, requires = "device")]
+    #[arg(long, value_enum)]
     auto_exposure: Option<OnOff>,
 
     /// Automatic white balance.
-    #[arg(long, value_enum, requires = "device")]
+    #[arg(long, value_enum)]
     awb: Option<OnOff>,
 
     /// Mains frequency whose flicker the camera filters.
-    #[arg(long, value_name = "off|50|60|auto", requires = "device")]
+    #[arg(long, value_name = "off|50|60|auto")]
     power_line: Option<PowerLine>,
 
     /// Any other control, by the name `glint devices` lists (repeatable).
-    #[arg(long = "control", value_name = "NAME=VALUE", requires = "device")]
+    #[arg(long = "control", value_name = "NAME=VALUE")]
     controls: Vec<NamedControl>,
 }
 
@@ -72,6 +67,11 @@ impl OnOff {
 }
 
 impl CameraArgs {
+    /// Whether any camera option was given.
+    pub fn any_given(&self) -> bool {
+        self.buffers != DEFAULT_BUFFER_COUNT || !self.request().is_empty()
+    }
+
     /// The controls to set at every open of the camera.
     fn request(&self) -> ControlRequest {
         ControlRequest {

@@ -146,6 +146,10 @@ pub fn open(args: &InputArgs, size: FrameSize, fps: Option<f64>) -> Result<Input
             }),
         });
     }
+    #[cfg(feature = "v4l2")]
+    if args.camera.any_given() {
+        bail!("camera options (--buffers, --exposure-us, --control, ...) need --device");
+    }
     let monitor = Monitor::new(MonitorConfig {
         stats: args.stats,
         summary_every: None,

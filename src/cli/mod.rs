@@ -53,11 +53,16 @@ pub fn main() -> ExitCode {
         }
         Err(e) => {
             let rendered = e.render().to_string();
-            let first = rendered
-                .lines()
-                .next()
-                .unwrap_or("error: invalid arguments");
-            eprintln!("glint: {}", first.trim_start_matches("error: "));
+            let mut lines = rendered.lines();
+            let first = lines.next().unwrap_or("error: invalid arguments");
+            // "the following required arguments were not provided:" lists them below.
+            let mut message = first.trim_start_matches("error: ").to_string();
+            if first.ends_with(':') {
+                let listed: Vec<&str> =
+                    lines.map(str::trim).take_while(|l| !l.is_empty()).collect();
+                message = format!("{message} {}", listed.join(", "));
+            }
+            eprintln!("glint: {message}");
             return ExitCode::from(EXIT_USAGE);
         }
     };
