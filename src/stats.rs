@@ -1,6 +1,7 @@
 //! Latency percentiles for `--stats`: how long each frame spends in each part of the per-frame
-//! path, and from the moment the source lends it out (a V4L2 buffer just dequeued) until its
-//! report has been written to the output.
+//! path, and from the moment the source hands it over until its report has been written to the
+//! output ("dequeue→results": for a camera the frame is handed over as soon as VIDIOC_DQBUF
+//! returns, after a few nanoseconds of bookkeeping and no copy).
 //!
 //! Samples go into fixed-size HDR histograms (allocated once, at a resolution of 1 % of the
 //! value), so recording a frame never allocates and a long capture costs no more memory than a
@@ -36,7 +37,7 @@ pub struct FrameTimes {
 }
 
 impl FrameTimes {
-    /// From the frame being lent out until its results are available to a reader.
+    /// From the frame being handed over (dequeued) until its results are available to a reader.
     pub fn end_to_end(&self) -> Duration {
         self.process + self.output
     }
@@ -95,7 +96,7 @@ impl LatencyStats {
             wait: Stage::new("wait"),
             process: Stage::new("process"),
             output: Stage::new("output"),
-            end_to_end: Stage::new("lent→results"),
+            end_to_end: Stage::new("dequeue→results"),
         }
     }
 
@@ -188,6 +189,6 @@ mod tests {
         assert_eq!(stats.frames(), 1);
         let text = stats.to_string();
         assert!(text.contains("wait"), "{text}");
-        assert!(text.contains("lent→results"), "{text}");
+        assert!(text.contains("dequeue→results"), "{text}");
     }
 }

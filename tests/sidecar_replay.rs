@@ -175,6 +175,7 @@ fn a_sidecar_that_disagrees_with_its_dump_is_one_clear_error() {
     assert_eq!(parse_jsonl(&out.stdout).len(), KEPT);
 }
 
+#[cfg(feature = "v4l2")]
 #[test]
 fn input_and_device_are_mutually_exclusive_and_one_is_required() {
     let both = glint()
@@ -209,6 +210,7 @@ fn input_and_device_are_mutually_exclusive_and_one_is_required() {
     assert_one_line_error(&camera_option_on_a_dump, &["need --device"]);
 }
 
+#[cfg(feature = "v4l2")]
 #[test]
 fn a_device_that_is_not_there_or_not_a_camera_is_a_clear_error() {
     let out = glint()

@@ -627,7 +627,7 @@ fn glint_track_reports_controls_summaries_and_latency_on_stderr() {
         assert!(summary.contains(part), "{part:?} in {summary}");
     }
     // The latency table, periodically and once more at the end.
-    assert!(log.matches("lent→results").count() >= 2, "{log}");
+    assert!(log.matches("dequeue→results").count() >= 2, "{log}");
     assert!(log.contains("glint: latency over "), "{log}");
 }
 
