@@ -34,6 +34,9 @@ pub const FORMAT_YUYV: &str = "YUYV";
 /// sidecar larger than that for its dump is refused before it is read into memory.
 const MAX_SIDECAR_BYTES_PER_FRAME: u64 = 128;
 const MAX_SIDECAR_HEADER_BYTES: u64 = 64 * 1024;
+/// The frame rate handed to the dump reader under a replay; never used, since every frame's
+/// time comes from the sidecar.
+const UNUSED_NOMINAL_FPS: f64 = 1.0;
 
 /// One frame's place on the capture's timeline.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -359,8 +362,7 @@ impl<R: Read> ReplaySource<R> {
     /// assumed checked ([`Sidecar::load_for`]).
     pub fn new(reader: R, size: FrameSize, sidecar: Sidecar) -> Self {
         ReplaySource {
-            // The nominal rate is never used: every frame's time comes from the sidecar.
-            dump: DumpSource::new(reader, size, sidecar.fps.unwrap_or(1.0)),
+            dump: DumpSource::new(reader, size, UNUSED_NOMINAL_FPS),
             frames: sidecar.frames,
             previous_seq: None,
         }
