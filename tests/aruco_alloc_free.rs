@@ -1,31 +1,14 @@
 //! Marker detection, with refinement and a region of interest, allocates nothing once the
 //! detector is built (the memory model in `lib.rs`).
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::sync::atomic::{AtomicUsize, Ordering};
+mod common;
+
+use common::alloc::{allocations_during, Counting};
 
 use glint::frame::{Frame, FrameSize};
 use glint::geometry::aruco::{Detector, DetectorConfig, Dictionary, Roi};
 use glint::geometry::{calibrate, Point};
 use glint_tools::markers::{reference_camera, Floor, MarkerScene, PlacedMarker};
-
-struct Counting;
-
-static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
-
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        ALLOCATIONS.fetch_add(1, Ordering::SeqCst);
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        ALLOCATIONS.fetch_add(1, Ordering::SeqCst);
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
 
 #[global_allocator]
 static GLOBAL: Counting = Counting;
@@ -58,15 +41,15 @@ fn detection_and_calibration_allocate_nothing() {
         height_px: 300,
     };
 
-    let before = ALLOCATIONS.load(Ordering::SeqCst);
     let mut found = 0;
-    for region in [None, Some(roi), None] {
-        let markers = detector.detect(&frame, region).unwrap();
-        found += markers.len();
-        let calibration = calibrate(markers, &placements).unwrap();
-        assert!(calibration.rms_residual_px.is_finite());
-    }
-    let after = ALLOCATIONS.load(Ordering::SeqCst);
+    let allocations = allocations_during(|| {
+        for region in [None, Some(roi), None] {
+            let markers = detector.detect(&frame, region).unwrap();
+            found += markers.len();
+            let calibration = calibrate(markers, &placements).unwrap();
+            assert!(calibration.rms_residual_px.is_finite());
+        }
+    });
     assert_eq!(found, 6);
-    assert_eq!(after - before, 0, "allocations during detection");
+    assert_eq!(allocations, 0, "allocations during detection");
 }

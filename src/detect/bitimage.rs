@@ -232,6 +232,18 @@ impl BitImage {
         }
     }
 
+    /// The set pixels inside `window`, row by row, as `(x, y)`: a word at a time, so empty
+    /// stretches cost nothing.
+    pub fn ones_in(&self, window: Window) -> impl Iterator<Item = (usize, usize)> + '_ {
+        (window.y0..window.y1.min(self.height_px)).flat_map(move |y| {
+            let words = self.row(y).get(window.k0..window.k1).unwrap_or(&[]);
+            words.iter().enumerate().flat_map(move |(i, &word)| {
+                let base = (window.k0 + i) * WORD_BITS;
+                SetBits(word).map(move |bit| (base + bit, y))
+            })
+        })
+    }
+
     /// Number of set pixels.
     pub fn count_ones(&self) -> usize {
         self.words.iter().map(|w| w.count_ones() as usize).sum()
@@ -249,6 +261,23 @@ impl BitImage {
     /// True when both images have the same dimensions.
     pub fn same_shape(&self, other: &BitImage) -> bool {
         self.width_px == other.width_px && self.height_px == other.height_px
+    }
+}
+
+/// The indices of the set bits of a word, lowest first.
+struct SetBits(u64);
+
+impl Iterator for SetBits {
+    type Item = usize;
+
+    #[inline]
+    fn next(&mut self) -> Option<usize> {
+        if self.0 == 0 {
+            return None;
+        }
+        let bit = self.0.trailing_zeros() as usize;
+        self.0 &= self.0 - 1;
+        Some(bit)
     }
 }
 
@@ -285,9 +314,19 @@ mod tests {
         assert_eq!(image.row(1), &[0, 1, 0b10]);
         image.clear(64, 1);
         assert_eq!(image.count_ones(), 1);
+        let ones: Vec<_> = image.ones_in(image.full_window()).collect();
+        assert_eq!(ones, [(129, 1)]);
         image.set_run(0, 60, 70);
         image.set_run(0, 125, 500);
         assert_eq!(image.row(0), &[0xF << 60, 0x7F | 0x7 << 61, 0b11]);
+        let window = Window {
+            y0: 0,
+            y1: 1,
+            k0: 1,
+            k1: 2,
+        };
+        let ones: Vec<_> = image.ones_in(window).map(|(x, _)| x).collect();
+        assert_eq!(ones, [64, 65, 66, 67, 68, 69, 70, 125, 126, 127]);
         assert_eq!(image.last_word_mask(), 0b11);
     }
 }
