@@ -233,15 +233,21 @@ impl BitImage {
     }
 
     /// The set pixels inside `window`, row by row, as `(x, y)`: a word at a time, so empty
-    /// stretches cost nothing.
-    pub fn ones_in(&self, window: Window) -> impl Iterator<Item = (usize, usize)> + '_ {
-        (window.y0..window.y1.min(self.height_px)).flat_map(move |y| {
-            let words = self.row(y).get(window.k0..window.k1).unwrap_or(&[]);
-            words.iter().enumerate().flat_map(move |(i, &word)| {
-                let base = (window.k0 + i) * WORD_BITS;
-                SetBits(word).map(move |bit| (base + bit, y))
-            })
-        })
+    /// stretches cost little.
+    pub fn ones_in(&self, window: Window) -> OnesIn<'_> {
+        let window = Window {
+            y1: window.y1.min(self.height_px),
+            k1: window.k1.min(self.words_per_row),
+            ..window
+        };
+        OnesIn {
+            image: self,
+            window,
+            y: window.y0,
+            k: window.k0,
+            word: 0,
+            started: false,
+        }
     }
 
     /// Number of set pixels.
@@ -264,20 +270,41 @@ impl BitImage {
     }
 }
 
-/// The indices of the set bits of a word, lowest first.
-struct SetBits(u64);
+/// The set pixels of a window of a [`BitImage`]; see [`BitImage::ones_in`].
+pub struct OnesIn<'a> {
+    image: &'a BitImage,
+    window: Window,
+    y: usize,
+    k: usize,
+    word: u64,
+    started: bool,
+}
 
-impl Iterator for SetBits {
-    type Item = usize;
+impl Iterator for OnesIn<'_> {
+    type Item = (usize, usize);
 
     #[inline]
-    fn next(&mut self) -> Option<usize> {
-        if self.0 == 0 {
-            return None;
+    fn next(&mut self) -> Option<(usize, usize)> {
+        loop {
+            if self.word != 0 {
+                let bit = self.word.trailing_zeros() as usize;
+                self.word &= self.word - 1;
+                return Some((self.k * WORD_BITS + bit, self.y));
+            }
+            // Step to the next word of the window, row by row.
+            if self.started {
+                self.k += 1;
+                if self.k >= self.window.k1 {
+                    self.k = self.window.k0;
+                    self.y += 1;
+                }
+            }
+            self.started = true;
+            if self.y >= self.window.y1 || self.window.k0 >= self.window.k1 {
+                return None;
+            }
+            self.word = self.image.row(self.y).get(self.k).copied().unwrap_or(0);
         }
-        let bit = self.0.trailing_zeros() as usize;
-        self.0 &= self.0 - 1;
-        Some(bit)
     }
 }
 
