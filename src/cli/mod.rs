@@ -1,5 +1,6 @@
 //! Command-line interface: one file per subcommand.
 
+mod calib_args;
 mod calibrate;
 mod logger;
 mod track;

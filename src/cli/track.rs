@@ -15,6 +15,8 @@ use glint::detect::threshold::Threshold;
 use glint::detect::{DetectorConfig, MaskMethod};
 use glint::frame::FrameSize;
 use glint::pipeline::{self, Pipeline, PipelineConfig, RunSummary};
+
+use super::calib_args;
 use glint::sink::{CsvSink, JsonLinesSink};
 use glint::source::dump::DumpSource;
 use glint::source::FrameSource;
@@ -59,7 +61,8 @@ pub struct TrackArgs {
     #[arg(long, value_name = "US", value_parser = clap::value_parser!(u32).range(1..=10_000_000))]
     exposure_us: Option<u32>,
 
-    /// Which pixels are searched: saturated ones, or ones that differ from a background.
+    /// What finds the robot: saturated pixels, pixels that differ from a background, or an
+    /// ArUco marker it carries (`aruco`, with `--marker ID`).
     #[arg(long, value_enum, default_value_t = DetectorArg::Saturation)]
     detector: DetectorArg,
 
@@ -82,6 +85,9 @@ pub struct TrackArgs {
     /// Skeleton for the streak's middle and ends.
     #[arg(long, value_enum, default_value_t = SkeletonArg::Thinning)]
     skeleton: SkeletonArg,
+
+    #[command(flatten)]
+    floor: calib_args::FloorArgs,
 }
 
 #[derive(Debug, Clone, Copy, ValueEnum)]
@@ -96,6 +102,8 @@ enum DetectorArg {
     Saturation,
     /// Background difference.
     Bgdiff,
+    /// An ArUco / AprilTag marker carried by the robot (with `--marker ID`).
+    Aruco,
 }
 
 #[derive(Debug, Clone, Copy, ValueEnum)]
@@ -133,7 +141,7 @@ impl TrackArgs {
         PipelineConfig {
             detector: DetectorConfig {
                 method: match self.detector {
-                    DetectorArg::Saturation => MaskMethod::Saturation,
+                    DetectorArg::Saturation | DetectorArg::Aruco => MaskMethod::Saturation,
                     DetectorArg::Bgdiff => MaskMethod::BackgroundDifference {
                         diff_luma: self.diff,
                         frames: usize::from(self.background_frames),
@@ -171,7 +179,9 @@ pub fn run(args: TrackArgs) -> Result<ExitCode> {
         Box::new(file)
     };
     let mut source = DumpSource::new(reader, args.size, args.fps);
-    let mut pipeline = Pipeline::new(args.size, args.pipeline_config())?;
+    let aruco = args.detector == DetectorArg::Aruco;
+    let mut pipeline =
+        calib_args::build_pipeline(&args.floor, args.size, aruco, args.pipeline_config())?;
     if let Some(path) = &args.background {
         if args.detector != DetectorArg::Bgdiff {
             bail!("--background goes with --detector bgdiff");
