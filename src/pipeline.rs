@@ -54,6 +54,8 @@ impl FrameReport {
 }
 
 /// What finds the robot in a frame.
+// One per run, built once and never moved per frame: the size difference costs nothing.
+#[allow(clippy::large_enum_variant)]
 enum Front {
     /// A saturated LED: segmentation, then the tracker choosing and following a blob.
     Led {

@@ -33,6 +33,7 @@ fn marker(id: u16, size_cm: f64, x_cm: f64, y_cm: f64) -> PlacedMarker {
         id,
         size_cm,
         origin_cm: Point::new(x_cm, y_cm),
+        rotation_deg: 0.0,
     }
 }
 
@@ -117,15 +118,20 @@ fn floor_errors(reports: &[Value], r: &Rendered, camera: &Camera) -> FloorErrors
             continue;
         }
         assert_eq!(rep["floor_unit"], "cm");
-        assert!(rep.get("beyond_horizon").is_none(), "the whole view is floor");
+        assert!(
+            rep.get("beyond_horizon").is_none(),
+            "the whole view is floor"
+        );
         let floor = xy(rep, "floor_x", "floor_y").expect("every found frame has floor_x, floor_y");
         let px = xy(rep, "x", "y").unwrap();
-        e.mapping_cm.push((floor - camera.unproject(px).unwrap()).norm());
+        e.mapping_cm
+            .push((floor - camera.unproject(px).unwrap()).norm());
         if truth.visible != Visibility::Visible {
             continue;
         }
         let true_px = Point::new(truth.x_px.unwrap(), truth.y_px.unwrap());
-        e.floor_cm.push((floor - camera.unproject(true_px).unwrap()).norm());
+        e.floor_cm
+            .push((floor - camera.unproject(true_px).unwrap()).norm());
         let (Some(v_floor), Some(v_px)) = (xy(rep, "floor_vx", "floor_vy"), xy(rep, "vx", "vy"))
         else {
             assert!(rep.get("floor_speed").is_none());
@@ -142,8 +148,14 @@ fn floor_errors(reports: &[Value], r: &Rendered, camera: &Camera) -> FloorErrors
         e.pixel_speed
             .push((v_px.coords.norm() - true_v_px.norm()).abs() / true_v_px.norm());
     }
-    assert!(e.floor_cm.len() * 10 >= r.truths.len() * 9, "most frames tracked");
-    assert!(e.floor_speed.len() * 2 >= e.floor_cm.len(), "velocity known in most frames");
+    assert!(
+        e.floor_cm.len() * 10 >= r.truths.len() * 9,
+        "most frames tracked"
+    );
+    assert!(
+        e.floor_speed.len() * 2 >= e.floor_cm.len(),
+        "velocity known in most frames"
+    );
     eprintln!(
         "{} on the floor: mapping error p95 {:.3} cm (max {:.3}); position error median {:.3} \
          cm, p95 {:.3} cm; velocity mapping worst {:.3} %; floor speed error median {:.2} %, \
@@ -163,7 +175,10 @@ fn floor_errors(reports: &[Value], r: &Rendered, camera: &Camera) -> FloorErrors
     let m95 = quantile(&e.mapping_cm, 0.95);
     assert!(m95 <= MAPPING_P95_MAX_CM, "mapping p95 {m95:.3} cm");
     let vm = quantile(&e.velocity_mapping, 1.0);
-    assert!(vm <= VELOCITY_MAPPING_MAX_RELATIVE, "velocity mapping {vm:.4}");
+    assert!(
+        vm <= VELOCITY_MAPPING_MAX_RELATIVE,
+        "velocity mapping {vm:.4}"
+    );
     e
 }
 
@@ -294,13 +309,19 @@ fn bad_calibration_files_are_refused_with_one_line() {
             .collect()
     };
     assert_refused(&run(&without("height_px")), "missing field `height_px`");
-    assert_refused(&run(&without("floor_to_screen")), "missing field `floor_to_screen`");
+    assert_refused(
+        &run(&without("floor_to_screen")),
+        "missing field `floor_to_screen`",
+    );
     assert_refused(&run("this is not toml"), "line 1");
     assert_refused(
         &run(&good.replace("width_px = 640", "width_px = 320")),
         "made for 320x480 frames, but the frames are 640x480",
     );
-    assert_refused(&run(&good.replace("units = \"cm\"", "units = \"parsecs\"")), "parsecs");
+    assert_refused(
+        &run(&good.replace("units = \"cm\"", "units = \"parsecs\"")),
+        "parsecs",
+    );
 
     // A degenerate matrix: the third row a copy of the first.
     let line = good
@@ -318,5 +339,8 @@ fn bad_calibration_files_are_refused_with_one_line() {
     let edited = good.replace(line, &line.replacen('1', "2", 1));
     assert_ne!(edited, good);
     assert_refused(&run(&edited), "not inverses of each other");
-    assert_refused(&run(&good.replace("[[marker]]", "[[unused]]")), "no [[marker]] entries");
+    assert_refused(
+        &run(&good.replace("[[marker]]", "[[unused]]")),
+        "no [[marker]] entries",
+    );
 }

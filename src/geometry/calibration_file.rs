@@ -319,7 +319,9 @@ fn check_marker(
             .apply(&floor)
             .map(|p| (p - Point::new(x, y)).norm())
             .unwrap_or(f64::INFINITY);
-        if !((actual_px - recorded_px).abs() <= RESIDUAL_TOLERANCE_PX) {
+        // Written so that a NaN residual is refused too.
+        let agrees = (actual_px - recorded_px).abs() <= RESIDUAL_TOLERANCE_PX;
+        if !agrees {
             return Err(CalibrationFileError::ResidualMismatch {
                 id: m.id,
                 corner,
