@@ -72,7 +72,7 @@ fn cluttered(c: &mut Criterion) {
         state ^= state << 13;
         state ^= state >> 7;
         state ^= state << 17;
-        *luma = if state % 10 == 0 { 255 } else { 60 };
+        *luma = if state.is_multiple_of(10) { 255 } else { 60 };
     }
     let frame = Frame::new_checked(&bytes, size, size.row_bytes()).unwrap();
     let mut pipeline = Pipeline::new(size, PipelineConfig::default()).unwrap();

@@ -20,7 +20,9 @@
 pub mod detect;
 pub mod frame;
 pub mod geometry;
+pub mod monitor;
 pub mod pipeline;
 pub mod sink;
 pub mod source;
+pub mod stats;
 pub mod track;

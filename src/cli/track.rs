@@ -1,12 +1,14 @@
-//! `glint track`: replay a raw YUYV dump through the pipeline and print one report per frame.
+//! `glint track`: run the pipeline on a raw YUYV dump or a camera and print one report per frame.
 
 use std::fs::File;
-use std::io::{self, BufWriter, Read};
+use std::io::{self, BufWriter};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
+
+use super::{calib_args, input};
 
 use glint::detect::bgdiff::MAX_BACKGROUND_FRAMES;
 use glint::detect::morph::Kernel;
@@ -14,9 +16,8 @@ use glint::detect::skeleton::SkeletonMethod;
 use glint::detect::threshold::Threshold;
 use glint::detect::{DetectorConfig, MaskMethod};
 use glint::frame::FrameSize;
+use glint::monitor;
 use glint::pipeline::{self, Pipeline, PipelineConfig, RunSummary};
-
-use super::calib_args;
 use glint::sink::{CsvSink, JsonLinesSink};
 use glint::source::dump::DumpSource;
 use glint::source::FrameSource;
@@ -27,17 +28,17 @@ const OUTPUT_BUFFER_BYTES: usize = 64 * 1024;
 
 #[derive(Debug, Args)]
 pub struct TrackArgs {
-    /// A raw YUYV dump, or `-` for standard input.
-    #[arg(long, value_name = "PATH|-")]
-    input: String,
+    #[command(flatten)]
+    input: input::InputArgs,
 
     /// Frame size in pixels.
     #[arg(long, value_name = "WxH")]
     size: FrameSize,
 
-    /// Frame rate of the dump, for timestamps.
-    #[arg(long, default_value_t = 30.0, value_parser = parse_fps)]
-    fps: f64,
+    /// Frame rate: of a dump without a sidecar, for timestamps (default 30); of a camera, to
+    /// ask for (default: its current one).
+    #[arg(long, value_parser = parse_fps)]
+    fps: Option<f64>,
 
     /// Saturation threshold (luma 0–255), or `auto` to follow each frame's top level.
     #[arg(long, default_value = "auto", value_parser = parse_threshold)]
@@ -55,11 +56,6 @@ pub struct TrackArgs {
     /// Structuring element of the erosions.
     #[arg(long, value_enum, default_value_t = KernelArg::Square)]
     erode_kernel: KernelArg,
-
-    /// The camera's exposure time in microseconds, when known: the streak's length over it
-    /// gives the speed within a single frame.
-    #[arg(long, value_name = "US", value_parser = clap::value_parser!(u32).range(1..=10_000_000))]
-    exposure_us: Option<u32>,
 
     /// What finds the robot: saturated pixels, pixels that differ from a background, or an
     /// ArUco marker it carries (`aruco`, with `--marker ID`).
@@ -160,25 +156,18 @@ impl TrackArgs {
                 ..DetectorConfig::default()
             },
             tracker: TrackerConfig {
-                exposure_us: self.exposure_us,
+                exposure_us: self.input.exposure_us(),
             },
         }
     }
 }
 
 pub fn run(args: TrackArgs) -> Result<ExitCode> {
-    let live = args.input == "-";
-    let reader: Box<dyn Read> = if live {
-        Box::new(io::stdin().lock())
-    } else {
-        let file =
-            File::open(&args.input).with_context(|| format!("cannot open {}", args.input))?;
-        if file.metadata().map(|m| m.is_dir()).unwrap_or(false) {
-            bail!("{} is a directory, not a dump", args.input);
-        }
-        Box::new(file)
-    };
-    let mut source = DumpSource::new(reader, args.size, args.fps);
+    let input::Input {
+        mut source,
+        live,
+        mut monitor,
+    } = input::open(&args.input, args.size, args.fps)?;
     let aruco = args.detector == DetectorArg::Aruco;
     let mut pipeline =
         calib_args::build_pipeline(&args.floor, args.size, aruco, args.pipeline_config())?;
@@ -190,13 +179,20 @@ pub fn run(args: TrackArgs) -> Result<ExitCode> {
     }
     let stdout = BufWriter::with_capacity(OUTPUT_BUFFER_BYTES, io::stdout().lock());
     let (summary, result) = match args.format {
-        Format::Jsonl => pipeline::run(
+        Format::Jsonl => monitor::run(
             &mut source,
             &mut pipeline,
             &mut JsonLinesSink::new(stdout, live),
+            &mut monitor,
         ),
-        Format::Csv => pipeline::run(&mut source, &mut pipeline, &mut CsvSink::new(stdout, live)),
+        Format::Csv => monitor::run(
+            &mut source,
+            &mut pipeline,
+            &mut CsvSink::new(stdout, live),
+            &mut monitor,
+        ),
     };
+    input::report(&monitor);
     log_summary(&summary);
     match result {
         Ok(()) => Ok(ExitCode::SUCCESS),
@@ -212,7 +208,8 @@ pub fn run(args: TrackArgs) -> Result<ExitCode> {
 fn learn_background(pipeline: &mut Pipeline, path: &Path, args: &TrackArgs) -> Result<()> {
     let file =
         File::open(path).with_context(|| format!("cannot open background {}", path.display()))?;
-    let mut source = DumpSource::new(file, args.size, args.fps);
+    let fps = args.fps.unwrap_or(input::DEFAULT_DUMP_FPS);
+    let mut source = DumpSource::new(file, args.size, fps);
     let mut learned = 0;
     while learned < args.background_frames {
         match source.next_frame() {
