@@ -18,6 +18,7 @@ fn bench(c: &mut Criterion) {
             id: 23,
             size_cm: 20.0,
             origin_cm: Point::new(0.0, 0.0),
+            rotation_deg: 0.0,
         }],
     );
     scene.floor = Floor::Textured { seed: 7 };

@@ -97,3 +97,80 @@ fn replay_allocates_nothing_per_frame() {
     });
     assert_eq!(allocations, 0);
 }
+
+/// A floor mapping of the marker renderer's reference camera, from four floor points.
+fn reference_floor() -> glint::geometry::FloorStage {
+    use glint::geometry::{FloorMapping, FloorStage, FloorUnit, Point};
+    let camera = glint_tools::markers::reference_camera();
+    let floor =
+        [(-50.0, -40.0), (70.0, -40.0), (70.0, 60.0), (-50.0, 60.0)].map(|(x, y)| Point::new(x, y));
+    let screen = floor.map(|p| camera.project(p).unwrap());
+    FloorStage::new(FloorMapping::fit(&floor, &screen).unwrap(), FloorUnit::Cm).unwrap()
+}
+
+#[test]
+fn floor_mapping_and_marker_tracking_allocate_nothing_per_frame() {
+    use glint::geometry::aruco::Dictionary;
+    use glint::geometry::{FloorFix, Point};
+    use glint_tools::markers::{reference_camera, MarkerScene, PlacedMarker};
+
+    // The LED pipeline with the floor stage, through both sinks.
+    let (size, bytes, count) = frames();
+    let config = PipelineConfig {
+        tracker: glint::track::TrackerConfig {
+            exposure_us: Some(25_000),
+        },
+        ..Default::default()
+    };
+    fn replay<K: glint::sink::Sink>(
+        bytes: &[u8],
+        size: FrameSize,
+        config: PipelineConfig,
+        sink: &mut K,
+    ) -> u64 {
+        let mut source = DumpSource::new(Cursor::new(bytes), size, 30.0);
+        let mut pipeline = Pipeline::new(size, config)
+            .unwrap()
+            .with_floor(reference_floor());
+        allocations_during(|| {
+            let (s, result) = pipeline::run(&mut source, &mut pipeline, sink);
+            result.unwrap();
+            assert!(s.found > s.frames / 2, "{s:?}");
+        })
+    }
+    let out = || BufWriter::with_capacity(64 * 1024, io::sink());
+    let json = replay(&bytes, size, config, &mut JsonLinesSink::new(out(), false));
+    assert_eq!(json, 0, "LED with floor, JSON lines");
+    let csv = replay(&bytes, size, config, &mut CsvSink::new(out(), false));
+    assert_eq!(csv, 0, "LED with floor, CSV");
+    assert!(count > 100);
+
+    // A marker pipeline with the floor stage, on rendered frames of a turning marker.
+    let mut dump = Vec::new();
+    for i in 0..4 {
+        let robot = PlacedMarker {
+            dictionary: Dictionary::Aruco6x6_250,
+            id: 7,
+            size_cm: 15.0,
+            origin_cm: Point::new(-10.0 + 3.0 * f64::from(i), 0.0),
+            rotation_deg: 20.0 * f64::from(i),
+        };
+        dump.extend(MarkerScene::new(reference_camera(), vec![robot]).render_yuyv());
+    }
+    let tracker = glint::track::MarkerTracker::new(size, Dictionary::Aruco6x6_250, 7).unwrap();
+    let mut pipeline = Pipeline::marker(tracker).with_floor(reference_floor());
+    let mut source = DumpSource::new(Cursor::new(&dump), size, 30.0);
+    let mut reports: heapless::Vec<glint::pipeline::FrameReport, 8> = heapless::Vec::new();
+    let allocations = allocations_during(|| {
+        while let Some((frame, meta)) = glint::source::FrameSource::next_frame(&mut source).unwrap()
+        {
+            let report = pipeline.process(&frame, meta);
+            reports.push(report).unwrap();
+        }
+    });
+    assert_eq!(allocations, 0, "marker tracking with floor");
+    assert_eq!(reports.len(), 4);
+    assert!(reports
+        .iter()
+        .all(|r| matches!(r.floor, Some(FloorFix::Mapped(f)) if f.heading_deg.is_some())));
+}

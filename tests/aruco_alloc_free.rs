@@ -20,10 +20,12 @@ fn detection_and_calibration_allocate_nothing() {
         id: 23,
         size_cm: 20.0,
         origin_cm: Point::new(0.0, 0.0),
+        rotation_deg: 0.0,
     };
     let second = PlacedMarker {
         id: 101,
         origin_cm: Point::new(55.0, 45.0),
+        rotation_deg: 0.0,
         ..placed
     };
     let mut scene = MarkerScene::new(reference_camera(), vec![placed, second]);

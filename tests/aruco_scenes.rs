@@ -23,6 +23,7 @@ fn marker(id: u16, x_cm: f64, y_cm: f64) -> PlacedMarker {
         id,
         size_cm: 20.0,
         origin_cm: Point::new(x_cm, y_cm),
+        rotation_deg: 0.0,
     }
 }
 

@@ -1,5 +1,6 @@
 //! Command-line interface: one file per subcommand.
 
+mod calib_args;
 mod calibrate;
 #[cfg(feature = "v4l2")]
 mod camera;

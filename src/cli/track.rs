@@ -8,7 +8,7 @@ use std::process::ExitCode;
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
 
-use super::input;
+use super::{calib_args, input};
 
 use glint::detect::bgdiff::MAX_BACKGROUND_FRAMES;
 use glint::detect::morph::Kernel;
@@ -57,7 +57,8 @@ pub struct TrackArgs {
     #[arg(long, value_enum, default_value_t = KernelArg::Square)]
     erode_kernel: KernelArg,
 
-    /// Which pixels are searched: saturated ones, or ones that differ from a background.
+    /// What finds the robot: saturated pixels, pixels that differ from a background, or an
+    /// ArUco marker it carries (`aruco`, with `--marker ID`).
     #[arg(long, value_enum, default_value_t = DetectorArg::Saturation)]
     detector: DetectorArg,
 
@@ -80,6 +81,9 @@ pub struct TrackArgs {
     /// Skeleton for the streak's middle and ends.
     #[arg(long, value_enum, default_value_t = SkeletonArg::Thinning)]
     skeleton: SkeletonArg,
+
+    #[command(flatten)]
+    floor: calib_args::FloorArgs,
 }
 
 #[derive(Debug, Clone, Copy, ValueEnum)]
@@ -94,6 +98,8 @@ enum DetectorArg {
     Saturation,
     /// Background difference.
     Bgdiff,
+    /// An ArUco / AprilTag marker carried by the robot (with `--marker ID`).
+    Aruco,
 }
 
 #[derive(Debug, Clone, Copy, ValueEnum)]
@@ -131,7 +137,7 @@ impl TrackArgs {
         PipelineConfig {
             detector: DetectorConfig {
                 method: match self.detector {
-                    DetectorArg::Saturation => MaskMethod::Saturation,
+                    DetectorArg::Saturation | DetectorArg::Aruco => MaskMethod::Saturation,
                     DetectorArg::Bgdiff => MaskMethod::BackgroundDifference {
                         diff_luma: self.diff,
                         frames: usize::from(self.background_frames),
@@ -162,7 +168,9 @@ pub fn run(args: TrackArgs) -> Result<ExitCode> {
         live,
         mut monitor,
     } = input::open(&args.input, args.size, args.fps)?;
-    let mut pipeline = Pipeline::new(args.size, args.pipeline_config())?;
+    let aruco = args.detector == DetectorArg::Aruco;
+    let mut pipeline =
+        calib_args::build_pipeline(&args.floor, args.size, aruco, args.pipeline_config())?;
     if let Some(path) = &args.background {
         if args.detector != DetectorArg::Bgdiff {
             bail!("--background goes with --detector bgdiff");

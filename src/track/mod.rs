@@ -16,6 +16,7 @@
 //! - With the exposure time known, the path length over the exposure is the speed within
 //!   one frame; otherwise the velocity comes from consecutive streak middles and frame times.
 
+pub mod marker;
 pub mod statics;
 
 use heapless::HistoryBuf;
@@ -23,6 +24,8 @@ use heapless::HistoryBuf;
 use crate::detect::blobs::Blob;
 use crate::detect::streak::Streak;
 use statics::Statics;
+
+pub use marker::{marker_heading_deg, MarkerPose, MarkerTracker};
 
 /// Frames the history ring keeps.
 pub const HISTORY_FRAMES: usize = 16;
@@ -71,6 +74,8 @@ pub enum PositionMethod {
     /// The streak's middle, while the direction of travel is not yet known (or the LED is
     /// so slow that the two coincide).
     Mid,
+    /// The centre of a tracked marker (`--detector aruco`), which is also its middle.
+    Marker,
 }
 
 impl PositionMethod {
@@ -79,6 +84,7 @@ impl PositionMethod {
         match self {
             PositionMethod::Head => "head",
             PositionMethod::Mid => "mid",
+            PositionMethod::Marker => "marker",
         }
     }
 }

@@ -133,8 +133,12 @@ pub struct PlacedMarker {
     pub id: u16,
     /// Side of the black square, in cm.
     pub size_cm: f64,
-    /// Floor position of the printed top-left corner, in cm.
+    /// Floor position of the printed top-left corner before any rotation, in cm.
     pub origin_cm: Point,
+    /// The marker turned about its centre by this angle, from +x towards +y (0: the printed
+    /// top edge runs along +x). A robot carrying a marker turns it; calibration markers lie
+    /// square to the floor map.
+    pub rotation_deg: f64,
 }
 
 impl PlacedMarker {
@@ -147,9 +151,24 @@ impl PlacedMarker {
             Point::new(o.x + s, o.y + s),
             Point::new(o.x, o.y + s),
         ]
+        .map(|p| self.turn(p, self.rotation_deg))
     }
 
-    /// The placement glint's calibration takes.
+    /// The marker's centre on the floor.
+    pub fn centre_cm(&self) -> Point {
+        let half = 0.5 * self.size_cm;
+        Point::new(self.origin_cm.x + half, self.origin_cm.y + half)
+    }
+
+    /// `p` turned about the centre by `deg`, from +x towards +y.
+    fn turn(&self, p: Point, deg: f64) -> Point {
+        let c = self.centre_cm();
+        let (sin, cos) = deg.to_radians().sin_cos();
+        let d = p - c;
+        Point::new(c.x + cos * d.x - sin * d.y, c.y + sin * d.x + cos * d.y)
+    }
+
+    /// The placement glint's calibration takes (calibration markers are not rotated).
     pub fn placement(&self) -> MarkerPlacement {
         MarkerPlacement {
             id: self.id,
@@ -160,6 +179,7 @@ impl PlacedMarker {
 
     /// Reflectance at a floor point if the marker (not its paper) covers it.
     fn albedo(&self, p: Point, black: f64, white: f64) -> Option<f64> {
+        let p = self.turn(p, -self.rotation_deg);
         let cells = self.dictionary.marker_bits() + 2;
         let cell_cm = self.size_cm / cells as f64;
         let (u, v) = (
@@ -253,7 +273,8 @@ impl MarkerScene {
             }
             let cells = m.dictionary.marker_bits() as f64 + 2.0;
             let margin_cm = self.paper_margin_cells * m.size_cm / cells;
-            let (u, v) = (p.x - m.origin_cm.x, p.y - m.origin_cm.y);
+            let local = m.turn(p, -m.rotation_deg);
+            let (u, v) = (local.x - m.origin_cm.x, local.y - m.origin_cm.y);
             let on_paper = (-margin_cm..m.size_cm + margin_cm).contains(&u)
                 && (-margin_cm..m.size_cm + margin_cm).contains(&v);
             if on_paper {
@@ -431,12 +452,31 @@ mod tests {
     }
 
     #[test]
+    fn a_quarter_turn_moves_each_corner_to_the_next() {
+        let mut m = PlacedMarker {
+            dictionary: Dictionary::Aruco4x4_50,
+            id: 0,
+            size_cm: 20.0,
+            origin_cm: Point::new(5.0, -3.0),
+            rotation_deg: 0.0,
+        };
+        let square = m.corners_cm();
+        m.rotation_deg = 90.0;
+        let turned = m.corners_cm();
+        for k in 0..4 {
+            assert!((turned[k] - square[(k + 1) % 4]).norm() < 1e-9, "{k}");
+        }
+        assert!((m.centre_cm() - Point::new(15.0, 7.0)).norm() < 1e-12);
+    }
+
+    #[test]
     fn a_marker_renders_black_border_on_white_paper() {
         let m = PlacedMarker {
             dictionary: Dictionary::Aruco4x4_50,
             id: 0,
             size_cm: 20.0,
             origin_cm: Point::new(0.0, 0.0),
+            rotation_deg: 0.0,
         };
         let mut scene = MarkerScene::new(reference_camera(), vec![m]);
         scene.noise_sigma = 0.0;

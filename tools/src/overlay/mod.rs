@@ -174,8 +174,10 @@ impl<'a> Overlay<'a> {
     ) -> Self {
         let detector = pipeline.detector();
         Overlay {
-            mask: Some(detector.mask()),
-            skeleton: report.detection.best.map(|_| detector.skeleton()),
+            mask: detector.map(|d| d.mask()),
+            skeleton: detector
+                .filter(|_| report.detection.best.is_some())
+                .map(|d| d.skeleton()),
             detection: Some(report.detection),
             position: report.position,
             ambiguous: report.ambiguous,
