@@ -37,6 +37,11 @@ pub const GATE_MIN_PX: f32 = 24.0;
 /// frames (which lands twice the travel away from the prediction).
 pub const GATE_TRAVEL_FACTOR: f32 = 2.5;
 
+/// A blob whose principal variances differ by this ratio is smeared by motion. A disk is 1;
+/// an LED of radius r smeared over L pixels is (r²/4 + L²/12) / (r²/4), so 1.5 means a streak
+/// longer than about 1.2 r.
+pub const MIN_STREAK_ELONGATION: f32 = 1.5;
+
 /// After this many frames without the LED the track is dropped and acquisition starts over.
 pub const MAX_MISSED_FRAMES: u32 = 15;
 
@@ -193,11 +198,19 @@ impl Tracker {
                 return Choice::Blob(index);
             }
         }
-        let mut fresh = candidates.filter(|(_, b)| !self.statics.is_distractor(b.mass_centre_px));
-        match (fresh.next(), fresh.next()) {
+        let fresh = candidates.filter(|(_, b)| !self.statics.is_distractor(b.mass_centre_px));
+        let mut all = fresh.clone();
+        match (all.next(), all.next()) {
             (None, _) => Choice::Nothing,
             (Some((index, _)), None) => Choice::Blob(index),
-            (Some(_), Some(_)) => Choice::Ambiguous,
+            (Some(_), Some(_)) => {
+                // Glare does not smear: if exactly one candidate is a streak, it is the LED.
+                let mut streaks = fresh.filter(|(_, b)| b.elongation >= MIN_STREAK_ELONGATION);
+                match (streaks.next(), streaks.next()) {
+                    (Some((index, _)), None) => Choice::Blob(index),
+                    _ => Choice::Ambiguous,
+                }
+            }
         }
     }
 
@@ -298,6 +311,7 @@ mod tests {
                 y_max_px: 1,
             },
             mass_centre_px: (x, y),
+            elongation: 1.0,
         }
     }
 
@@ -335,6 +349,34 @@ mod tests {
             t.choose(third.into_iter(), 2, 2 * FRAME_US),
             Choice::Blob(1)
         );
+    }
+
+    #[test]
+    fn a_streak_among_round_glare_is_the_led_from_the_first_frame() {
+        let mut t = Tracker::new(TrackerConfig::default());
+        let streak = Blob {
+            elongation: 3.0,
+            ..blob_at(300.0, 200.0)
+        };
+        let first = [
+            (0, blob_at(100.0, 100.0)),
+            (1, streak),
+            (2, blob_at(50.0, 400.0)),
+        ];
+        assert_eq!(t.choose(first.into_iter(), 0, 0), Choice::Blob(1));
+        // Two streaks and nothing known: ambiguous again.
+        let mut t = Tracker::new(TrackerConfig::default());
+        let two = [
+            (0, streak),
+            (
+                1,
+                Blob {
+                    elongation: 2.0,
+                    ..blob_at(10.0, 10.0)
+                },
+            ),
+        ];
+        assert_eq!(t.choose(two.into_iter(), 0, 0), Choice::Ambiguous);
     }
 
     #[test]
