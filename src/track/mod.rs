@@ -177,7 +177,7 @@ impl Tracker {
         frame_index: u64,
         t_us: u64,
     ) -> Choice {
-        let choice = self.pick(candidates.clone(), t_us);
+        let choice = self.pick(candidates.clone(), frame_index, t_us);
         for (index, blob) in candidates {
             if choice != Choice::Blob(index) {
                 self.statics.observe(blob.mass_centre_px, frame_index);
@@ -187,7 +187,12 @@ impl Tracker {
         choice
     }
 
-    fn pick(&self, candidates: impl Iterator<Item = (usize, Blob)> + Clone, t_us: u64) -> Choice {
+    fn pick(
+        &self,
+        candidates: impl Iterator<Item = (usize, Blob)> + Clone,
+        frame_index: u64,
+        t_us: u64,
+    ) -> Choice {
         if let Some((predicted, gate_px)) = self.prediction(t_us) {
             let nearest = candidates
                 .clone()
@@ -204,12 +209,16 @@ impl Tracker {
             (None, _) => Choice::Nothing,
             (Some((index, _)), None) => Choice::Blob(index),
             (Some(_), Some(_)) => {
-                // Glare does not smear: if exactly one candidate is a streak, it is the LED.
-                let mut streaks = fresh.filter(|(_, b)| b.elongation >= MIN_STREAK_ELONGATION);
-                match (streaks.next(), streaks.next()) {
-                    (Some((index, _)), None) => Choice::Blob(index),
-                    _ => Choice::Ambiguous,
-                }
+                // Glare neither smears nor moves: the one candidate that is a streak, or else
+                // the one that did not stand at its place in the last frame, is the LED.
+                let streaks = fresh
+                    .clone()
+                    .filter(|(_, b)| b.elongation >= MIN_STREAK_ELONGATION);
+                let movers =
+                    fresh.filter(|(_, b)| !self.statics.stood_still(b.mass_centre_px, frame_index));
+                only(streaks)
+                    .or_else(|| only(movers))
+                    .map_or(Choice::Ambiguous, Choice::Blob)
             }
         }
     }
@@ -291,6 +300,14 @@ impl Tracker {
     }
 }
 
+/// The index of the only item, or `None` for none or several.
+fn only(mut candidates: impl Iterator<Item = (usize, Blob)>) -> Option<usize> {
+    match (candidates.next(), candidates.next()) {
+        (Some((index, _)), None) => Some(index),
+        _ => None,
+    }
+}
+
 fn dist(a: (f32, f32), b: (f32, f32)) -> f32 {
     (a.0 - b.0).hypot(a.1 - b.1)
 }
@@ -340,14 +357,23 @@ mod tests {
         let first = [(0, blob_at(100.0, 100.0)), (1, blob_at(300.0, 200.0))];
         assert_eq!(t.choose(first.into_iter(), 0, 0), Choice::Ambiguous);
         t.update(0, None);
-        // The lamp at (100, 100) stays; the LED moved.
+        // The next frame tells them apart: the lamp at (100, 100) stood still, the LED moved.
         let second = [(0, blob_at(100.2, 100.0)), (1, blob_at(310.0, 200.0))];
-        assert_eq!(t.choose(second.into_iter(), 1, FRAME_US), Choice::Ambiguous);
-        t.update(FRAME_US, None);
-        let third = [(0, blob_at(100.1, 100.1)), (1, blob_at(320.0, 200.0))];
+        assert_eq!(t.choose(second.into_iter(), 1, FRAME_US), Choice::Blob(1));
+        t.update(FRAME_US, Some(&streak((310.0, 200.0), None)));
+        // From then on the lamp is a known distractor, even when the LED stops.
+        let third = [(0, blob_at(100.1, 100.1)), (1, blob_at(310.0, 200.0))];
         assert_eq!(
             t.choose(third.into_iter(), 2, 2 * FRAME_US),
             Choice::Blob(1)
+        );
+        // Two things standing still stay ambiguous.
+        let mut fresh = Tracker::new(TrackerConfig::default());
+        let both_still = [(0, blob_at(100.0, 100.0)), (1, blob_at(310.0, 200.0))];
+        fresh.choose(both_still.into_iter(), 0, 0);
+        assert_eq!(
+            fresh.choose(both_still.into_iter(), 1, FRAME_US),
+            Choice::Ambiguous
         );
     }
 

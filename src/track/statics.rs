@@ -40,6 +40,13 @@ impl Statics {
             .any(|e| e.seen_frames >= STATIC_FRAMES && near(e.position_px, position_px))
     }
 
+    /// True when a blob stood at `position_px` in the frame before `frame_index` too.
+    pub fn stood_still(&self, position_px: (f32, f32), frame_index: u64) -> bool {
+        self.entries
+            .iter()
+            .any(|e| e.last_seen_frame + 1 == frame_index && near(e.position_px, position_px))
+    }
+
     /// Notes a blob that is not the LED, seen in frame `frame_index`.
     pub fn observe(&mut self, position_px: (f32, f32), frame_index: u64) {
         if let Some(e) = self
@@ -89,6 +96,12 @@ mod tests {
         let mut s = Statics::default();
         s.observe((10.0, 10.0), 0);
         assert!(!s.is_distractor((10.0, 10.0)));
+        assert!(s.stood_still((10.2, 10.1), 1));
+        assert!(
+            !s.stood_still((10.2, 10.1), 2),
+            "only the frame just before counts"
+        );
+        assert!(!s.stood_still((15.0, 10.0), 1));
         s.observe((10.2, 10.1), 1);
         assert!(s.is_distractor((10.0, 10.0)));
         assert!(!s.is_distractor((20.0, 10.0)));
