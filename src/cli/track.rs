@@ -13,7 +13,7 @@ use glint::detect::threshold::Threshold;
 use glint::detect::DetectorConfig;
 use glint::frame::FrameSize;
 use glint::pipeline::{self, Pipeline, PipelineConfig, RunSummary};
-use glint::sink::{CsvSink, JsonLinesSink};
+use glint::sink::{serial, CsvSink, JsonLinesSink, SerialSink, Tee};
 use glint::source::dump::DumpSource;
 use glint::track::TrackerConfig;
 
@@ -59,6 +59,14 @@ pub struct TrackArgs {
     /// Skeleton for the streak's middle and ends.
     #[arg(long, value_enum, default_value_t = SkeletonArg::Thinning)]
     skeleton: SkeletonArg,
+
+    /// Also send position packets to the robot on this serial port (board/protocol/SPEC.md).
+    #[arg(long, value_name = "PORT")]
+    serial: Option<String>,
+
+    /// Line rate of --serial, 8N1.
+    #[arg(long, default_value_t = serial::DEFAULT_BAUD, value_parser = clap::value_parser!(u32).range(50..=4_000_000))]
+    baud: u32,
 }
 
 #[derive(Debug, Clone, Copy, ValueEnum)]
@@ -134,14 +142,23 @@ pub fn run(args: TrackArgs) -> Result<ExitCode> {
     };
     let mut source = DumpSource::new(reader, args.size, args.fps);
     let mut pipeline = Pipeline::new(args.size, args.pipeline_config());
+    let serial = args
+        .serial
+        .as_deref()
+        .map(|port| SerialSink::open(port, args.baud));
+    let serial = serial.transpose()?;
     let stdout = BufWriter::with_capacity(OUTPUT_BUFFER_BYTES, io::stdout().lock());
     let (summary, result) = match args.format {
         Format::Jsonl => pipeline::run(
             &mut source,
             &mut pipeline,
-            &mut JsonLinesSink::new(stdout, live),
+            &mut Tee::new(JsonLinesSink::new(stdout, live), serial),
         ),
-        Format::Csv => pipeline::run(&mut source, &mut pipeline, &mut CsvSink::new(stdout, live)),
+        Format::Csv => pipeline::run(
+            &mut source,
+            &mut pipeline,
+            &mut Tee::new(CsvSink::new(stdout, live), serial),
+        ),
     };
     log_summary(&summary);
     match result {
