@@ -12,19 +12,24 @@
 //! successful open starts with a lone 0x00, so a frame cut by the fault cannot merge with the
 //! next one at the receiver.
 
-use std::io;
+use std::io::{self, Write};
+use std::os::unix::io::AsRawFd;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use glint_protocol::DELIMITER;
-use serialport::{DataBits, FlowControl, Parity, SerialPort, StopBits};
+use nix::fcntl::{fcntl, FcntlArg, OFlag};
+use serialport::{DataBits, FlowControl, Parity, SerialPort, StopBits, TTYPort};
 
 use super::mailbox::{Batch, Mailbox, Take, SLOT_BYTES};
 
-/// How long one write may wait for room in the output queue (a receiver that stopped reading a
-/// pty, a stuck line) before the batch is given up as unsent.
+/// How long one batch may wait for room in the output queue (a receiver that stopped reading a
+/// pty, a stuck line) before it is given up as unsent.
 pub const WRITE_TIMEOUT: Duration = Duration::from_millis(100);
+
+/// Pause before retrying a write the kernel refused for want of room.
+const WOULD_BLOCK_PAUSE: Duration = Duration::from_millis(1);
 
 /// How long the thread waits for the output queue to drain after a write before taking the
 /// next batch anyway. A full batch at 9600 Bd takes 94 ms.
@@ -58,15 +63,19 @@ pub struct Counters {
     pub reopens: AtomicU64,
 }
 
-/// Opens `path` as 8N1 without flow control, writes bounded by [`WRITE_TIMEOUT`].
-pub fn open_port(path: &str, baud: u32) -> serialport::Result<Box<dyn SerialPort>> {
-    serialport::new(path, baud)
+/// Opens `path` as 8N1 without flow control, non-blocking: serialport waits for room with
+/// `poll` and a timeout, but a blocking `write` could still wait for all its bytes when only
+/// some fit, forever if the receiver stopped reading.
+pub fn open_port(path: &str, baud: u32) -> serialport::Result<TTYPort> {
+    let port = serialport::new(path, baud)
         .data_bits(DataBits::Eight)
         .parity(Parity::None)
         .stop_bits(StopBits::One)
         .flow_control(FlowControl::None)
         .timeout(WRITE_TIMEOUT)
-        .open()
+        .open_native()?;
+    fcntl(port.as_raw_fd(), FcntlArg::F_SETFL(OFlag::O_NONBLOCK))?;
+    Ok(port)
 }
 
 /// An outage in progress.
@@ -82,7 +91,7 @@ struct Outage {
 pub struct Link {
     path: String,
     baud: u32,
-    port: Option<Box<dyn SerialPort>>,
+    port: Option<TTYPort>,
     outage: Option<Outage>,
     /// The receiver may hold a partial frame (a write timed out part-way, or the port was just
     /// opened): the next write starts with a delimiter.
@@ -94,7 +103,7 @@ pub struct Link {
 
 impl Link {
     /// A writer for an already opened `port` at `path`.
-    pub fn new(path: &str, baud: u32, port: Box<dyn SerialPort>, counters: Arc<Counters>) -> Self {
+    pub fn new(path: &str, baud: u32, port: TTYPort, counters: Arc<Counters>) -> Self {
         let mut link = Link {
             path: path.to_owned(),
             baud,
@@ -157,11 +166,11 @@ impl Link {
         let Some(port) = self.port.as_mut() else {
             return;
         };
-        match write_all(port.as_mut(), self.out.get(..len).unwrap_or(&[])) {
+        match write_all(port, self.out.get(..len).unwrap_or(&[])) {
             Ok(()) => {
                 self.needs_delimiter = false;
                 self.counters.sent.fetch_add(frames, Ordering::Relaxed);
-                drain(port.as_ref(), self.baud);
+                drain(port, self.baud);
             }
             Err(e) if is_timeout(&e) => {
                 // Part of a frame may be on the line: close it off before the next one.
@@ -184,7 +193,7 @@ impl Link {
         let Some(port) = self.port.as_mut() else {
             return;
         };
-        match write_all(port.as_mut(), &[DELIMITER]) {
+        match write_all(port, &[DELIMITER]) {
             Ok(()) => self.needs_delimiter = false,
             // Still owed: it goes in front of the next frame.
             Err(e) if is_timeout(&e) => self.needs_delimiter = true,
@@ -238,13 +247,21 @@ impl Link {
     }
 }
 
-/// Writes all of `bytes`, each write bounded by the port's timeout.
-fn write_all(port: &mut dyn SerialPort, mut bytes: &[u8]) -> io::Result<()> {
+/// Writes all of `bytes` within about [`WRITE_TIMEOUT`] (each write waits for room at most
+/// that long, and no new write starts after it).
+fn write_all(port: &mut TTYPort, mut bytes: &[u8]) -> io::Result<()> {
+    let deadline = Instant::now() + WRITE_TIMEOUT;
     while !bytes.is_empty() {
+        if Instant::now() >= deadline {
+            return Err(io::ErrorKind::TimedOut.into());
+        }
         match port.write(bytes) {
             Ok(0) => return Err(io::ErrorKind::WriteZero.into()),
             Ok(n) => bytes = bytes.get(n..).unwrap_or(&[]),
             Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
+            Err(e) if e.kind() == io::ErrorKind::WouldBlock => {
+                std::thread::sleep(WOULD_BLOCK_PAUSE)
+            }
             Err(e) => return Err(e),
         }
     }
@@ -252,16 +269,13 @@ fn write_all(port: &mut dyn SerialPort, mut bytes: &[u8]) -> io::Result<()> {
 }
 
 fn is_timeout(e: &io::Error) -> bool {
-    matches!(
-        e.kind(),
-        io::ErrorKind::TimedOut | io::ErrorKind::WouldBlock
-    )
+    e.kind() == io::ErrorKind::TimedOut
 }
 
 /// Waits (at most [`DRAIN_LIMIT`]) until the UART has sent what is queued, sleeping about as
 /// long as the queued bytes take on the line. Ports that cannot tell (a pty says 0) return at
 /// once; a failing query is left for the next write to find.
-fn drain(port: &dyn SerialPort, baud: u32) {
+fn drain(port: &TTYPort, baud: u32) {
     let deadline = Instant::now() + DRAIN_LIMIT;
     while let Ok(queued @ 1..) = port.bytes_to_write() {
         let now = Instant::now();

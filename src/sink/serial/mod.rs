@@ -105,12 +105,13 @@ impl SerialStats {
     }
 }
 
+/// One line of `key=value` pairs, for the log and for scripts that read it.
 impl fmt::Display for SerialStats {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(
             f,
-            "{} updates and {} heartbeats; {} frames sent, {} dropped: {} stale, {} timed out, \
-             {} while the port was down; port lost {} times, reopened {} times",
+            "updates={} heartbeats={} sent={} dropped={} stale={} timed_out={} port_down={} \
+             losses={} reopens={}",
             self.updates,
             self.heartbeats,
             self.sent,
