@@ -19,8 +19,8 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use glint_protocol::{
-    DecodeError, Decoder, Heartbeat, Message, Position, Received, Status, TrackerState, Units,
-    PROTOCOL_VERSION, QUANTA_PER_PX,
+    Decoder, Heartbeat, Message, Position, Received, Status, TrackerState, Units, PROTOCOL_VERSION,
+    QUANTA_PER_PX,
 };
 use glint_tools::scene::Scene;
 use nix::fcntl::{fcntl, FcntlArg, FdFlag, OFlag};
@@ -58,13 +58,8 @@ impl Frames {
     }
 }
 
-/// What the reading end saw.
-#[derive(Debug)]
-enum Seen {
-    Message(Message),
-    Error(DecodeError),
-    Unknown(u8),
-}
+/// What the reading end saw: a message, or what went wrong instead.
+type Seen = Result<Message, String>;
 
 /// Reads a pty's master end on a thread, decoding as it goes.
 struct Robot {
@@ -100,9 +95,9 @@ impl Robot {
                     }
                     for outcome in decoder.feed(&buf[..n]) {
                         let seen = match outcome {
-                            Ok(Received::Message(m)) => Seen::Message(m),
-                            Ok(Received::Unknown { id }) => Seen::Unknown(id),
-                            Err(e) => Seen::Error(e),
+                            Ok(Received::Message(m)) => Ok(m),
+                            Ok(Received::Unknown { id }) => Err(format!("unknown id {id:#04x}")),
+                            Err(e) => Err(format!("{e}")),
                         };
                         let _ = tx.send(seen);
                     }
@@ -121,8 +116,8 @@ impl Robot {
     fn next_position(&self, heartbeats: &mut Vec<(usize, Heartbeat)>, frame: usize) -> Position {
         loop {
             match self.messages.recv_timeout(PATIENCE) {
-                Ok(Seen::Message(Message::Position(p))) => return p,
-                Ok(Seen::Message(Message::Heartbeat(h))) => heartbeats.push((frame, h)),
+                Ok(Ok(Message::Position(p))) => return p,
+                Ok(Ok(Message::Heartbeat(h))) => heartbeats.push((frame, h)),
                 Ok(other) => panic!("frame {frame}: the robot saw {other:?}"),
                 Err(e) => panic!("frame {frame}: no position update arrived: {e}"),
             }
@@ -476,8 +471,8 @@ fn a_port_that_comes_back_is_reopened_and_starts_with_a_delimiter() {
         glint.send(frames.frame(i));
         i += 1;
         match robot.messages.recv_timeout(Duration::from_millis(100)) {
-            Ok(Seen::Message(Message::Position(p))) => break p,
-            Ok(Seen::Message(Message::Heartbeat(_))) | Err(RecvTimeoutError::Timeout) => {}
+            Ok(Ok(Message::Position(p))) => break p,
+            Ok(Ok(Message::Heartbeat(_))) | Err(RecvTimeoutError::Timeout) => {}
             Ok(other) => panic!("after reopening the robot saw {other:?}"),
             Err(e) => panic!("{e}"),
         }
