@@ -522,3 +522,180 @@ fn the_baud_rate_is_checked() {
         .expect("run glint");
     assert_eq!(out.status.code(), Some(2));
 }
+
+/// Frame size of the VM check: small, because glint runs under qemu's TCG there.
+const VM_WIDTH_PX: usize = 64;
+const VM_HEIGHT_PX: usize = 48;
+const VM_FRAMES: usize = 90;
+/// Frames without the light, so lost updates cross the UART too.
+const VM_HIDDEN: std::ops::Range<usize> = 40..50;
+
+/// A bright disk gliding over a dim textured background, packed YUYV.
+fn dots() -> Vec<u8> {
+    let mut out = Vec::with_capacity(VM_FRAMES * VM_WIDTH_PX * VM_HEIGHT_PX * 2);
+    for i in 0..VM_FRAMES {
+        let (cx, cy) = (10.0 + 0.45 * i as f64, 20.0 + 0.1 * i as f64);
+        for y in 0..VM_HEIGHT_PX {
+            for x in 0..VM_WIDTH_PX {
+                let lit = !VM_HIDDEN.contains(&i)
+                    && (x as f64 - cx).powi(2) + (y as f64 - cy).powi(2) <= 9.0;
+                out.push(if lit { 255 } else { 40 + ((x + y) % 20) as u8 });
+                out.push(128);
+            }
+        }
+    }
+    out
+}
+
+/// A real UART: in the test VM of tests/vm/ (the vivid suite's), glint writes to the guest's
+/// /dev/ttyS1, a 16550A driven by the kernel's 8250 driver, which qemu joins to a host pty read
+/// here. Every frame glint reports as sent must arrive intact, in order, matching its report.
+/// Needs tools/setup-system.sh's packages; `GLINT_SKIP_VM=1` skips it (loudly).
+#[test]
+fn a_real_uart_in_a_vm_delivers_every_frame_sent() {
+    if std::env::var("GLINT_SKIP_VM").is_ok_and(|v| v == "1") {
+        eprintln!("\n*** GLINT_SKIP_VM=1: SKIPPING the UART VM test ***\n");
+        return;
+    }
+    let repo = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let share = Path::new(env!("CARGO_TARGET_TMPDIR")).join("serial-vm");
+    let _ = std::fs::remove_dir_all(&share);
+    std::fs::create_dir_all(share.join("in")).unwrap();
+    // Stripped, it is far quicker to load through 9p under TCG.
+    let stripped = std::process::Command::new("strip")
+        .arg("-o")
+        .arg(share.join("glint"))
+        .arg(env!("CARGO_BIN_EXE_glint"))
+        .status()
+        .is_ok_and(|s| s.success());
+    if !stripped {
+        std::fs::copy(env!("CARGO_BIN_EXE_glint"), share.join("glint")).unwrap();
+    }
+    std::fs::copy(
+        repo.join("tests/vm/serial-guest.sh"),
+        share.join("guest.sh"),
+    )
+    .unwrap();
+    std::fs::write(share.join("in/dots.yuv"), dots()).unwrap();
+    let args = format!("--size {VM_WIDTH_PX}x{VM_HEIGHT_PX} --fps 30");
+    std::fs::write(share.join("in/args"), &args).unwrap();
+
+    let prepare = std::process::Command::new(repo.join("tests/vm/prepare.sh"))
+        .output()
+        .expect("run tests/vm/prepare.sh");
+    assert!(
+        prepare.status.success(),
+        "tests/vm/prepare.sh failed: {}",
+        String::from_utf8_lossy(&prepare.stderr)
+    );
+    let mut vm = {
+        let _spawning = SPAWNING.lock().unwrap_or_else(PoisonError::into_inner);
+        std::process::Command::new(repo.join("tests/vm/run.sh"))
+            .arg(&share)
+            .env("GLINT_VM_QEMU_EXTRA", "-serial pty")
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("start tests/vm/run.sh")
+    };
+
+    // qemu names its pty on standard error: "char device redirected to /dev/pts/N (label ...)".
+    let started = Instant::now();
+    let pty = loop {
+        let log = std::fs::read_to_string(share.join("qemu.log")).unwrap_or_default();
+        if let Some(at) = log.find("/dev/pts/") {
+            let name: String = log[at..]
+                .chars()
+                .take_while(|c| !c.is_whitespace())
+                .collect();
+            break name;
+        }
+        if let Some(status) = vm.try_wait().unwrap() {
+            panic!("the VM ended ({status}) before qemu named its pty:\n{log}");
+        }
+        assert!(started.elapsed() < PATIENCE, "qemu did not name its pty");
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    let mut port = serialport::new(&pty, 115_200)
+        .open_native()
+        .expect("open qemu's pty");
+    // Handshake: the guest says "r" once its port is open (bytes reaching a closed 8250 port
+    // are lost), and waits for our "g" before it starts glint.
+    let mut ready = [0u8; 1];
+    loop {
+        match port.read(&mut ready) {
+            Ok(1) if ready == *b"r" => break,
+            Ok(_) => panic!("unexpected byte {ready:?} from the guest"),
+            Err(_) => {
+                if let Some(status) = vm.try_wait().unwrap() {
+                    panic!("the VM ended ({status}) before the guest was ready");
+                }
+            }
+        }
+    }
+    port.write_all(b"g").unwrap();
+    let robot = Robot::listen(port);
+    let run = vm.wait_with_output().expect("wait for the VM");
+    let seen = robot.drain(Duration::from_millis(500));
+    let out = share.join("out");
+    let log = std::fs::read_to_string(out.join("serial.err")).unwrap_or_default();
+    assert!(
+        run.status.success(),
+        "the VM run failed ({}): {}\nglint's log:\n{log}",
+        run.status,
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let status = std::fs::read_to_string(out.join("serial.status")).unwrap();
+    assert_eq!(status.trim(), "0", "glint in the guest failed:\n{log}");
+    let reports = common::parse_jsonl(&std::fs::read(out.join("serial.jsonl")).unwrap());
+    assert_eq!(reports.len(), VM_FRAMES);
+    assert_eq!(robot.first_byte.try_recv(), Ok(0x00), "opening delimiter");
+
+    let mut positions = Vec::new();
+    let mut heartbeats = 0u64;
+    for s in seen {
+        match s {
+            Ok(Message::Position(p)) => positions.push(p),
+            Ok(Message::Heartbeat(h)) => {
+                assert_eq!(h.protocol_version, PROTOCOL_VERSION);
+                heartbeats += 1;
+            }
+            Err(e) => panic!("over the UART: {e}"),
+        }
+    }
+    // Whatever glint handed to the kernel came out of the UART, nothing else.
+    let summary = serial_summary(&log);
+    assert_eq!(
+        positions.len() as u64 + heartbeats,
+        count(&summary, "sent"),
+        "{log}"
+    );
+    assert!(heartbeats >= 1);
+    assert!(positions.len() > VM_FRAMES / 2, "{log}");
+    // In order, each one matching its frame's report (fewer than 256 frames: seq = frame).
+    let mut last_found = (0, 0);
+    let mut previous_seq = None;
+    for p in &positions {
+        assert!(previous_seq < Some(p.seq), "updates in order");
+        previous_seq = Some(p.seq);
+        let r = &reports[usize::from(p.seq)];
+        if r["found"] == false {
+            // Lost updates repeat the last found position, which may not have been sent.
+            let prior = reports[..usize::from(p.seq)]
+                .iter()
+                .rev()
+                .find(|r| r["found"] == true)
+                .expect("found before");
+            last_found = (
+                (prior["x"].as_f64().unwrap() * f64::from(QUANTA_PER_PX)).round() as i16,
+                (prior["y"].as_f64().unwrap() * f64::from(QUANTA_PER_PX)).round() as i16,
+            );
+        }
+        check_against_report(p, r, &mut last_found);
+    }
+    let lost = positions
+        .iter()
+        .filter(|p| p.status == Status::Lost)
+        .count();
+    assert!(lost > 0, "lost updates crossed the UART too");
+}
