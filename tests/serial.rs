@@ -58,6 +58,19 @@ impl Frames {
     }
 }
 
+/// The size, rate and exposure arguments for a scene's frames.
+fn scene_args(scene: &Scene) -> Vec<String> {
+    [
+        "--size".into(),
+        format!("{}x{}", scene.width_px(), scene.height_px()),
+        "--fps".into(),
+        scene.fps().to_string(),
+        "--exposure-us".into(),
+        scene.exposure_us().to_string(),
+    ]
+    .into()
+}
+
 /// What the reading end saw: a message, or what went wrong instead.
 type Seen = Result<Message, String>;
 
@@ -161,18 +174,14 @@ struct Finished {
 }
 
 impl Glint {
-    fn start(scene: &Scene, input: &str, serial: &Path, extra: &[&str]) -> Glint {
-        let size = format!("{}x{}", scene.width_px(), scene.height_px());
-        let fps = scene.fps().to_string();
-        let exposure = scene.exposure_us().to_string();
+    /// `glint -v track --input INPUT ARGS --serial SERIAL`.
+    fn start(input: &str, args: &[String], serial: &Path) -> Glint {
         let spawning = SPAWNING.lock().unwrap_or_else(PoisonError::into_inner);
         let mut child = common::glint()
-            .args([
-                "-v", "track", "--input", input, "--size", &size, "--fps", &fps,
-            ])
-            .args(["--exposure-us", &exposure, "--serial"])
+            .args(["-v", "track", "--input", input])
+            .args(args)
+            .arg("--serial")
             .arg(serial)
-            .args(extra)
             .stdin(Stdio::piped())
             .stdout(Stdio::piped())
             .stderr(Stdio::piped())
@@ -298,6 +307,41 @@ fn check_against_report(p: &Position, r: &Value, last_found: &mut (i16, i16)) {
     }
 }
 
+/// Frames of a small synthetic scene: quick to track, even under qemu's TCG.
+const DOTS_WIDTH_PX: usize = 64;
+const DOTS_HEIGHT_PX: usize = 48;
+const DOTS_FRAMES: usize = 90;
+/// Frames without the light, so lost updates cross the UART too.
+const DOTS_HIDDEN: std::ops::Range<usize> = 40..50;
+
+/// A bright disk gliding over a dim textured background, packed YUYV.
+fn dots() -> Vec<u8> {
+    let mut out = Vec::with_capacity(DOTS_FRAMES * DOTS_WIDTH_PX * DOTS_HEIGHT_PX * 2);
+    for i in 0..DOTS_FRAMES {
+        let (cx, cy) = (10.0 + 0.45 * i as f64, 20.0 + 0.1 * i as f64);
+        for y in 0..DOTS_HEIGHT_PX {
+            for x in 0..DOTS_WIDTH_PX {
+                let lit = !DOTS_HIDDEN.contains(&i)
+                    && (x as f64 - cx).powi(2) + (y as f64 - cy).powi(2) <= 9.0;
+                out.push(if lit { 255 } else { 40 + ((x + y) % 20) as u8 });
+                out.push(128);
+            }
+        }
+    }
+    out
+}
+
+/// glint's arguments for [`dots`].
+fn dots_args() -> Vec<String> {
+    [
+        "--size".into(),
+        format!("{DOTS_WIDTH_PX}x{DOTS_HEIGHT_PX}"),
+        "--fps".into(),
+        "30".into(),
+    ]
+    .into()
+}
+
 #[test]
 fn one_valid_update_per_frame_in_order_with_heartbeats() {
     let frames = Frames::new("leave-occlude");
@@ -305,7 +349,7 @@ fn one_valid_update_per_frame_in_order_with_heartbeats() {
     let total = 2 * frames.count();
     let (master, _slave, name) = pty();
     let robot = Robot::listen(master);
-    let mut glint = Glint::start(&frames.scene, "-", Path::new(&name), &[]);
+    let mut glint = Glint::start("-", &scene_args(&frames.scene), Path::new(&name));
 
     let mut positions = Vec::new();
     let mut heartbeats = Vec::new();
@@ -366,7 +410,6 @@ fn one_valid_update_per_frame_in_order_with_heartbeats() {
 
 #[test]
 fn a_receiver_that_stops_reading_costs_stale_updates_not_tracking() {
-    let frames = Frames::new("slow-line");
     let (master, mut slave, name) = pty();
     // Fill the pty's buffer towards the master, which nobody reads: glint's writes find no room.
     // Non-blocking, or the last write would wait for all its bytes to fit.
@@ -378,22 +421,21 @@ fn a_receiver_that_stops_reading_costs_stale_updates_not_tracking() {
     }
     assert!(filled > 0);
     let mut dump = tempfile::NamedTempFile::new().unwrap();
-    dump.write_all(&frames.dump).unwrap();
+    dump.write_all(&dots()).unwrap();
 
-    // The whole dump from a file, as fast as glint goes.
+    // Small frames from a file, as fast as glint goes: many frames per write timeout.
     let glint = Glint::start(
-        &frames.scene,
         dump.path().to_str().unwrap(),
+        &dots_args(),
         Path::new(&name),
-        &[],
     );
     let done = glint.finish();
     assert!(done.status.success(), "glint failed:\n{}", done.log);
-    assert_eq!(done.reports.len(), frames.count(), "every frame reported");
+    assert_eq!(done.reports.len(), DOTS_FRAMES, "every frame reported");
 
     let summary = serial_summary(&done.log);
     let posted = count(&summary, "updates") + count(&summary, "heartbeats");
-    assert_eq!(count(&summary, "updates"), frames.count() as u64);
+    assert_eq!(count(&summary, "updates"), DOTS_FRAMES as u64);
     assert!(count(&summary, "stale") > 0, "{summary:?}");
     assert!(
         count(&summary, "timed_out") > 0,
@@ -408,7 +450,7 @@ fn pulling_the_pty_away_mid_run_is_logged_and_tracking_goes_on() {
     let frames = Frames::new("slow-line");
     let (master, slave, name) = pty();
     let robot = Robot::listen(master);
-    let mut glint = Glint::start(&frames.scene, "-", Path::new(&name), &[]);
+    let mut glint = Glint::start("-", &scene_args(&frames.scene), Path::new(&name));
     let half = frames.count() / 2;
     let mut heartbeats = Vec::new();
     for i in 0..half {
@@ -444,7 +486,7 @@ fn a_port_that_comes_back_is_reopened_and_starts_with_a_delimiter() {
     let (master, slave, name) = pty();
     std::os::unix::fs::symlink(&name, &link).unwrap();
     let robot = Robot::listen(master);
-    let mut glint = Glint::start(&frames.scene, "-", &link, &[]);
+    let mut glint = Glint::start("-", &scene_args(&frames.scene), &link);
     let mut heartbeats = Vec::new();
     let unplug_at = 20;
     for i in 0..unplug_at {
@@ -523,30 +565,6 @@ fn the_baud_rate_is_checked() {
     assert_eq!(out.status.code(), Some(2));
 }
 
-/// Frame size of the VM check: small, because glint runs under qemu's TCG there.
-const VM_WIDTH_PX: usize = 64;
-const VM_HEIGHT_PX: usize = 48;
-const VM_FRAMES: usize = 90;
-/// Frames without the light, so lost updates cross the UART too.
-const VM_HIDDEN: std::ops::Range<usize> = 40..50;
-
-/// A bright disk gliding over a dim textured background, packed YUYV.
-fn dots() -> Vec<u8> {
-    let mut out = Vec::with_capacity(VM_FRAMES * VM_WIDTH_PX * VM_HEIGHT_PX * 2);
-    for i in 0..VM_FRAMES {
-        let (cx, cy) = (10.0 + 0.45 * i as f64, 20.0 + 0.1 * i as f64);
-        for y in 0..VM_HEIGHT_PX {
-            for x in 0..VM_WIDTH_PX {
-                let lit = !VM_HIDDEN.contains(&i)
-                    && (x as f64 - cx).powi(2) + (y as f64 - cy).powi(2) <= 9.0;
-                out.push(if lit { 255 } else { 40 + ((x + y) % 20) as u8 });
-                out.push(128);
-            }
-        }
-    }
-    out
-}
-
 /// A real UART: in the test VM of tests/vm/ (the vivid suite's), glint writes to the guest's
 /// /dev/ttyS1, a 16550A driven by the kernel's 8250 driver, which qemu joins to a host pty read
 /// here. Every frame glint reports as sent must arrive intact, in order, matching its report.
@@ -577,8 +595,7 @@ fn a_real_uart_in_a_vm_delivers_every_frame_sent() {
     )
     .unwrap();
     std::fs::write(share.join("in/dots.yuv"), dots()).unwrap();
-    let args = format!("--size {VM_WIDTH_PX}x{VM_HEIGHT_PX} --fps 30");
-    std::fs::write(share.join("in/args"), &args).unwrap();
+    std::fs::write(share.join("in/args"), dots_args().join(" ")).unwrap();
 
     let prepare = std::process::Command::new(repo.join("tests/vm/prepare.sh"))
         .output()
@@ -648,7 +665,7 @@ fn a_real_uart_in_a_vm_delivers_every_frame_sent() {
     let status = std::fs::read_to_string(out.join("serial.status")).unwrap();
     assert_eq!(status.trim(), "0", "glint in the guest failed:\n{log}");
     let reports = common::parse_jsonl(&std::fs::read(out.join("serial.jsonl")).unwrap());
-    assert_eq!(reports.len(), VM_FRAMES);
+    assert_eq!(reports.len(), DOTS_FRAMES);
     assert_eq!(robot.first_byte.try_recv(), Ok(0x00), "opening delimiter");
 
     let mut positions = Vec::new();
@@ -671,7 +688,7 @@ fn a_real_uart_in_a_vm_delivers_every_frame_sent() {
         "{log}"
     );
     assert!(heartbeats >= 1);
-    assert!(positions.len() > VM_FRAMES / 2, "{log}");
+    assert!(positions.len() > DOTS_FRAMES / 2, "{log}");
     // In order, each one matching its frame's report (fewer than 256 frames: seq = frame).
     let mut last_found = (0, 0);
     let mut previous_seq = None;
