@@ -45,10 +45,10 @@ fn stages(c: &mut Criterion) {
         let mut labeler = Labeler::new();
         group.bench_function("label", |b| b.iter(|| labeler.label(black_box(&mask))));
 
-        let mut detector = Detector::new(size, DetectorConfig::default());
+        let mut detector = Detector::new(size, DetectorConfig::default()).unwrap();
         group.bench_function("detect", |b| b.iter(|| detector.detect(black_box(&frame))));
 
-        let mut pipeline = Pipeline::new(size, PipelineConfig::default());
+        let mut pipeline = Pipeline::new(size, PipelineConfig::default()).unwrap();
         let meta = FrameMeta {
             index: 0,
             sequence: 0,
@@ -62,11 +62,36 @@ fn stages(c: &mut Criterion) {
     }
 }
 
+/// A frame of saturated speckles, one pixel in ten lit: sun through foliage. Labelling stops at
+/// its bounded tables, so the cost stays bounded too.
+fn cluttered(c: &mut Criterion) {
+    let size = FrameSize::new(640, 480).unwrap();
+    let mut bytes = vec![128u8; size.frame_bytes()];
+    let mut state = 0x9E37_79B9_7F4A_7C15u64;
+    for luma in bytes.iter_mut().step_by(2) {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        *luma = if state.is_multiple_of(10) { 255 } else { 60 };
+    }
+    let frame = Frame::new_checked(&bytes, size, size.row_bytes()).unwrap();
+    let mut pipeline = Pipeline::new(size, PipelineConfig::default()).unwrap();
+    let meta = FrameMeta {
+        index: 0,
+        sequence: 0,
+        dropped: 0,
+        timestamp_us: 0,
+    };
+    c.bench_function("detect/640x480/pipeline/cluttered", |b| {
+        b.iter(|| pipeline.process(black_box(&frame), meta))
+    });
+}
+
 criterion_group! {
     name = benches;
     config = Criterion::default()
         .warm_up_time(std::time::Duration::from_millis(500))
         .measurement_time(std::time::Duration::from_secs(2));
-    targets = stages
+    targets = stages, cluttered
 }
 criterion_main!(benches);

@@ -31,7 +31,7 @@ use serialport::{SerialPort, TTYPort};
 fn found_report() -> FrameReport {
     let scene = Scene::preset("fast-line").expect("preset");
     let size = FrameSize::new(scene.width_px(), scene.height_px()).unwrap();
-    let mut pipeline = Pipeline::new(size, PipelineConfig::default());
+    let mut pipeline = Pipeline::new(size, PipelineConfig::default()).expect("pipeline");
     let mut bytes = vec![0u8; size.frame_bytes()];
     let mut report = None;
     for i in 0..scene.frame_count() / 2 {

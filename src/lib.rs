@@ -12,12 +12,17 @@
 //!
 //! # The per-frame path
 //!
-//! [`source`] → [`frame`] → [`detect`] (threshold → morphology → blobs → streak) →
-//! [`pipeline`] → [`sink`]. [`pipeline::Pipeline::process`] reads top to bottom.
+//! [`source`] → [`frame`] → [`detect`] (threshold → morphology → blobs → streak) → [`track`]
+//! (or [`track::marker`] for a robot carrying an ArUco marker) → [`geometry::floor`] (screen →
+//! floor, with a calibration) → [`pipeline`] → [`sink`]. [`pipeline::Pipeline::process`] reads
+//! top to bottom.
 
 pub mod detect;
 pub mod frame;
+pub mod geometry;
+pub mod monitor;
 pub mod pipeline;
 pub mod sink;
 pub mod source;
+pub mod stats;
 pub mod track;

@@ -1,17 +1,21 @@
-//! The per-frame path, top to bottom: source → detection → (tracking) → report → sink.
+//! The per-frame path, top to bottom: source → detection → tracking → floor → report → sink.
 //!
-//! [`Pipeline`] holds every stage's state, allocated in [`Pipeline::new`]; [`run`] pulls frames
-//! from a source and pushes reports into a sink until the source ends. Neither allocates per
-//! frame.
+//! [`Pipeline`] holds every stage's state, allocated in [`Pipeline::new`] (the LED) or
+//! [`Pipeline::marker`] (a robot carrying an ArUco marker); [`run`] pulls frames from a source
+//! and pushes reports into a sink until the source ends. Neither allocates per frame.
 
 use core::fmt;
 use std::io;
 
+use crate::detect::bgdiff::BackgroundError;
+use crate::detect::blobs::Overflow;
+use crate::detect::threshold::Levels;
 use crate::detect::{Detection, Detector, DetectorConfig};
 use crate::frame::{Frame, FrameSize};
+use crate::geometry::{FloorFix, FloorStage};
 use crate::sink::Sink;
 use crate::source::{FrameMeta, FrameSource};
-use crate::track::{Choice, Estimate, Tracker, TrackerConfig};
+use crate::track::{Choice, Estimate, MarkerPose, MarkerTracker, Tracker, TrackerConfig};
 
 /// Settings of the whole per-frame path.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -27,13 +31,19 @@ pub struct PipelineConfig {
 pub struct FrameReport {
     /// Index, sequence and time of the frame.
     pub meta: FrameMeta,
-    /// The detection stage's findings.
+    /// The LED detection stage's findings (empty when tracking a marker).
     pub detection: Detection,
-    /// The LED's position and velocity, when found. Positions are image pixels, (0, 0) the
-    /// centre of the top-left pixel.
+    /// The LED's (or marker's) position and velocity, when found. Positions are image pixels,
+    /// (0, 0) the centre of the top-left pixel.
     pub position: Option<Estimate>,
-    /// Several candidates and no way yet to tell the LED from glare.
+    /// Several candidates and no way yet to tell the LED from glare (or the tracked marker id
+    /// seen twice).
     pub ambiguous: bool,
+    /// The tracked marker's corners and heading, when tracking a marker and it was found.
+    pub marker: Option<MarkerPose>,
+    /// Floor position, velocity and heading, when a calibration is loaded and `position` is
+    /// known.
+    pub floor: Option<FloorFix>,
 }
 
 impl FrameReport {
@@ -43,51 +53,131 @@ impl FrameReport {
     }
 }
 
+/// What finds the robot in a frame.
+// One per run, built once and never moved per frame: the size difference costs nothing.
+#[allow(clippy::large_enum_variant)]
+enum Front {
+    /// A saturated LED: segmentation, then the tracker choosing and following a blob.
+    Led {
+        detector: Detector,
+        tracker: Tracker,
+    },
+    /// An ArUco / AprilTag marker of one id.
+    Marker(MarkerTracker),
+}
+
 /// The per-frame path and its state.
 pub struct Pipeline {
-    detector: Detector,
-    tracker: Tracker,
+    front: Front,
+    /// Screen → floor, when a calibration is loaded.
+    floor: Option<FloorStage>,
 }
 
 impl Pipeline {
-    /// Allocates every stage for frames of `size`.
-    pub fn new(size: FrameSize, config: PipelineConfig) -> Self {
+    /// Allocates every stage of LED tracking for frames of `size`.
+    pub fn new(size: FrameSize, config: PipelineConfig) -> Result<Self, BackgroundError> {
+        Ok(Pipeline {
+            front: Front::Led {
+                detector: Detector::new(size, config.detector)?,
+                tracker: Tracker::new(config.tracker),
+            },
+            floor: None,
+        })
+    }
+
+    /// A pipeline that follows a marker instead of an LED.
+    pub fn marker(tracker: MarkerTracker) -> Self {
         Pipeline {
-            detector: Detector::new(size, config.detector),
-            tracker: Tracker::new(config.tracker),
+            front: Front::Marker(tracker),
+            floor: None,
         }
     }
 
-    /// Processes one frame: segment, let the tracker choose the LED among the candidates,
-    /// analyse that one blob's streak, and update the track.
+    /// Adds the floor stage: every found frame also gets floor coordinates.
+    pub fn with_floor(mut self, floor: FloorStage) -> Self {
+        self.floor = Some(floor);
+        self
+    }
+
+    /// Feeds a frame of a separate background recording to the LED detector (nothing to do
+    /// when tracking a marker).
+    pub fn learn_background(&mut self, frame: &Frame<'_>) -> Result<(), BackgroundError> {
+        match &mut self.front {
+            Front::Led { detector, .. } => detector.learn_background(frame),
+            Front::Marker(_) => Ok(()),
+        }
+    }
+
+    /// Processes one frame: find the robot (LED: segment, let the tracker choose the LED among
+    /// the candidates, analyse that one blob's streak, update the track; marker: detect and
+    /// pick the id), then map the result to the floor.
     pub fn process(&mut self, frame: &Frame<'_>, meta: FrameMeta) -> FrameReport {
-        let mut detection = self.detector.segment(frame);
-        let choice = self
-            .tracker
-            .choose(self.detector.candidates(), meta.index, meta.timestamp_us);
-        detection.best = match choice {
-            Choice::Blob(index) => self.detector.analyze(frame, index, detection.levels),
-            Choice::Nothing | Choice::Ambiguous => None,
+        let (detection, position, ambiguous, marker) = match &mut self.front {
+            Front::Led { detector, tracker } => {
+                let mut detection = detector.segment(frame);
+                let choice = tracker.choose(detector.candidates(), meta.index, meta.timestamp_us);
+                detection.best = match choice {
+                    Choice::Blob(index) => detector.analyze(frame, index, detection.levels),
+                    Choice::Nothing | Choice::Ambiguous => None,
+                };
+                let position =
+                    tracker.update(meta.timestamp_us, detection.best.as_ref().map(|(_, s)| s));
+                (detection, position, choice == Choice::Ambiguous, None)
+            }
+            Front::Marker(tracker) => {
+                let found = tracker.process(frame, meta.timestamp_us);
+                (no_detection(), found.estimate, found.ambiguous, found.pose)
+            }
         };
-        let position = self
-            .tracker
-            .update(meta.timestamp_us, detection.best.as_ref().map(|(_, s)| s));
+        let floor = match (&self.floor, &position) {
+            (Some(stage), Some(p)) => Some(stage.map(p, marker.as_ref().map(|m| &m.corners_px))),
+            _ => None,
+        };
         FrameReport {
             meta,
             detection,
             position,
-            ambiguous: choice == Choice::Ambiguous,
+            ambiguous,
+            marker,
+            floor,
         }
     }
 
-    /// The detection stage, for overlays and diagnostics.
-    pub fn detector(&self) -> &Detector {
-        &self.detector
+    /// The LED detection stage, for overlays and diagnostics (`None` when tracking a marker).
+    pub fn detector(&self) -> Option<&Detector> {
+        match &self.front {
+            Front::Led { detector, .. } => Some(detector),
+            Front::Marker(_) => None,
+        }
     }
 
-    /// The tracking stage.
-    pub fn tracker(&self) -> &Tracker {
-        &self.tracker
+    /// The LED tracking stage (`None` when tracking a marker).
+    pub fn tracker(&self) -> Option<&Tracker> {
+        match &self.front {
+            Front::Led { tracker, .. } => Some(tracker),
+            Front::Marker(_) => None,
+        }
+    }
+
+    /// The floor stage, when a calibration is loaded.
+    pub fn floor(&self) -> Option<&FloorStage> {
+        self.floor.as_ref()
+    }
+}
+
+/// The LED detection's report for a frame it did not look at.
+fn no_detection() -> Detection {
+    Detection {
+        levels: Levels {
+            top_luma: 0,
+            threshold_luma: None,
+        },
+        mask_px: 0,
+        blob_count: 0,
+        overflow: Overflow::default(),
+        blinded: false,
+        learning: false,
+        best: None,
     }
 }
 

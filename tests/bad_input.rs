@@ -137,3 +137,55 @@ fn unknown_arguments_are_one_line_too() {
         .unwrap();
     assert_one_line_error(&out, "neither `auto` nor a luma level");
 }
+
+/// A 320×240 frame with a 3×3 LED at (100, 100) and `dots` saturated 2×2 dots on a grid.
+fn cluttered(dots: usize) -> Vec<u8> {
+    const CW: usize = 320;
+    const CH: usize = 240;
+    let mut bytes = vec![128u8; CW * CH * 2];
+    for y in 0..CH {
+        for x in 0..CW {
+            bytes[2 * (y * CW + x)] = 60;
+        }
+    }
+    let mut lit = |x: usize, y: usize| bytes[2 * (y * CW + x)] = 255;
+    for dy in 0..3 {
+        for dx in 0..3 {
+            lit(99 + dx, 99 + dy);
+        }
+    }
+    for i in 0..dots {
+        let (x, y) = (4 + (i % 40) * 8, 130 + (i / 40) * 6);
+        for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+            lit(x + dx, y + dy);
+        }
+    }
+    bytes
+}
+
+#[test]
+fn hundreds_of_blobs_are_reported_once_and_tracking_recovers() {
+    let mut bytes = cluttered(0);
+    for _ in 0..3 {
+        bytes.extend(cluttered(400));
+    }
+    bytes.extend(cluttered(0));
+    let (_dir, path) = temp_file("cluttered.yuv", &bytes);
+    let out = track_file(&path, "320x240");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let reports = parse_jsonl(&out.stdout);
+    let found: Vec<bool> = reports.iter().map(|r| r["found"] == true).collect();
+    assert_eq!(found, [true, false, false, false, true]);
+    assert!(reports[1..4].iter().all(|r| r["overflow"] == true));
+    assert!((reports[4]["x"].as_f64().unwrap() - 100.0).abs() < 0.01);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(
+        stderr.matches("blobs in one frame").count(),
+        1,
+        "reported once: {stderr}"
+    );
+}

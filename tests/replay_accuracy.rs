@@ -175,6 +175,7 @@ fn csv_carries_the_same_columns() {
     let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
     assert_eq!(rows.len(), json.len());
     for (row, j) in rows.iter().zip(&json) {
+        assert_eq!(row.len(), header.len(), "a cell for every column: {row:?}");
         assert_eq!(row[col("frame")], j["frame"].to_string());
         assert_eq!(row[col("found")], j["found"].to_string());
         for key in ["x", "y", "mid_x", "mid_y", "t"] {

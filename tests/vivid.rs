@@ -1,11 +1,15 @@
 //! Capture against a real V4L2 driver: the kernel's `vivid` virtual video driver, in a small
 //! qemu VM (tests/vm/). One boot runs all scenarios (tests/vm/guest-suite.sh) with the
-//! `capture_probe` example as the guest program; each test below checks one scenario's output.
+//! `capture_probe` example and the real `glint` binary as the guest programs; each test below
+//! checks one scenario's output. The LED scenes fed through vivid's output→capture loop are
+//! rendered here with the scene renderer, so their ground truth is known.
 //!
 //! Needs the packages of tools/setup-system.sh. `GLINT_SKIP_VM=1` skips these tests (loudly);
 //! otherwise a VM that fails to boot fails them.
 
 #![cfg(feature = "v4l2")]
+
+mod common;
 
 use std::collections::HashMap;
 use std::fs;
@@ -14,11 +18,25 @@ use std::process::Command;
 use std::sync::OnceLock;
 use std::time::Instant;
 
+use glint_tools::scene::{Scene, Truth};
+use serde_json::Value;
+
 const WIDTH_PX: usize = 640;
 const HEIGHT_PX: usize = 480;
 const ROW_BYTES: usize = WIDTH_PX * 2;
 /// Distinct pictures fed through vivid's loop.
 const LOOP_FRAMES: u8 = 6;
+/// The LED scene fed through the loop for `glint track --device`: every `SCENE_STEP`-th frame
+/// of the preset, so that the fed LED positions are 40 px apart and each report can be matched
+/// to the one frame it came from, however vivid repeats or skips frames.
+const SCENE: &str = "slow-line";
+const SCENE_STEP: usize = 20;
+const SCENE_FRAMES: u8 = 8;
+/// Streak middles found in the loop's frames are within this of the scene's truth (the p95
+/// bound of tests/replay_accuracy.rs).
+const MID_MAX_ERROR_PX: f64 = 0.5;
+/// Frames `glint record` records in the guest.
+const RECORD_FRAMES: usize = 12;
 
 /// The scenario outputs, read once.
 struct Suite {
@@ -91,6 +109,54 @@ fn loop_frame_id(k: u8) -> u32 {
     u32::from_le_bytes([0x40 + k, 0x51, 0x62, 0x73])
 }
 
+/// Frame id of scene frame `k`, in the first four luma bytes (all far below saturation).
+fn scene_frame_id(k: u8) -> u32 {
+    u32::from_le_bytes([0x20 + k, 0x31, 0x42, 0x53])
+}
+
+/// The id in the first four luma bytes of a frame.
+fn luma_id(frame: &[u8]) -> u32 {
+    u32::from_le_bytes([frame[0], frame[2], frame[4], frame[6]])
+}
+
+/// The scene frames fed through the loop, with their ids written in, and their truths.
+fn scene_feed() -> (Vec<u8>, Vec<Truth>) {
+    let scene = Scene::preset(SCENE).expect("scene preset");
+    assert_eq!((scene.width_px(), scene.height_px()), (640, 480));
+    let mut bytes = Vec::new();
+    let mut truths = Vec::new();
+    let mut frame = vec![0u8; scene.frame_len_bytes()];
+    for k in 0..SCENE_FRAMES {
+        truths.push(
+            scene
+                .render(usize::from(k) * SCENE_STEP, &mut frame)
+                .expect("render"),
+        );
+        for (i, b) in scene_frame_id(k).to_le_bytes().into_iter().enumerate() {
+            frame[2 * i] = b;
+        }
+        bytes.extend_from_slice(&frame);
+    }
+    (bytes, truths)
+}
+
+/// The fed scene frame whose truth lies nearest to a report's streak middle, and how far.
+fn nearest_truth(report: &Value, truths: &[Truth]) -> (usize, f64) {
+    let (x, y) = (
+        report["mid_x"].as_f64().expect("mid_x"),
+        report["mid_y"].as_f64().expect("mid_y"),
+    );
+    truths
+        .iter()
+        .enumerate()
+        .map(|(k, t)| {
+            let d = (t.mid_x_px.expect("visible") - x).hypot(t.mid_y_px.expect("visible") - y);
+            (k, d)
+        })
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .expect("some truths")
+}
+
 /// The probe's frame hash: FNV-1a 64 over the unpadded rows.
 fn fnv1a(bytes: &[u8]) -> u64 {
     bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| {
@@ -121,8 +187,20 @@ fn run_suite() -> Result<Suite, String> {
         share.join("guest.sh"),
     )
     .map_err(|e| e.to_string())?;
+    // The real glint binary, stripped like the probe.
+    let glint = Path::new(env!("CARGO_BIN_EXE_glint"));
+    let stripped = Command::new("strip")
+        .arg("-o")
+        .arg(share.join("glint"))
+        .arg(glint)
+        .status()
+        .is_ok_and(|s| s.success());
+    if !stripped {
+        fs::copy(glint, share.join("glint")).map_err(|e| e.to_string())?;
+    }
     let input: Vec<u8> = (0..LOOP_FRAMES).flat_map(loop_frame).collect();
     fs::write(share.join("in/loop.yuv"), input).map_err(|e| e.to_string())?;
+    fs::write(share.join("in/scene.yuv"), scene_feed().0).map_err(|e| e.to_string())?;
 
     let started = Instant::now();
     let prepare = Command::new(repo().join("tests/vm/prepare.sh"))
@@ -234,6 +312,11 @@ impl Suite {
 
     fn file(&self, name: &str) -> String {
         fs::read_to_string(self.out.join(name)).unwrap_or_default()
+    }
+
+    /// glint's own JSON lines, parsed strictly.
+    fn reports(&self, name: &str) -> Vec<Value> {
+        common::parse_jsonl(&fs::read(self.out.join(format!("{name}.jsonl"))).unwrap_or_default())
     }
 }
 
@@ -431,4 +514,207 @@ fn the_reopening_source_resumes_after_the_device_returns() {
         .expect("output");
     assert_eq!(end.str("event"), "end");
     assert!(end.num("reopens") >= 1);
+}
+
+/// glint's reports: frames numbered from 0, time from 0 and rising, sequence numbers stepping
+/// by one plus the drops reported.
+fn assert_report_timeline(reports: &[Value]) {
+    assert_eq!(
+        reports[0]["t"].as_f64(),
+        Some(0.0),
+        "the first frame is t = 0"
+    );
+    for (i, pair) in reports.windows(2).enumerate() {
+        let (a, b) = (&pair[0], &pair[1]);
+        let n = |v: &Value, k: &str| v[k].as_u64().unwrap_or_else(|| panic!("{k} in {v}"));
+        assert_eq!(n(b, "frame"), n(a, "frame") + 1, "report {i}: frame");
+        assert_eq!(
+            n(b, "seq"),
+            n(a, "seq") + 1 + n(b, "dropped"),
+            "report {i}: sequence step vs dropped"
+        );
+        assert!(
+            b["t"].as_f64() > a["t"].as_f64(),
+            "report {i}: time must increase"
+        );
+    }
+}
+
+#[test]
+fn scene_frames_come_back_through_the_loop_byte_exact() {
+    let Some(suite) = suite() else { return };
+    assert_eq!(
+        suite.status("scene_loop"),
+        "0",
+        "{}",
+        suite.log("scene_loop")
+    );
+    let (bytes, _) = scene_feed();
+    let fed: HashMap<u64, String> = bytes
+        .chunks_exact(ROW_BYTES * HEIGHT_PX)
+        .map(|f| (u64::from(luma_id(f)), format!("{:016x}", fnv1a(f))))
+        .collect();
+    let frames = suite.frames("scene_loop");
+    assert_eq!(frames.len(), 8);
+    for frame in &frames {
+        let id = frame.num("id");
+        assert_eq!(
+            Some(frame.str("hash")),
+            fed.get(&id).map(String::as_str),
+            "frame {} (id {id:#x})",
+            frame.num("index")
+        );
+    }
+}
+
+#[test]
+fn glint_track_finds_the_led_of_a_scene_fed_through_the_loop() {
+    let Some(suite) = suite() else { return };
+    let log = suite.log("track");
+    assert_eq!(
+        suite.status("track"),
+        "0",
+        "SIGTERM ends glint cleanly: {log}"
+    );
+    assert!(!log.contains("panicked"), "{log}");
+    // Every line is complete JSON: the output was flushed when the stream stopped.
+    let reports = suite.reports("track");
+    assert!(reports.len() >= 20, "{} reports; log: {log}", reports.len());
+    assert_report_timeline(&reports);
+
+    let (_, truths) = scene_feed();
+    let found: Vec<&Value> = reports.iter().filter(|r| r["found"] == true).collect();
+    assert!(
+        found.len() * 10 >= reports.len() * 9,
+        "the LED is found in {} of {} frames",
+        found.len(),
+        reports.len()
+    );
+    let mut matched = std::collections::HashSet::new();
+    for report in found {
+        let (k, error_px) = nearest_truth(report, &truths);
+        assert!(
+            error_px <= MID_MAX_ERROR_PX,
+            "frame {}: {error_px:.3} px from the nearest fed LED (scene frame {})",
+            report["frame"],
+            k * SCENE_STEP
+        );
+        matched.insert(k);
+    }
+    assert!(
+        matched.len() >= 2,
+        "the loop advances through the fed frames: {matched:?}"
+    );
+}
+
+#[test]
+fn glint_track_reports_controls_summaries_and_latency_on_stderr() {
+    let Some(suite) = suite() else { return };
+    let log = suite.log("track");
+    assert!(
+        log.contains("refused no_such_control = 1: the camera has no such control"),
+        "{log}"
+    );
+    assert!(
+        log.contains("YUYV 640x480 with rows 1280 bytes apart"),
+        "{log}"
+    );
+    let summary = log
+        .lines()
+        .find(|l| l.contains("glint: info: last "))
+        .unwrap_or_else(|| panic!("a periodic summary: {log}"));
+    for part in [" frames (", " fps), ", " dropped (", "LED found in "] {
+        assert!(summary.contains(part), "{part:?} in {summary}");
+    }
+    // The latency table, periodically and once more at the end.
+    assert!(log.matches("dequeue→results").count() >= 2, "{log}");
+    assert!(log.contains("glint: latency over "), "{log}");
+}
+
+#[test]
+fn glint_record_writes_a_dump_and_sidecar_that_replays_with_the_real_timing() {
+    let Some(suite) = suite() else { return };
+    let log = suite.file("record.err");
+    assert_eq!(suite.status("record"), "0", "{log}");
+    assert!(
+        log.contains(&format!("recorded {RECORD_FRAMES} frames")),
+        "{log}"
+    );
+    let dump_path = suite.out.join("rec.yuv");
+    let dump = fs::read(&dump_path).expect("the recorded dump");
+    let frame_bytes = ROW_BYTES * HEIGHT_PX;
+    assert_eq!(dump.len(), RECORD_FRAMES * frame_bytes);
+    let sidecar: Value =
+        serde_json::from_str(&suite.file("rec.yuv.json")).expect("the sidecar is JSON");
+    assert_eq!(sidecar["format"], "YUYV");
+    assert_eq!(
+        (sidecar["width"].as_u64(), sidecar["height"].as_u64()),
+        (Some(640), Some(480))
+    );
+    assert_eq!(sidecar["stride"].as_u64(), Some(ROW_BYTES as u64));
+    assert!(sidecar["driver_stride"].as_u64() >= Some(ROW_BYTES as u64));
+    assert_eq!(sidecar["device"], "/dev/video0");
+    let timing = sidecar["frames"].as_array().expect("frames");
+    assert_eq!(timing.len(), RECORD_FRAMES);
+
+    // Replayed on the host, the dump carries the capture's times, sequence numbers and drops.
+    let out = common::glint()
+        .args(["track", "--input"])
+        .arg(&dump_path)
+        .args(["--size", "640x480"])
+        .output()
+        .expect("run glint");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let reports = common::parse_jsonl(&out.stdout);
+    assert_eq!(reports.len(), RECORD_FRAMES);
+    assert_report_timeline(&reports);
+    let (_, truths) = scene_feed();
+    let mut previous_seq = None;
+    for ((report, t), frame) in reports
+        .iter()
+        .zip(timing)
+        .zip(dump.chunks_exact(frame_bytes))
+    {
+        let seq = t["seq"].as_u64().expect("seq");
+        let t_us = t["t_us"].as_u64().expect("t_us");
+        assert_eq!(report["seq"].as_u64(), Some(seq), "{report}");
+        assert_eq!(
+            report["dropped"].as_u64(),
+            Some(previous_seq.map_or(0, |p: u64| seq - p - 1)),
+            "{report}"
+        );
+        previous_seq = Some(seq);
+        let t_s = report["t"].as_f64().expect("t");
+        assert!((t_s - t_us as f64 * 1e-6).abs() < 1e-6, "{report} vs {t}");
+        // Which fed frame this is, by its id; the LED must be where that frame put it.
+        let id = luma_id(frame);
+        let k = (0..SCENE_FRAMES)
+            .position(|k| scene_frame_id(k) == id)
+            .unwrap_or_else(|| panic!("recorded frame with unknown id {id:#x}"));
+        assert_eq!(report["found"], true, "{report}");
+        let truth = &truths[k];
+        let error_px = (report["mid_x"].as_f64().unwrap() - truth.mid_x_px.unwrap())
+            .hypot(report["mid_y"].as_f64().unwrap() - truth.mid_y_px.unwrap());
+        assert!(
+            error_px <= MID_MAX_ERROR_PX,
+            "{report}: {error_px:.3} px off"
+        );
+    }
+}
+
+#[test]
+fn glint_devices_lists_the_loop_capture_node() {
+    let Some(suite) = suite() else { return };
+    let list = suite.file("devices.txt");
+    assert!(list.contains("/dev/video0: vivid (driver vivid"), "{list}");
+    assert!(list.contains("YUYV (YUYV 4:2:2)"), "{list}");
+    assert!(list.contains(" controls:"), "{list}");
+    assert!(
+        !list.contains("/dev/video1:"),
+        "output nodes are not cameras: {list}"
+    );
 }

@@ -1,6 +1,15 @@
 //! Command-line interface: one file per subcommand.
 
+mod calib_args;
+mod calibrate;
+#[cfg(feature = "v4l2")]
+mod camera;
+#[cfg(feature = "v4l2")]
+mod devices;
+mod input;
 mod logger;
+#[cfg(feature = "v4l2")]
+mod record;
 mod track;
 
 use std::process::ExitCode;
@@ -24,8 +33,16 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
-    /// Track the LED in a raw YUYV dump (file or `-` for standard input).
+    /// Track the LED in a raw YUYV dump (file or `-` for standard input) or from a camera.
     Track(track::TrackArgs),
+    /// Calibrate screen to floor from ArUco markers at known floor positions in a dump.
+    Calibrate(calibrate::CalibrateArgs),
+    /// List the V4L2 cameras with their formats, sizes, frame intervals and controls.
+    #[cfg(feature = "v4l2")]
+    Devices,
+    /// Record frames from a camera into a raw dump plus a sidecar with their timing.
+    #[cfg(feature = "v4l2")]
+    Record(record::RecordArgs),
 }
 
 /// Parses the arguments, runs the command, and turns any error into one line on standard
@@ -40,17 +57,27 @@ pub fn main() -> ExitCode {
         }
         Err(e) => {
             let rendered = e.render().to_string();
-            let first = rendered
-                .lines()
-                .next()
-                .unwrap_or("error: invalid arguments");
-            eprintln!("glint: {}", first.trim_start_matches("error: "));
+            let mut lines = rendered.lines();
+            let first = lines.next().unwrap_or("error: invalid arguments");
+            // "the following required arguments were not provided:" lists them below.
+            let mut message = first.trim_start_matches("error: ").to_string();
+            if first.ends_with(':') {
+                let listed: Vec<&str> =
+                    lines.map(str::trim).take_while(|l| !l.is_empty()).collect();
+                message = format!("{message} {}", listed.join(", "));
+            }
+            eprintln!("glint: {message}");
             return ExitCode::from(EXIT_USAGE);
         }
     };
     logger::init(cli.verbose);
     let result = match cli.command {
         Command::Track(args) => track::run(args),
+        Command::Calibrate(args) => calibrate::run(args),
+        #[cfg(feature = "v4l2")]
+        Command::Devices => devices::run(),
+        #[cfg(feature = "v4l2")]
+        Command::Record(args) => record::run(args),
     };
     match result {
         Ok(code) => code,

@@ -1,20 +1,26 @@
-//! `glint track`: replay a raw YUYV dump through the pipeline and print one report per frame.
+//! `glint track`: run the pipeline on a raw YUYV dump or a camera and print one report per frame.
 
 use std::fs::File;
-use std::io::{self, BufWriter, Read};
+use std::io::{self, BufWriter};
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
 
+use super::{calib_args, input};
+
+use glint::detect::bgdiff::MAX_BACKGROUND_FRAMES;
 use glint::detect::morph::Kernel;
 use glint::detect::skeleton::SkeletonMethod;
 use glint::detect::threshold::Threshold;
-use glint::detect::DetectorConfig;
+use glint::detect::{DetectorConfig, MaskMethod};
 use glint::frame::FrameSize;
+use glint::monitor;
 use glint::pipeline::{self, Pipeline, PipelineConfig, RunSummary};
 use glint::sink::{serial, CsvSink, JsonLinesSink, SerialSink, Tee};
 use glint::source::dump::DumpSource;
+use glint::source::FrameSource;
 use glint::track::TrackerConfig;
 
 /// Output buffer size: a few hundred report lines.
@@ -22,17 +28,17 @@ const OUTPUT_BUFFER_BYTES: usize = 64 * 1024;
 
 #[derive(Debug, Args)]
 pub struct TrackArgs {
-    /// A raw YUYV dump, or `-` for standard input.
-    #[arg(long, value_name = "PATH|-")]
-    input: String,
+    #[command(flatten)]
+    input: input::InputArgs,
 
     /// Frame size in pixels.
     #[arg(long, value_name = "WxH")]
     size: FrameSize,
 
-    /// Frame rate of the dump, for timestamps.
-    #[arg(long, default_value_t = 30.0, value_parser = parse_fps)]
-    fps: f64,
+    /// Frame rate: of a dump without a sidecar, for timestamps (default 30); of a camera, to
+    /// ask for (default: its current one).
+    #[arg(long, value_parser = parse_fps)]
+    fps: Option<f64>,
 
     /// Saturation threshold (luma 0–255), or `auto` to follow each frame's top level.
     #[arg(long, default_value = "auto", value_parser = parse_threshold)]
@@ -51,14 +57,33 @@ pub struct TrackArgs {
     #[arg(long, value_enum, default_value_t = KernelArg::Square)]
     erode_kernel: KernelArg,
 
-    /// The camera's exposure time in microseconds, when known: the streak's length over it
-    /// gives the speed within a single frame.
-    #[arg(long, value_name = "US", value_parser = clap::value_parser!(u32).range(1..=10_000_000))]
-    exposure_us: Option<u32>,
+    /// What finds the robot: saturated pixels, pixels that differ from a background, or an
+    /// ArUco marker it carries (`aruco`, with `--marker ID`).
+    #[arg(long, value_enum, default_value_t = DetectorArg::Saturation)]
+    detector: DetectorArg,
+
+    /// With `--detector bgdiff`: learn the background from the first N frames (their
+    /// per-pixel median), which are then reported as not found.
+    #[arg(long, default_value_t = 9, value_name = "N",
+          value_parser = clap::value_parser!(u16).range(1..=MAX_BACKGROUND_FRAMES as i64))]
+    background_frames: u16,
+
+    /// With `--detector bgdiff`: learn the background from a separate raw dump of the empty
+    /// scene instead (its first `--background-frames` frames, at least one).
+    #[arg(long, value_name = "PATH")]
+    background: Option<PathBuf>,
+
+    /// With `--detector bgdiff`: the luma difference from the background that counts.
+    #[arg(long, default_value_t = 60, value_name = "LUMA",
+          value_parser = clap::value_parser!(u8).range(1..))]
+    diff: u8,
 
     /// Skeleton for the streak's middle and ends.
     #[arg(long, value_enum, default_value_t = SkeletonArg::Thinning)]
     skeleton: SkeletonArg,
+
+    #[command(flatten)]
+    floor: calib_args::FloorArgs,
 
     /// Also send position packets to the robot on this serial port (board/protocol/SPEC.md).
     #[arg(long, value_name = "PORT")]
@@ -73,6 +98,16 @@ pub struct TrackArgs {
 enum Format {
     Jsonl,
     Csv,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum DetectorArg {
+    /// Saturated pixels (the default).
+    Saturation,
+    /// Background difference.
+    Bgdiff,
+    /// An ArUco / AprilTag marker carried by the robot (with `--marker ID`).
+    Aruco,
 }
 
 #[derive(Debug, Clone, Copy, ValueEnum)]
@@ -109,6 +144,13 @@ impl TrackArgs {
     fn pipeline_config(&self) -> PipelineConfig {
         PipelineConfig {
             detector: DetectorConfig {
+                method: match self.detector {
+                    DetectorArg::Saturation | DetectorArg::Aruco => MaskMethod::Saturation,
+                    DetectorArg::Bgdiff => MaskMethod::BackgroundDifference {
+                        diff_luma: self.diff,
+                        frames: usize::from(self.background_frames),
+                    },
+                },
                 threshold: self.threshold,
                 erosions: self.erode,
                 erosion_kernel: match self.erode_kernel {
@@ -122,26 +164,27 @@ impl TrackArgs {
                 ..DetectorConfig::default()
             },
             tracker: TrackerConfig {
-                exposure_us: self.exposure_us,
+                exposure_us: self.input.exposure_us(),
             },
         }
     }
 }
 
 pub fn run(args: TrackArgs) -> Result<ExitCode> {
-    let live = args.input == "-";
-    let reader: Box<dyn Read> = if live {
-        Box::new(io::stdin().lock())
-    } else {
-        let file =
-            File::open(&args.input).with_context(|| format!("cannot open {}", args.input))?;
-        if file.metadata().map(|m| m.is_dir()).unwrap_or(false) {
-            bail!("{} is a directory, not a dump", args.input);
+    let input::Input {
+        mut source,
+        live,
+        mut monitor,
+    } = input::open(&args.input, args.size, args.fps)?;
+    let aruco = args.detector == DetectorArg::Aruco;
+    let mut pipeline =
+        calib_args::build_pipeline(&args.floor, args.size, aruco, args.pipeline_config())?;
+    if let Some(path) = &args.background {
+        if args.detector != DetectorArg::Bgdiff {
+            bail!("--background goes with --detector bgdiff");
         }
-        Box::new(file)
-    };
-    let mut source = DumpSource::new(reader, args.size, args.fps);
-    let mut pipeline = Pipeline::new(args.size, args.pipeline_config());
+        learn_background(&mut pipeline, path, &args)?;
+    }
     let serial = args
         .serial
         .as_deref()
@@ -149,17 +192,20 @@ pub fn run(args: TrackArgs) -> Result<ExitCode> {
     let serial = serial.transpose()?;
     let stdout = BufWriter::with_capacity(OUTPUT_BUFFER_BYTES, io::stdout().lock());
     let (summary, result) = match args.format {
-        Format::Jsonl => pipeline::run(
+        Format::Jsonl => monitor::run(
             &mut source,
             &mut pipeline,
             &mut Tee::new(JsonLinesSink::new(stdout, live), serial),
+            &mut monitor,
         ),
-        Format::Csv => pipeline::run(
+        Format::Csv => monitor::run(
             &mut source,
             &mut pipeline,
             &mut Tee::new(CsvSink::new(stdout, live), serial),
+            &mut monitor,
         ),
     };
+    input::report(&monitor);
     log_summary(&summary);
     match result {
         Ok(()) => Ok(ExitCode::SUCCESS),
@@ -169,6 +215,28 @@ pub fn run(args: TrackArgs) -> Result<ExitCode> {
         }
         Err(e) => Err(e).with_context(|| format!("after {} whole frames", summary.frames)),
     }
+}
+
+/// Feeds the first `--background-frames` frames of a separate dump to the background model.
+fn learn_background(pipeline: &mut Pipeline, path: &Path, args: &TrackArgs) -> Result<()> {
+    let file =
+        File::open(path).with_context(|| format!("cannot open background {}", path.display()))?;
+    let fps = args.fps.unwrap_or(input::DEFAULT_DUMP_FPS);
+    let mut source = DumpSource::new(file, args.size, fps);
+    let mut learned = 0;
+    while learned < args.background_frames {
+        match source.next_frame() {
+            Ok(Some((frame, _))) => pipeline.learn_background(&frame)?,
+            Ok(None) => bail!(
+                "background {} has {learned} whole frames, --background-frames wants {}",
+                path.display(),
+                args.background_frames
+            ),
+            Err(e) => return Err(e).with_context(|| format!("background {}", path.display())),
+        }
+        learned += 1;
+    }
+    Ok(())
 }
 
 fn log_summary(summary: &RunSummary) {

@@ -232,6 +232,24 @@ impl BitImage {
         }
     }
 
+    /// The set pixels inside `window`, row by row, as `(x, y)`: a word at a time, so empty
+    /// stretches cost little.
+    pub fn ones_in(&self, window: Window) -> OnesIn<'_> {
+        let window = Window {
+            y1: window.y1.min(self.height_px),
+            k1: window.k1.min(self.words_per_row),
+            ..window
+        };
+        OnesIn {
+            image: self,
+            window,
+            y: window.y0,
+            k: window.k0,
+            word: 0,
+            started: false,
+        }
+    }
+
     /// Number of set pixels.
     pub fn count_ones(&self) -> usize {
         self.words.iter().map(|w| w.count_ones() as usize).sum()
@@ -249,6 +267,44 @@ impl BitImage {
     /// True when both images have the same dimensions.
     pub fn same_shape(&self, other: &BitImage) -> bool {
         self.width_px == other.width_px && self.height_px == other.height_px
+    }
+}
+
+/// The set pixels of a window of a [`BitImage`]; see [`BitImage::ones_in`].
+pub struct OnesIn<'a> {
+    image: &'a BitImage,
+    window: Window,
+    y: usize,
+    k: usize,
+    word: u64,
+    started: bool,
+}
+
+impl Iterator for OnesIn<'_> {
+    type Item = (usize, usize);
+
+    #[inline]
+    fn next(&mut self) -> Option<(usize, usize)> {
+        loop {
+            if self.word != 0 {
+                let bit = self.word.trailing_zeros() as usize;
+                self.word &= self.word - 1;
+                return Some((self.k * WORD_BITS + bit, self.y));
+            }
+            // Step to the next word of the window, row by row.
+            if self.started {
+                self.k += 1;
+                if self.k >= self.window.k1 {
+                    self.k = self.window.k0;
+                    self.y += 1;
+                }
+            }
+            self.started = true;
+            if self.y >= self.window.y1 || self.window.k0 >= self.window.k1 {
+                return None;
+            }
+            self.word = self.image.row(self.y).get(self.k).copied().unwrap_or(0);
+        }
     }
 }
 
@@ -285,9 +341,19 @@ mod tests {
         assert_eq!(image.row(1), &[0, 1, 0b10]);
         image.clear(64, 1);
         assert_eq!(image.count_ones(), 1);
+        let ones: Vec<_> = image.ones_in(image.full_window()).collect();
+        assert_eq!(ones, [(129, 1)]);
         image.set_run(0, 60, 70);
         image.set_run(0, 125, 500);
         assert_eq!(image.row(0), &[0xF << 60, 0x7F | 0x7 << 61, 0b11]);
+        let window = Window {
+            y0: 0,
+            y1: 1,
+            k0: 1,
+            k1: 2,
+        };
+        let ones: Vec<_> = image.ones_in(window).map(|(x, _)| x).collect();
+        assert_eq!(ones, [64, 65, 66, 67, 68, 69, 70, 125, 126, 127]);
         assert_eq!(image.last_word_mask(), 0b11);
     }
 }

@@ -49,6 +49,9 @@ pub struct Blob {
     pub bbox: BoundingBox,
     /// Mean of its pixel centres (the seed's mass centre, binary).
     pub mass_centre_px: (f32, f32),
+    /// How much longer than wide the blob is: the ratio of its principal second moments
+    /// (1 for a disk; grows with the length of a streak).
+    pub elongation: f32,
 }
 
 /// A horizontal run of set pixels, `x0..=x1` on row `y`.
@@ -226,7 +229,7 @@ impl Labeler {
 
     /// Gives every root a blob slot and sums each blob's statistics.
     fn assign_slots(&mut self) {
-        let mut sums = [(0u64, 0u64); MAX_BLOBS];
+        let mut sums = [Moments::default(); MAX_BLOBS];
         for i in 0..self.runs.len() {
             let root = self.find(i);
             let slot = if root == i {
@@ -241,6 +244,7 @@ impl Labeler {
                         y_max_px: run.y.into(),
                     },
                     mass_centre_px: (0.0, 0.0),
+                    elongation: 1.0,
                 };
                 if self.blobs.push(blob).is_err() {
                     self.overflow.blobs = true;
@@ -259,22 +263,63 @@ impl Labeler {
             ) else {
                 continue;
             };
-            let len = u64::from(run.x1 - run.x0) + 1;
-            blob.area_px += len as u32;
-            sum.0 += len * (u64::from(run.x0) + u64::from(run.x1));
-            sum.1 += len * 2 * u64::from(run.y);
+            blob.area_px += u32::from(run.x1 - run.x0) + 1;
+            sum.add_run(run);
             let b = &mut blob.bbox;
             b.x_min_px = b.x_min_px.min(run.x0.into());
             b.x_max_px = b.x_max_px.max(run.x1.into());
             b.y_max_px = b.y_max_px.max(run.y.into());
         }
         for (blob, sum) in self.blobs.iter_mut().zip(sums.iter()) {
-            let twice_area = 2.0 * blob.area_px as f64;
-            blob.mass_centre_px = (
-                (sum.0 as f64 / twice_area) as f32,
-                (sum.1 as f64 / twice_area) as f32,
-            );
+            let (centre, elongation) = sum.shape();
+            blob.mass_centre_px = centre;
+            blob.elongation = elongation;
         }
+    }
+}
+
+/// Raw moments of a blob's pixel centres, summed run by run in closed form.
+#[derive(Debug, Clone, Copy, Default)]
+struct Moments {
+    n: f64,
+    sx: f64,
+    sy: f64,
+    sxx: f64,
+    syy: f64,
+    sxy: f64,
+}
+
+impl Moments {
+    fn add_run(&mut self, run: Run) {
+        let (x0, x1, y) = (f64::from(run.x0), f64::from(run.x1), f64::from(run.y));
+        let n = x1 - x0 + 1.0;
+        let sx = n * (x0 + x1) / 2.0;
+        // Σ x² over x0..=x1, from the sum of squares 1..=m.
+        let squares = |m: f64| m * (m + 1.0) * (2.0 * m + 1.0) / 6.0;
+        let sxx = squares(x1) - squares(x0 - 1.0);
+        self.n += n;
+        self.sx += sx;
+        self.sy += n * y;
+        self.sxx += sxx;
+        self.syy += n * y * y;
+        self.sxy += sx * y;
+    }
+
+    /// The mass centre, and the ratio of the principal variances.
+    fn shape(&self) -> ((f32, f32), f32) {
+        if self.n <= 0.0 {
+            return ((0.0, 0.0), 1.0);
+        }
+        let (mx, my) = (self.sx / self.n, self.sy / self.n);
+        // A pixel is a unit square: add its own variance, 1/12, so single rows are not lines
+        // of zero width.
+        let cxx = self.sxx / self.n - mx * mx + 1.0 / 12.0;
+        let cyy = self.syy / self.n - my * my + 1.0 / 12.0;
+        let cxy = self.sxy / self.n - mx * my;
+        let half_trace = 0.5 * (cxx + cyy);
+        let spread = (0.25 * (cxx - cyy).powi(2) + cxy * cxy).sqrt();
+        let elongation = (half_trace + spread) / (half_trace - spread).max(f64::EPSILON);
+        ((mx as f32, my as f32), elongation as f32)
     }
 }
 
@@ -320,7 +365,28 @@ mod tests {
         );
         // x: (0+4)*2 + (0+1+2+3+4) = 18 over 9; y: 0*2 + 1*2 + 2*5 = 12 over 9.
         assert_eq!(blob.mass_centre_px, (2.0, 12.0 / 9.0));
+        assert!(blob.elongation > 1.0);
         assert_eq!(l.runs_of(0).count(), 5);
+    }
+
+    #[test]
+    fn a_streak_is_elongated_and_a_disk_is_not() {
+        let l = label(&[
+            "..###..........",
+            ".#####.........",
+            ".#####...######",
+            ".#####...######",
+            "..###....######",
+        ]);
+        let disk = l.blobs()[0];
+        let streak = l.blobs()[1];
+        assert!(disk.elongation < 1.1, "{}", disk.elongation);
+        // 6 × 3 pixels: variances (36/12) and (9/12), a ratio of 4.
+        assert!(
+            (streak.elongation - 4.0).abs() < 1e-4,
+            "{}",
+            streak.elongation
+        );
     }
 
     #[test]

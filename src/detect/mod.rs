@@ -3,6 +3,7 @@
 //! [`Detector`] owns every buffer the stage needs, sized once from the frame size, and runs
 //! the stages in order on each frame without allocating.
 
+pub mod bgdiff;
 pub mod bitimage;
 pub mod blobs;
 pub mod morph;
@@ -11,12 +12,13 @@ pub mod streak;
 pub mod threshold;
 pub mod tips;
 
+use bgdiff::{Background, BackgroundError};
 use bitimage::BitImage;
 use blobs::{Blob, Labeler, Overflow};
 use morph::Kernel;
 use skeleton::SkeletonMethod;
 use streak::{Streak, StreakScratch};
-use threshold::{Levels, Threshold};
+use threshold::{Levels, Threshold, AUTO_MARGIN_LUMA};
 
 use crate::frame::{Frame, FrameSize};
 
@@ -34,6 +36,8 @@ pub const MAX_BLOB_FRACTION: f32 = 0.02;
 /// Settings of the detection stage.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DetectorConfig {
+    /// Which mask the blobs are found in.
+    pub method: MaskMethod,
     /// How the saturation level is chosen.
     pub threshold: Threshold,
     /// Erosions applied to the mask before blobs are found (0 keeps LEDs a few pixels wide).
@@ -49,6 +53,7 @@ pub struct DetectorConfig {
 impl Default for DetectorConfig {
     fn default() -> Self {
         DetectorConfig {
+            method: MaskMethod::Saturation,
             threshold: Threshold::Auto,
             erosions: 0,
             erosion_kernel: Kernel::Square,
@@ -56,6 +61,17 @@ impl Default for DetectorConfig {
             min_area_px: 2,
         }
     }
+}
+
+/// Which pixels make the mask.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MaskMethod {
+    /// Saturated pixels (the seed's part III).
+    Saturation,
+    /// Pixels that differ from a learned background (the seed's part I). `frames` is how many
+    /// of the first frames the background is learned from, unless it is learned beforehand
+    /// with [`Detector::learn_background`].
+    BackgroundDifference { diff_luma: u8, frames: usize },
 }
 
 /// What detection found in one frame.
@@ -71,6 +87,8 @@ pub struct Detection {
     pub overflow: Overflow,
     /// More than [`BLINDED_FRACTION`] of the frame is saturated.
     pub blinded: bool,
+    /// The frame went into the background model instead of being searched.
+    pub learning: bool,
     /// The chosen blob and its streak geometry; `None` when nothing qualifies.
     pub best: Option<(Blob, Streak)>,
 }
@@ -86,12 +104,18 @@ pub struct Detector {
     max_area_px: u32,
     /// Whether the labeller's tables hold the last frame's blobs.
     labeled: bool,
+    /// The background model, for [`MaskMethod::BackgroundDifference`].
+    background: Option<Background>,
 }
 
 impl Detector {
-    /// Allocates every buffer for frames of `size`.
-    pub fn new(size: FrameSize, config: DetectorConfig) -> Self {
-        Detector {
+    /// Allocates every buffer for frames of `size`, including the background model's.
+    pub fn new(size: FrameSize, config: DetectorConfig) -> Result<Self, BackgroundError> {
+        let background = match config.method {
+            MaskMethod::Saturation => None,
+            MaskMethod::BackgroundDifference { frames, .. } => Some(Background::new(size, frames)?),
+        };
+        Ok(Detector {
             config,
             size,
             mask: BitImage::new(size),
@@ -100,6 +124,16 @@ impl Detector {
             streak: StreakScratch::new(size.width(), size.height()),
             max_area_px: (size.pixels() as f32 * MAX_BLOB_FRACTION) as u32,
             labeled: false,
+            background,
+        })
+    }
+
+    /// Feeds a frame to the background model (for a background taken from a separate
+    /// recording before tracking starts). Does nothing for the saturation method.
+    pub fn learn_background(&mut self, frame: &Frame<'_>) -> Result<(), BackgroundError> {
+        match &mut self.background {
+            Some(background) => background.learn(frame),
+            None => Ok(()),
         }
     }
 
@@ -118,7 +152,34 @@ impl Detector {
     /// candidate (see [`Detector::candidates`]) and analyses it with [`Detector::analyze`].
     pub fn segment(&mut self, frame: &Frame<'_>) -> Detection {
         self.streak.reset();
-        let (levels, mut mask_px) = threshold::apply(frame, self.config.threshold, &mut self.mask);
+        let mut learning = false;
+        let (levels, mut mask_px) = match (&mut self.background, self.config.method) {
+            (Some(background), MaskMethod::BackgroundDifference { diff_luma, .. }) => {
+                learning = !background.is_ready();
+                if learning {
+                    // A frame of the wrong size is refused by `segment` below anyway.
+                    let _ = background.learn(frame);
+                    self.mask.clear_all();
+                    (
+                        threshold::Levels {
+                            top_luma: 0,
+                            threshold_luma: None,
+                        },
+                        0,
+                    )
+                } else {
+                    let count = background.difference_into(frame, diff_luma, &mut self.mask);
+                    (
+                        threshold::Levels {
+                            top_luma: 0,
+                            threshold_luma: None,
+                        },
+                        count,
+                    )
+                }
+            }
+            _ => threshold::apply(frame, self.config.threshold, &mut self.mask),
+        };
         if self.config.erosions > 0 && mask_px > 0 {
             let window = self.mask.full_window();
             morph::erode_n(
@@ -136,6 +197,7 @@ impl Detector {
             blob_count: 0,
             overflow: Overflow::default(),
             blinded: mask_px as f32 > self.size.pixels() as f32 * BLINDED_FRACTION,
+            learning,
             best: None,
         };
         self.labeled = false;
@@ -181,7 +243,13 @@ impl Detector {
         levels: Levels,
     ) -> Option<(Blob, Streak)> {
         let blob = *self.labeler.blobs().get(index)?;
-        levels.threshold_luma?;
+        // A difference mask has no saturation level of its own: the blob's brightest pixel
+        // stands in for it, so rim weights and tip ramps work as on a saturated blob.
+        let levels = match levels.threshold_luma {
+            Some(_) => levels,
+            None if self.background.is_some() => blob_levels(frame, &blob),
+            None => return None,
+        };
         let streak = streak::analyze(
             frame,
             &self.labeler,
@@ -207,5 +275,18 @@ impl Detector {
     /// The blobs of the last frame.
     pub fn blobs(&self) -> &[Blob] {
         self.labeler.blobs()
+    }
+}
+
+/// Levels taken from a blob's own brightest pixel.
+fn blob_levels(frame: &Frame<'_>, blob: &Blob) -> Levels {
+    let b = blob.bbox;
+    let top_luma = (b.y_min_px..=b.y_max_px)
+        .flat_map(|y| (b.x_min_px..=b.x_max_px).filter_map(move |x| frame.luma(x, y)))
+        .max()
+        .unwrap_or(0);
+    Levels {
+        top_luma,
+        threshold_luma: Some(top_luma.saturating_sub(AUTO_MARGIN_LUMA)),
     }
 }

@@ -23,15 +23,15 @@ enum Op {
     Dilate,
 }
 
-/// Pixel `x` receives pixel `x - 1`.
+/// Pixel `x` receives pixel `x - 1` (`prev` is the word to the left).
 #[inline(always)]
-fn from_left(word: u64, prev: u64) -> u64 {
+pub(crate) fn from_left(word: u64, prev: u64) -> u64 {
     (word << 1) | (prev >> 63)
 }
 
-/// Pixel `x` receives pixel `x + 1`.
+/// Pixel `x` receives pixel `x + 1` (`next` is the word to the right).
 #[inline(always)]
-fn from_right(word: u64, next: u64) -> u64 {
+pub(crate) fn from_right(word: u64, next: u64) -> u64 {
     (word >> 1) | (next << 63)
 }
 

@@ -7,7 +7,7 @@
 //! around one blob, so their cost follows the blob, not the frame.
 
 use super::bitimage::{BitImage, Window};
-use super::morph::{self, Kernel};
+use super::morph::{self, from_left, from_right, Kernel};
 
 /// Which skeleton the streak stage uses.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -105,18 +105,6 @@ fn morphological(
             *s &= i;
         }
     }
-}
-
-/// Pixel `x` receives pixel `x - 1`.
-#[inline(always)]
-fn from_left(word: u64, prev: u64) -> u64 {
-    (word << 1) | (prev >> 63)
-}
-
-/// Pixel `x` receives pixel `x + 1`.
-#[inline(always)]
-fn from_right(word: u64, next: u64) -> u64 {
-    (word >> 1) | (next << 63)
 }
 
 #[inline(always)]

@@ -246,21 +246,13 @@ fn for_each_weighted(
     weights: &Weights,
     mut f: impl FnMut(f32, f32, f32),
 ) {
-    for y in window.y0..window.y1 {
-        let Some(row) = frame.row(y) else { continue };
-        for k in window.k0..window.k1 {
-            let mut bits = region.row(y).get(k).copied().unwrap_or(0);
-            while bits != 0 {
-                let x = k * 64 + bits.trailing_zeros() as usize;
-                bits &= bits - 1;
-                let Some(&luma) = row.get(2 * x) else {
-                    continue;
-                };
-                let w = weights.of(luma);
-                if w > 0.0 {
-                    f(x as f32, y as f32, w);
-                }
-            }
+    for (x, y) in region.ones_in(window) {
+        let Some(luma) = frame.luma(x, y) else {
+            continue;
+        };
+        let w = weights.of(luma);
+        if w > 0.0 {
+            f(x as f32, y as f32, w);
         }
     }
 }
@@ -289,20 +281,13 @@ fn nearest_set_pixel(
     let mut best = None;
     let mut best_d2 = f32::INFINITY;
     let mut count = 0;
-    for y in window.y0..window.y1 {
-        for k in window.k0..window.k1 {
-            let mut bits = image.row(y).get(k).copied().unwrap_or(0);
-            while bits != 0 {
-                let x = k * 64 + bits.trailing_zeros() as usize;
-                bits &= bits - 1;
-                count += 1;
-                let (dx, dy) = (x as f32 - target.0, y as f32 - target.1);
-                let d2 = dx * dx + dy * dy;
-                if d2 < best_d2 {
-                    best_d2 = d2;
-                    best = Some((x as u16, y as u16));
-                }
-            }
+    for (x, y) in image.ones_in(window) {
+        count += 1;
+        let (dx, dy) = (x as f32 - target.0, y as f32 - target.1);
+        let d2 = dx * dx + dy * dy;
+        if d2 < best_d2 {
+            best_d2 = d2;
+            best = Some((x as u16, y as u16));
         }
     }
     (best, count)

@@ -129,19 +129,12 @@ fn dist(a: (f32, f32), b: (f32, f32)) -> f32 {
 fn end_direction(skeleton: &BitImage, window: Window, end: (f32, f32)) -> Option<(f32, f32)> {
     let (mut sx, mut sy, mut n) = (0.0f32, 0.0f32, 0u32);
     let r2 = DIRECTION_RADIUS_PX * DIRECTION_RADIUS_PX;
-    for y in window.y0..window.y1 {
-        for k in window.k0..window.k1 {
-            let mut bits = skeleton.row(y).get(k).copied().unwrap_or(0);
-            while bits != 0 {
-                let x = k * 64 + bits.trailing_zeros() as usize;
-                bits &= bits - 1;
-                let (dx, dy) = (x as f32 - end.0, y as f32 - end.1);
-                if dx * dx + dy * dy <= r2 {
-                    sx += x as f32;
-                    sy += y as f32;
-                    n += 1;
-                }
-            }
+    for (x, y) in skeleton.ones_in(window) {
+        let (dx, dy) = (x as f32 - end.0, y as f32 - end.1);
+        if dx * dx + dy * dy <= r2 {
+            sx += x as f32;
+            sy += y as f32;
+            n += 1;
         }
     }
     if n == 0 {

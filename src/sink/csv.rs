@@ -3,11 +3,13 @@
 use std::io::{self, Write};
 
 use super::Sink;
+use crate::geometry::FloorFix;
 use crate::pipeline::FrameReport;
 
 /// The header line.
-pub const CSV_HEADER: &str =
-    "frame,t,found,x,y,mid_x,mid_y,area_px,len_px,seq,dropped,blobs,threshold,blinded,overflow";
+pub const CSV_HEADER: &str = "frame,t,found,x,y,mid_x,mid_y,pos_method,vx,vy,v_method,area_px,\
+len_px,seq,dropped,blobs,threshold,ambiguous,blinded,overflow,heading_deg,floor_x,floor_y,\
+floor_vx,floor_vy,floor_speed,floor_heading_deg,floor_unit,beyond_horizon";
 
 /// Writes reports as CSV rows under [`CSV_HEADER`].
 pub struct CsvSink<W: Write> {
@@ -70,7 +72,27 @@ impl<W: Write> Sink for CsvSink<W> {
         if let Some(level) = d.levels.threshold_luma {
             write!(out, "{level}")?;
         }
-        writeln!(out, ",{},{},{}", r.ambiguous, d.blinded, d.overflow.any())?;
+        write!(out, ",{},{},{}", r.ambiguous, d.blinded, d.overflow.any())?;
+        match r.marker {
+            Some(m) => write!(out, ",{:.2}", m.heading_deg)?,
+            None => write!(out, ",")?,
+        }
+        match r.floor {
+            Some(FloorFix::Mapped(f)) => {
+                write!(out, ",{:.3},{:.3}", f.position.x, f.position.y)?;
+                match f.velocity_per_s {
+                    Some(v) => write!(out, ",{:.3},{:.3},{:.3}", v.x, v.y, v.norm())?,
+                    None => write!(out, ",,,")?,
+                }
+                match f.heading_deg {
+                    Some(h) => write!(out, ",{h:.2}")?,
+                    None => write!(out, ",")?,
+                }
+                writeln!(out, ",{},false", f.unit)?;
+            }
+            Some(FloorFix::BeyondHorizon) => writeln!(out, ",,,,,,,,true")?,
+            None => writeln!(out, ",,,,,,,,false")?,
+        }
         if self.live {
             out.flush()?;
         }

@@ -1,8 +1,17 @@
 //! One JSON object per frame, one per line.
+//!
+//! Keys: `frame`, `t` (s), `found`; when found `x`, `y`, `mid_x`, `mid_y` (px), `pos_method`,
+//! and when known `vx`, `vy` (px/s), `v_method`; for a tracked marker `heading_deg` (screen).
+//! With a calibration, found frames get `floor_x`, `floor_y` and `floor_unit`, and when the
+//! velocity is known `floor_vx`, `floor_vy`, `floor_speed` (units/s), for a marker
+//! `floor_heading_deg`; a position on or beyond the floor's horizon gets `beyond_horizon: true`
+//! and no floor numbers. Headings are degrees from +x towards +y of their coordinates
+//! ([`crate::track::marker_heading_deg`]). Then the detection's diagnostics.
 
 use std::io::{self, Write};
 
 use super::Sink;
+use crate::geometry::FloorFix;
 use crate::pipeline::FrameReport;
 
 /// Writes reports as JSON lines; flushes after each line when `live`, so a consumer reading a
@@ -48,6 +57,32 @@ impl<W: Write> Sink for JsonLinesSink<W> {
                 )?;
             }
         }
+        if let Some(m) = r.marker {
+            write!(out, ",\"heading_deg\":{:.2}", m.heading_deg)?;
+        }
+        match r.floor {
+            Some(FloorFix::Mapped(f)) => {
+                write!(
+                    out,
+                    ",\"floor_x\":{:.3},\"floor_y\":{:.3},\"floor_unit\":\"{}\"",
+                    f.position.x, f.position.y, f.unit
+                )?;
+                if let Some(v) = f.velocity_per_s {
+                    write!(
+                        out,
+                        ",\"floor_vx\":{:.3},\"floor_vy\":{:.3},\"floor_speed\":{:.3}",
+                        v.x,
+                        v.y,
+                        v.norm()
+                    )?;
+                }
+                if let Some(h) = f.heading_deg {
+                    write!(out, ",\"floor_heading_deg\":{h:.2}")?;
+                }
+            }
+            Some(FloorFix::BeyondHorizon) => write!(out, ",\"beyond_horizon\":true")?,
+            None => {}
+        }
         if let Some((blob, streak)) = d.best.filter(|_| r.position.is_some()) {
             write!(
                 out,
@@ -62,6 +97,9 @@ impl<W: Write> Sink for JsonLinesSink<W> {
         )?;
         if let Some(level) = d.levels.threshold_luma {
             write!(out, ",\"threshold\":{level}")?;
+        }
+        if d.learning {
+            write!(out, ",\"learning\":true")?;
         }
         if r.ambiguous {
             write!(out, ",\"ambiguous\":true")?;

@@ -4,6 +4,8 @@
 //! driver's mmap buffer); the frame borrows the source until the next call, so nothing is copied.
 
 pub mod dump;
+pub mod record;
+pub mod sidecar;
 
 use crate::frame::Frame;
 

@@ -16,6 +16,7 @@
 //! - With the exposure time known, the path length over the exposure is the speed within
 //!   one frame; otherwise the velocity comes from consecutive streak middles and frame times.
 
+pub mod marker;
 pub mod statics;
 
 use heapless::HistoryBuf;
@@ -23,6 +24,8 @@ use heapless::HistoryBuf;
 use crate::detect::blobs::Blob;
 use crate::detect::streak::Streak;
 use statics::Statics;
+
+pub use marker::{marker_heading_deg, MarkerPose, MarkerTracker};
 
 /// Frames the history ring keeps.
 pub const HISTORY_FRAMES: usize = 16;
@@ -33,6 +36,11 @@ pub const GATE_MIN_PX: f32 = 24.0;
 /// The gate grows with the predicted travel by this factor, covering a reversal between
 /// frames (which lands twice the travel away from the prediction).
 pub const GATE_TRAVEL_FACTOR: f32 = 2.5;
+
+/// A blob whose principal variances differ by this ratio is smeared by motion. A disk is 1;
+/// an LED of radius r smeared over L pixels is (r²/4 + L²/12) / (r²/4), so 1.5 means a streak
+/// longer than about 1.2 r.
+pub const MIN_STREAK_ELONGATION: f32 = 1.5;
 
 /// After this many frames without the LED the track is dropped and acquisition starts over.
 pub const MAX_MISSED_FRAMES: u32 = 15;
@@ -71,6 +79,8 @@ pub enum PositionMethod {
     /// The streak's middle, while the direction of travel is not yet known (or the LED is
     /// so slow that the two coincide).
     Mid,
+    /// The centre of a tracked marker (`--detector aruco`), which is also its middle.
+    Marker,
 }
 
 impl PositionMethod {
@@ -79,6 +89,7 @@ impl PositionMethod {
         match self {
             PositionMethod::Head => "head",
             PositionMethod::Mid => "mid",
+            PositionMethod::Marker => "marker",
         }
     }
 }
@@ -187,11 +198,19 @@ impl Tracker {
                 return Choice::Blob(index);
             }
         }
-        let mut fresh = candidates.filter(|(_, b)| !self.statics.is_distractor(b.mass_centre_px));
-        match (fresh.next(), fresh.next()) {
+        let fresh = candidates.filter(|(_, b)| !self.statics.is_distractor(b.mass_centre_px));
+        let mut all = fresh.clone();
+        match (all.next(), all.next()) {
             (None, _) => Choice::Nothing,
             (Some((index, _)), None) => Choice::Blob(index),
-            (Some(_), Some(_)) => Choice::Ambiguous,
+            (Some(_), Some(_)) => {
+                // Glare does not smear: if exactly one candidate is a streak, it is the LED.
+                let mut streaks = fresh.filter(|(_, b)| b.elongation >= MIN_STREAK_ELONGATION);
+                match (streaks.next(), streaks.next()) {
+                    (Some((index, _)), None) => Choice::Blob(index),
+                    _ => Choice::Ambiguous,
+                }
+            }
         }
     }
 
@@ -274,4 +293,188 @@ impl Tracker {
 
 fn dist(a: (f32, f32), b: (f32, f32)) -> f32 {
     (a.0 - b.0).hypot(a.1 - b.1)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::detect::blobs::BoundingBox;
+    use crate::detect::tips::Tips;
+
+    fn blob_at(x: f32, y: f32) -> Blob {
+        Blob {
+            area_px: 30,
+            bbox: BoundingBox {
+                x_min_px: 0,
+                y_min_px: 0,
+                x_max_px: 1,
+                y_max_px: 1,
+            },
+            mass_centre_px: (x, y),
+            elongation: 1.0,
+        }
+    }
+
+    fn streak(mid: (f32, f32), tips: Option<[(f32, f32); 2]>) -> Streak {
+        Streak {
+            centroid_px: mid,
+            seed_point_px: (mid.0 as u16, mid.1 as u16),
+            mid_px: mid,
+            ends_px: [mid, mid],
+            skeleton_length_px: 0,
+            skeleton_px: 1,
+            thickness_px: 6.0,
+            tips: tips.map(|tips_px| Tips {
+                tips_px,
+                radius_px: 3.0,
+                path_length_px: ((tips_px[1].0 - tips_px[0].0).hypot(tips_px[1].1 - tips_px[0].1)),
+            }),
+        }
+    }
+
+    const FRAME_US: u64 = 33_333;
+
+    #[test]
+    fn two_unknown_candidates_are_ambiguous_until_one_moves() {
+        let mut t = Tracker::new(TrackerConfig::default());
+        let first = [(0, blob_at(100.0, 100.0)), (1, blob_at(300.0, 200.0))];
+        assert_eq!(t.choose(first.into_iter(), 0, 0), Choice::Ambiguous);
+        t.update(0, None);
+        // The lamp at (100, 100) stays; the LED moved.
+        let second = [(0, blob_at(100.2, 100.0)), (1, blob_at(310.0, 200.0))];
+        assert_eq!(t.choose(second.into_iter(), 1, FRAME_US), Choice::Ambiguous);
+        t.update(FRAME_US, None);
+        let third = [(0, blob_at(100.1, 100.1)), (1, blob_at(320.0, 200.0))];
+        assert_eq!(
+            t.choose(third.into_iter(), 2, 2 * FRAME_US),
+            Choice::Blob(1)
+        );
+    }
+
+    #[test]
+    fn a_streak_among_round_glare_is_the_led_from_the_first_frame() {
+        let mut t = Tracker::new(TrackerConfig::default());
+        let streak = Blob {
+            elongation: 3.0,
+            ..blob_at(300.0, 200.0)
+        };
+        let first = [
+            (0, blob_at(100.0, 100.0)),
+            (1, streak),
+            (2, blob_at(50.0, 400.0)),
+        ];
+        assert_eq!(t.choose(first.into_iter(), 0, 0), Choice::Blob(1));
+        // Two streaks and nothing known: ambiguous again.
+        let mut t = Tracker::new(TrackerConfig::default());
+        let two = [
+            (0, streak),
+            (
+                1,
+                Blob {
+                    elongation: 2.0,
+                    ..blob_at(10.0, 10.0)
+                },
+            ),
+        ];
+        assert_eq!(t.choose(two.into_iter(), 0, 0), Choice::Ambiguous);
+    }
+
+    #[test]
+    fn the_head_is_the_tip_farther_from_the_previous_position() {
+        let mut t = Tracker::new(TrackerConfig::default());
+        let first = t
+            .update(
+                0,
+                Some(&streak(
+                    (100.0, 100.0),
+                    Some([(90.0, 100.0), (110.0, 100.0)]),
+                )),
+            )
+            .unwrap();
+        assert_eq!(
+            first.position_method,
+            PositionMethod::Mid,
+            "no direction on the first frame"
+        );
+        assert_eq!(first.position_px, (100.0, 100.0));
+        // Moving right: the next streak spans 130..150; its far tip from 100 is 150.
+        let second = t
+            .update(
+                FRAME_US,
+                Some(&streak(
+                    (140.0, 100.0),
+                    Some([(150.0, 100.0), (130.0, 100.0)]),
+                )),
+            )
+            .unwrap();
+        assert_eq!(second.position_method, PositionMethod::Head);
+        assert_eq!(second.position_px, (150.0, 100.0));
+        // Reversed between frames: the streak runs back from 150 to 130; the far tip from the
+        // previous head (150) is 130, even though the old velocity points the other way.
+        let third = t
+            .update(
+                2 * FRAME_US,
+                Some(&streak(
+                    (140.0, 100.0),
+                    Some([(150.0, 100.0), (130.0, 100.0)]),
+                )),
+            )
+            .unwrap();
+        assert_eq!(third.position_px, (130.0, 100.0));
+        let ((vx, vy), method) = third.velocity_px_s.unwrap();
+        assert_eq!(method, VelocityMethod::Frames);
+        assert_eq!((vx, vy), (0.0, 0.0), "the middle did not move");
+    }
+
+    #[test]
+    fn the_exposure_gives_speed_from_one_frame() {
+        let mut t = Tracker::new(TrackerConfig {
+            exposure_us: Some(10_000),
+        });
+        t.update(0, Some(&streak((100.0, 100.0), None)));
+        let e = t
+            .update(
+                FRAME_US,
+                Some(&streak(
+                    (120.0, 100.0),
+                    Some([(115.0, 100.0), (125.0, 100.0)]),
+                )),
+            )
+            .unwrap();
+        let ((vx, vy), method) = e.velocity_px_s.unwrap();
+        assert_eq!(method, VelocityMethod::Streak);
+        assert!(
+            (vx - 1000.0).abs() < 1e-3 && vy.abs() < 1e-3,
+            "10 px in 10 ms: {vx}, {vy}"
+        );
+    }
+
+    #[test]
+    fn a_lost_led_is_never_reported_and_the_track_expires() {
+        let mut t = Tracker::new(TrackerConfig::default());
+        t.update(0, Some(&streak((100.0, 100.0), None)));
+        assert!(t.prediction(FRAME_US).is_some());
+        for i in 1..=u64::from(MAX_MISSED_FRAMES) + 1 {
+            assert_eq!(t.update(i * FRAME_US, None), None);
+        }
+        assert_eq!(
+            t.prediction(20 * FRAME_US),
+            None,
+            "too long lost: acquire afresh"
+        );
+        // Back far from where it vanished: acquired on the first frame it is visible again.
+        let back = [(0, blob_at(500.0, 50.0))];
+        assert_eq!(
+            t.choose(back.into_iter(), 20, 20 * FRAME_US),
+            Choice::Blob(0)
+        );
+        let e = t
+            .update(20 * FRAME_US, Some(&streak((500.0, 50.0), None)))
+            .unwrap();
+        assert_eq!(
+            e.position_method,
+            PositionMethod::Mid,
+            "no direction after re-acquisition"
+        );
+    }
 }

@@ -1,10 +1,13 @@
 # The vivid checks, run inside the test VM by /init as /mnt/guest.sh (busybox sh).
-# Inputs: /mnt/capture_probe, /mnt/in/loop.yuv. Outputs: /mnt/out/<check>.jsonl (the probe's
-# JSON lines), <check>.err (its log), <check>.status (its exit status). The host-side test
-# (tests/vivid.rs) asserts on them; this script only drives the driver.
-# Run the probe from RAM: loading it through 9p at every start is slow under TCG.
+# Inputs: /mnt/capture_probe, /mnt/glint, /mnt/in/loop.yuv, /mnt/in/scene.yuv. Outputs:
+# /mnt/out/<check>.jsonl (the probe's or glint's JSON lines), <check>.err (its log),
+# <check>.status (its exit status), and glint record's rec.yuv + rec.yuv.json. The host-side
+# test (tests/vivid.rs) asserts on them; this script only drives the driver.
+# Run the programs from RAM: loading them through 9p at every start is slow under TCG.
 cp /mnt/capture_probe /tmp/capture_probe
+cp /mnt/glint /tmp/glint
 PROBE=/tmp/capture_probe
+GLINT=/tmp/glint
 OUT=/mnt/out
 VIVID=/lib/modules/vivid.ko
 UNBIND=/sys/bus/platform/drivers/vivid/unbind
@@ -37,6 +40,27 @@ wait_frames() {
     done
     echo "probe $1 did not stream"
     return 1
+}
+
+# Waits until NAME.jsonl has N lines and NAME.err holds PATTERN, for at most 30 s.
+wait_output() {
+    for _ in $(seq 300); do
+        if [ "$(wc -l <"$OUT/$1.jsonl" 2>/dev/null)" -ge "$2" ] && grep -q "$3" "$OUT/$1.err"; then
+            return 0
+        fi
+        sleep 0.1
+    done
+    echo "$1 did not produce $2 lines and \"$3\""
+    return 1
+}
+
+# Starts feeding FILE to vivid's output node, looping; the feeder's pid is in $feeder.
+feed() {
+    v4l2-ctl -d /dev/video1 --stream-out-mmap --stream-from="$1" --stream-loop \
+        >>"$OUT/feed.log" 2>&1 &
+    feeder=$!
+    # The output must stream before capture starts, or capture shows noise.
+    sleep 0.5
 }
 
 # 1. The default webcam input: colour bars, 640x480 YUYV, frame rate set to 10 fps.
@@ -77,12 +101,29 @@ v4l2-ctl -d /dev/video0 --set-dv-bt-timings index=0
 v4l2-ctl -d /dev/video1 --set-dv-bt-timings index=0
 v4l2-ctl -d /dev/video0 -c loop_video=1,osd_text_mode=2
 v4l2-ctl -d /dev/video1 --set-fmt-video-out=width=640,height=480,pixelformat=YUYV
-v4l2-ctl -d /dev/video1 --stream-out-mmap --stream-from=/mnt/in/loop.yuv --stream-loop \
-    >"$OUT/feed.log" 2>&1 &
-feeder=$!
-sleep 0.5
+feed /mnt/in/loop.yuv
 probe loop --device /dev/video0 --size 640x480 --frames 16
 kill $feeder
 wait $feeder 2>/dev/null
 echo "loop_done_s $(cut -d' ' -f1 /proc/uptime)" >>"$OUT/timing"
+
+# 4. glint itself on a rendered LED scene fed through the loop: `glint track --device` until
+#    SIGTERM (with a summary every second and latency stats), then `glint record`.
+feed /mnt/in/scene.yuv
+probe scene_loop --device /dev/video0 --size 640x480 --frames 8
+"$GLINT" track --device /dev/video0 --size 640x480 --summary-every 1 --stats \
+    --control no_such_control=1 >"$OUT/track.jsonl" 2>"$OUT/track.err" &
+pid=$!
+wait_output track 20 "last .* s: "
+kill -TERM $pid
+wait $pid
+echo $? >"$OUT/track.status"
+"$GLINT" record --device /dev/video0 --size 640x480 --frames 12 --out /tmp/rec.yuv \
+    >"$OUT/record.out" 2>"$OUT/record.err"
+echo $? >"$OUT/record.status"
+cp /tmp/rec.yuv /tmp/rec.yuv.json "$OUT/"
+kill $feeder
+wait $feeder 2>/dev/null
+"$GLINT" devices >"$OUT/devices.txt" 2>&1
+echo "glint_done_s $(cut -d' ' -f1 /proc/uptime)" >>"$OUT/timing"
 exit 0

@@ -2,5 +2,13 @@
 //!
 //! - [`scene`]: the synthetic scene renderer with exact ground truth that glint's accuracy
 //!   tests rely on (also the `glint-scene` binary).
+//! - [`markers`]: ArUco marker scenes with exact ground truth, for the marker detector and
+//!   floor calibration tests.
+//! - [`overlay`]: a frame as a PNG with glint's mask, skeleton and answers and the ground truth
+//!   drawn on it (the `glint-view` and `glint-demo` binaries).
+//! - [`stats`]: medians and percentiles of per-frame errors and times.
 
+pub mod markers;
+pub mod overlay;
 pub mod scene;
+pub mod stats;

@@ -228,7 +228,10 @@ impl SerialSink {
 impl Sink for SerialSink {
     /// Never fails: link faults are handled (and counted) by the writer thread.
     fn write(&mut self, report: &FrameReport) -> io::Result<()> {
-        let located = report.position.as_ref().map(Located::from_pixels);
+        let located = report
+            .position
+            .as_ref()
+            .map(|e| Located::from_estimate(e, report.floor.as_ref()));
         self.send(&report.meta, located.as_ref());
         Ok(())
     }

@@ -8,6 +8,7 @@ use glint_protocol::{
     Heartbeat, Position, Quantised, Reading, Status, TrackerState, Units, PROTOCOL_VERSION,
 };
 
+use crate::geometry::floor::{FloorFix, FloorUnit};
 use crate::source::FrameMeta;
 use crate::track::{Estimate, MAX_MISSED_FRAMES};
 
@@ -21,9 +22,9 @@ const QUALITY_STEP: u8 = 85;
 /// Hundredths of a hertz per frame per microsecond: fps × 100 = frames × 10⁸ / µs.
 const CENTIHZ_PER_FRAME_US: f64 = 1e8;
 
-/// A position estimate ready for the wire, in the units it was measured in. Today glint
-/// measures pixels ([`Located::from_pixels`]); once the camera is calibrated against the floor,
-/// the caller builds one in [`Units::Floor`] (millimetres) instead, per update.
+/// A position estimate ready for the wire, in the units it was measured in: floor millimetres
+/// when the frame maps to the floor, image pixels otherwise ([`Located::from_estimate`]). The
+/// units travel with every update, so the robot always knows which it got.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Located {
     /// Frame of reference of `position` and `velocity_per_s`.
@@ -37,19 +38,53 @@ pub struct Located {
 }
 
 impl Located {
-    /// The tracker's estimate in image pixels. Quality: [`QUALITY_STEP`] for a found light,
-    /// plus one step when the position is the streak's head (not just its middle), plus one
-    /// when the velocity is known.
+    /// The tracker's estimate in image pixels. Quality: see [`quality`].
     pub fn from_pixels(estimate: &Estimate) -> Located {
-        let head = estimate.position_method == crate::track::PositionMethod::Head;
-        let steps = 1 + u8::from(head) + u8::from(estimate.velocity_px_s.is_some());
         Located {
             units: Units::Pixels,
             position: estimate.position_px,
             velocity_per_s: estimate.velocity_px_s.map(|(v, _)| v),
-            quality: QUALITY_STEP.saturating_mul(steps),
+            quality: quality(estimate),
         }
     }
+
+    /// The frame's estimate on the floor, in millimetres, when a calibration mapped it there;
+    /// in pixels otherwise (no calibration, or a position on or beyond the floor's horizon).
+    /// Quality as for [`Located::from_pixels`].
+    pub fn from_estimate(estimate: &Estimate, floor: Option<&FloorFix>) -> Located {
+        match floor {
+            Some(FloorFix::Mapped(f)) => {
+                let mm = mm_per_unit(f.unit);
+                Located {
+                    units: Units::Floor,
+                    position: ((f.position.x * mm) as f32, (f.position.y * mm) as f32),
+                    velocity_per_s: f
+                        .velocity_per_s
+                        .map(|v| ((v.x * mm) as f32, (v.y * mm) as f32)),
+                    quality: quality(estimate),
+                }
+            }
+            Some(FloorFix::BeyondHorizon) | None => Located::from_pixels(estimate),
+        }
+    }
+}
+
+/// Millimetres per floor unit of a calibration.
+fn mm_per_unit(unit: FloorUnit) -> f64 {
+    match unit {
+        FloorUnit::Mm => 1.0,
+        FloorUnit::Cm => 10.0,
+        FloorUnit::M => 1000.0,
+        FloorUnit::In => 25.4,
+    }
+}
+
+/// Detection quality: [`QUALITY_STEP`] for a found light, plus one step when the position is the streak's head
+/// (not just its middle), plus one when the velocity is known.
+fn quality(estimate: &Estimate) -> u8 {
+    let head = estimate.position_method == crate::track::PositionMethod::Head;
+    let steps = 1 + u8::from(head) + u8::from(estimate.velocity_px_s.is_some());
+    QUALITY_STEP.saturating_mul(steps)
 }
 
 /// Builds the messages for each frame: numbers the position updates, remembers the last known
@@ -235,6 +270,32 @@ mod tests {
         assert_eq!(Located::from_pixels(&e).quality, 170);
         e.velocity_px_s = None;
         assert_eq!(Located::from_pixels(&e).quality, 85);
+    }
+
+    #[test]
+    fn a_mapped_floor_position_goes_out_in_millimetres() {
+        use crate::geometry::floor::FloorEstimate;
+        use nalgebra::{Point2, Vector2};
+        let e = estimate(320.0, 240.0);
+        let fix = FloorFix::Mapped(FloorEstimate {
+            position: Point2::new(152.04, -31.0),
+            velocity_per_s: Some(Vector2::new(25.0, 0.5)),
+            heading_deg: None,
+            unit: FloorUnit::Cm,
+        });
+        let l = Located::from_estimate(&e, Some(&fix));
+        assert_eq!(l.units, Units::Floor);
+        let mut u = Updates::new();
+        let p = u.position(&meta(0, 0), Some(&l)).position;
+        assert_eq!((p.x, p.y, p.vx_per_s, p.vy_per_s), (1520, -310, 250, 5));
+        assert_eq!(p.quality, 255);
+        // Beyond the horizon, or without a calibration: pixels, and the flag says so.
+        for floor in [Some(&FloorFix::BeyondHorizon), None] {
+            let l = Located::from_estimate(&e, floor);
+            assert_eq!((l.units, l.position), (Units::Pixels, (320.0, 240.0)));
+        }
+        assert!((mm_per_unit(FloorUnit::In) - 25.4).abs() < 1e-12);
+        assert_eq!(mm_per_unit(FloorUnit::M), 1000.0);
     }
 
     #[test]

@@ -140,7 +140,7 @@ impl FrameSource for ReopeningSource {
     type Error = V4l2Error;
 
     /// The next frame; `Ok(None)` once a stop was requested. Only errors that reopening cannot
-    /// cure are returned.
+    /// cure are returned; an interrupted wait is retried.
     fn next_frame(&mut self) -> Result<Option<(Frame<'_>, FrameMeta)>, V4l2Error> {
         let raw = loop {
             if self.stopping() {
@@ -154,6 +154,9 @@ impl FrameSource for ReopeningSource {
             };
             match inner.next_raw() {
                 Ok(raw) => break raw,
+                // A signal woke the wait; if it was Ctrl-C, the stop flag is set by now and the
+                // loop ends cleanly at its top, otherwise waiting resumes.
+                Err(V4l2Error::Interrupted) => continue,
                 Err(e) if e.is_device_fault() => {
                     log::error!("{e}; closing the device and reopening it");
                     // Dropping the source stops the stream and closes the file, so the driver

@@ -1,0 +1,252 @@
+//! Where `glint track` reads frames from: a dump (with its recording's timing when a sidecar
+//! lies beside it), standard input, or a camera. Every one of them becomes an [`InputSource`],
+//! so they all run through the one monitored per-frame path, `glint::monitor::run`.
+
+use std::fs::File;
+use std::io::{self, Read};
+use std::path::Path;
+#[cfg(feature = "v4l2")]
+use std::path::PathBuf;
+use std::time::Duration;
+
+use anyhow::{bail, Context, Result};
+use clap::Args;
+
+use glint::frame::{Frame, FrameSize};
+use glint::monitor::{Counts, Monitor, MonitorConfig};
+use glint::source::dump::{DumpError, DumpSource};
+use glint::source::sidecar::{ReplayError, ReplaySource, Sidecar, SidecarError};
+#[cfg(feature = "v4l2")]
+use glint::source::v4l2::{ReopeningSource, V4l2Error};
+use glint::source::{FrameMeta, FrameSource};
+
+#[cfg(feature = "v4l2")]
+use super::camera::{self, CameraArgs};
+
+/// Frame rate assumed for a dump without a sidecar when no `--fps` is given.
+pub const DEFAULT_DUMP_FPS: f64 = 30.0;
+
+/// Exactly one of the sources.
+#[derive(Debug, Args)]
+#[group(required = true, multiple = false)]
+pub struct SourceArgs {
+    /// A raw YUYV dump, or `-` for standard input. When FILE.json (written by `glint record`)
+    /// lies beside FILE, the frames get their recorded times, sequence numbers and drops.
+    #[arg(long, value_name = "PATH|-")]
+    input: Option<String>,
+
+    /// A V4L2 camera, e.g. /dev/video0 (`glint devices` lists them). Runs until Ctrl-C or
+    /// SIGTERM; a camera that goes away is reopened when it returns.
+    #[cfg(feature = "v4l2")]
+    #[arg(long, value_name = "/dev/videoN")]
+    device: Option<PathBuf>,
+}
+
+/// The input options of `glint track`.
+#[derive(Debug, Args)]
+pub struct InputArgs {
+    #[command(flatten)]
+    source: SourceArgs,
+
+    /// Ignore the dump's sidecar: frames are --fps apart and none is dropped.
+    #[arg(long, requires = "input")]
+    no_sidecar: bool,
+
+    #[cfg(feature = "v4l2")]
+    #[command(flatten)]
+    camera: CameraArgs,
+
+    /// Print latency percentiles of each stage on standard error at the end (and with every
+    /// summary of a camera run).
+    #[arg(long)]
+    stats: bool,
+
+    /// Seconds between summaries (frames, fps, drops, found ratio) on standard error while
+    /// tracking from a camera; 0 for none.
+    #[arg(long, value_name = "SECONDS", default_value_t = 10.0, value_parser = parse_seconds)]
+    summary_every: f64,
+}
+
+impl InputArgs {
+    /// The exposure time given with `--exposure-us`: the camera's setting, or the exposure a
+    /// recording was made with.
+    pub fn exposure_us(&self) -> Option<u32> {
+        #[cfg(feature = "v4l2")]
+        return self.camera.exposure_us();
+        #[cfg(not(feature = "v4l2"))]
+        return None;
+    }
+}
+
+fn parse_seconds(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v.is_finite() && (0.0..=86_400.0).contains(&v) => Ok(v),
+        _ => Err(format!(
+            "{s:?} is not a number of seconds between 0 and 86400"
+        )),
+    }
+}
+
+/// A frame source chosen at run time.
+pub enum InputSource {
+    /// A dump at a nominal frame rate.
+    Dump(DumpSource<Box<dyn Read>>),
+    /// A dump with its recording's timing.
+    Replay(ReplaySource<Box<dyn Read>>),
+    /// A camera (boxed: its state is several times the size of a dump's).
+    #[cfg(feature = "v4l2")]
+    Camera(Box<ReopeningSource>),
+}
+
+/// The error of whichever source runs.
+#[derive(Debug)]
+pub enum InputError {
+    Dump(DumpError),
+    Replay(ReplayError),
+    #[cfg(feature = "v4l2")]
+    Camera(V4l2Error),
+}
+
+impl std::fmt::Display for InputError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            InputError::Dump(e) => write!(f, "{e}"),
+            InputError::Replay(e) => write!(f, "{e}"),
+            #[cfg(feature = "v4l2")]
+            InputError::Camera(e) => write!(f, "{e}"),
+        }
+    }
+}
+
+impl std::error::Error for InputError {}
+
+impl FrameSource for InputSource {
+    type Error = InputError;
+
+    fn next_frame(&mut self) -> Result<Option<(Frame<'_>, FrameMeta)>, InputError> {
+        match self {
+            InputSource::Dump(s) => s.next_frame().map_err(InputError::Dump),
+            InputSource::Replay(s) => s.next_frame().map_err(InputError::Replay),
+            #[cfg(feature = "v4l2")]
+            InputSource::Camera(s) => s.next_frame().map_err(InputError::Camera),
+        }
+    }
+}
+
+/// An opened input and its watcher.
+pub struct Input {
+    pub source: InputSource,
+    /// Reports are flushed one by one (a pipe or a camera), not in blocks.
+    pub live: bool,
+    pub monitor: Monitor,
+}
+
+/// Opens what `args` name for frames of `size`; `fps` is the `--fps` given, if any.
+pub fn open(args: &InputArgs, size: FrameSize, fps: Option<f64>) -> Result<Input> {
+    let summary_every =
+        (args.summary_every > 0.0).then(|| Duration::from_secs_f64(args.summary_every));
+    #[cfg(feature = "v4l2")]
+    if let Some(device) = &args.source.device {
+        let source = camera::open(device, size, camera::whole_fps(fps)?, &args.camera)?;
+        return Ok(Input {
+            source: InputSource::Camera(Box::new(source)),
+            live: true,
+            monitor: Monitor::new(MonitorConfig {
+                stats: args.stats,
+                summary_every,
+            }),
+        });
+    }
+    #[cfg(feature = "v4l2")]
+    if args.camera.any_given() {
+        bail!("camera options (--buffers, --gain, --control, ...) need --device");
+    }
+    let monitor = Monitor::new(MonitorConfig {
+        stats: args.stats,
+        summary_every: None,
+    });
+    let Some(input) = args.source.input.as_deref() else {
+        bail!("--input or --device is required");
+    };
+    let fps_or_default = fps.unwrap_or(DEFAULT_DUMP_FPS);
+    if input == "-" {
+        let stdin: Box<dyn Read> = Box::new(io::stdin().lock());
+        return Ok(Input {
+            source: InputSource::Dump(DumpSource::new(stdin, size, fps_or_default)),
+            live: true,
+            monitor,
+        });
+    }
+    let file = File::open(input).with_context(|| format!("cannot open {input}"))?;
+    let metadata = file
+        .metadata()
+        .with_context(|| format!("cannot read {input}"))?;
+    if metadata.is_dir() {
+        bail!("{input} is a directory, not a dump");
+    }
+    let reader: Box<dyn Read> = Box::new(file);
+    let sidecar = if args.no_sidecar {
+        None
+    } else {
+        find_sidecar(Path::new(input), size, metadata.len())?
+    };
+    let source = match sidecar {
+        Some(sidecar) => {
+            if fps.is_some() {
+                log::warn!("--fps is ignored: the sidecar's frame times are used");
+            }
+            InputSource::Replay(ReplaySource::new(reader, size, sidecar))
+        }
+        None => InputSource::Dump(DumpSource::new(reader, size, fps_or_default)),
+    };
+    Ok(Input {
+        source,
+        live: false,
+        monitor,
+    })
+}
+
+/// The checked sidecar of `dump`, or `None` when it has none.
+fn find_sidecar(dump: &Path, size: FrameSize, dump_bytes: u64) -> Result<Option<Sidecar>> {
+    let path = Sidecar::path_for(dump);
+    match Sidecar::load_for(&path, size, dump_bytes) {
+        Ok(sidecar) => {
+            log::info!(
+                "{}: replaying {} frames with their recorded times ({} dropped)",
+                path.display(),
+                sidecar.frames.len(),
+                sidecar.dropped()
+            );
+            Ok(Some(sidecar))
+        }
+        Err(SidecarError::Io(e)) if e.kind() == io::ErrorKind::NotFound => Ok(None),
+        Err(e) => bail!(
+            "{}: {e} (--no-sidecar replays the dump without it)",
+            path.display()
+        ),
+    }
+}
+
+/// Logs the run's drops and, when asked for, prints its latency percentiles.
+pub fn report(monitor: &Monitor) {
+    let Counts {
+        frames, dropped, ..
+    } = monitor.totals();
+    if dropped > 0 {
+        log::info!("{dropped} frames dropped upstream of {frames} processed");
+    }
+    if let Some(stats) = monitor.stats() {
+        eprintln!("glint: {stats}");
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use clap::CommandFactory;
+
+    /// Every subcommand's options fit together (no duplicate names, groups name real options).
+    #[test]
+    fn the_command_line_is_consistent() {
+        super::super::Cli::command().debug_assert();
+    }
+}

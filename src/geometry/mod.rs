@@ -1,0 +1,14 @@
+//! Screen ↔ floor geometry: the homography between the two planes, the ArUco / AprilTag marker
+//! detector that finds the points it is fitted from, the calibration that joins them (and its
+//! file), and the floor stage that maps each frame's estimate onto the floor.
+
+pub mod aruco;
+pub mod calibration;
+pub mod calibration_file;
+pub mod floor;
+pub mod homography;
+
+pub use calibration::{calibrate, Calibration, CalibrationError, MarkerPlacement};
+pub use calibration_file::{CalibrationFile, CalibrationFileError};
+pub use floor::{FloorEstimate, FloorFix, FloorStage, FloorUnit};
+pub use homography::{FloorMapping, Homography, HomographyError, Point};

@@ -1,0 +1,57 @@
+//! A counting global allocator for the tests that hold a path to zero allocations. Each such
+//! test file installs it with
+//! `#[global_allocator] static GLOBAL: Counting = Counting;` and wraps the path under test in
+//! [`allocations_during`]. Only allocations on the calling thread count: the test harness runs
+//! other threads beside it.
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+
+/// The allocator: the system's, with a per-thread count.
+pub struct Counting;
+
+thread_local! {
+    static COUNTING: Cell<bool> = const { Cell::new(false) };
+    static ALLOCATIONS: Cell<u64> = const { Cell::new(0) };
+}
+
+fn note_allocation() {
+    if COUNTING.with(Cell::get) {
+        ALLOCATIONS.with(|a| a.set(a.get() + 1));
+    }
+}
+
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        note_allocation();
+        unsafe { System.alloc(layout) }
+    }
+
+    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
+        note_allocation();
+        unsafe { System.alloc_zeroed(layout) }
+    }
+
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        note_allocation();
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        unsafe { System.dealloc(ptr, layout) }
+    }
+}
+
+/// Runs `f` and returns how many allocations it made on this thread. Checks first that the
+/// counter sees a deliberate allocation, so a zero cannot come from a counter that is off.
+pub fn allocations_during(f: impl FnOnce()) -> u64 {
+    ALLOCATIONS.with(|a| a.set(0));
+    COUNTING.with(|c| c.set(true));
+    drop(std::hint::black_box(vec![1u8; 10]));
+    let probe = ALLOCATIONS.with(Cell::get);
+    assert_eq!(probe, 1, "the counting allocator is installed");
+    ALLOCATIONS.with(|a| a.set(0));
+    f();
+    COUNTING.with(|c| c.set(false));
+    ALLOCATIONS.with(Cell::get)
+}
