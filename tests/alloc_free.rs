@@ -1,5 +1,6 @@
 //! The per-frame path allocates nothing: a counting global allocator watches a whole replay
-//! (dump source → detection → JSON lines sink) of rendered scenes after start-up.
+//! (dump source → detection → JSON lines sink, CSV sink, serial sink on a pty) of rendered
+//! scenes after start-up.
 
 mod common;
 
@@ -8,7 +9,7 @@ use std::io::{self, BufWriter, Cursor};
 
 use glint::frame::FrameSize;
 use glint::pipeline::{self, Pipeline, PipelineConfig};
-use glint::sink::{CsvSink, JsonLinesSink};
+use glint::sink::{CsvSink, JsonLinesSink, SerialSink};
 use glint::source::dump::DumpSource;
 use glint_tools::scene::Scene;
 
@@ -173,4 +174,52 @@ fn floor_mapping_and_marker_tracking_allocate_nothing_per_frame() {
     assert!(reports
         .iter()
         .all(|r| matches!(r.floor, Some(FloorFix::Mapped(f)) if f.heading_deg.is_some())));
+}
+
+/// The serial sink's per-frame call (position and heartbeat built and encoded on the stack,
+/// posted to the writer thread) allocates nothing on the capture thread; the writer thread,
+/// which owns the port, is not the per-frame path and is not counted.
+#[test]
+fn serial_sink_allocates_nothing_per_frame() {
+    use serialport::SerialPort;
+    use std::io::Read;
+    use std::sync::atomic::{AtomicBool, Ordering};
+    use std::sync::Arc;
+
+    let scene = Scene::preset("slow-line").unwrap();
+    let (bytes, truths) = scene.render_dump();
+    let size = FrameSize::new(scene.width_px(), scene.height_px()).unwrap();
+    let (mut master, slave) = serialport::TTYPort::pair().expect("pty pair");
+    let name = slave.name().expect("slave name");
+    // The robot's end reads everything, so the writer keeps sending.
+    let stop = Arc::new(AtomicBool::new(false));
+    let reader = {
+        let stop = Arc::clone(&stop);
+        std::thread::spawn(move || {
+            let mut buf = [0u8; 256];
+            let mut received = 0;
+            while !stop.load(Ordering::Relaxed) {
+                received += master.read(&mut buf).unwrap_or(0);
+            }
+            received
+        })
+    };
+
+    let mut source = DumpSource::new(Cursor::new(&bytes), size, scene.fps());
+    let mut pipeline = Pipeline::new(size, PipelineConfig::default()).unwrap();
+    let mut sink = SerialSink::open(&name, 115_200).expect("open the pty");
+    let allocations = allocations_during(|| {
+        pipeline::run(&mut source, &mut pipeline, &mut sink)
+            .1
+            .unwrap();
+    });
+    stop.store(true, Ordering::Relaxed);
+    let received = reader.join().unwrap();
+    let stats = sink.stats();
+    assert_eq!(stats.updates, truths.len() as u64);
+    assert!(
+        stats.sent > 0 && received > 0,
+        "{stats:?}, {received} bytes"
+    );
+    assert_eq!(allocations, 0, "allocations during {} frames", truths.len());
 }

@@ -18,7 +18,7 @@ use glint::detect::{DetectorConfig, MaskMethod};
 use glint::frame::FrameSize;
 use glint::monitor;
 use glint::pipeline::{self, Pipeline, PipelineConfig, RunSummary};
-use glint::sink::{CsvSink, JsonLinesSink};
+use glint::sink::{serial, CsvSink, JsonLinesSink, SerialSink, Tee};
 use glint::source::dump::DumpSource;
 use glint::source::FrameSource;
 use glint::track::TrackerConfig;
@@ -84,6 +84,14 @@ pub struct TrackArgs {
 
     #[command(flatten)]
     floor: calib_args::FloorArgs,
+
+    /// Also send position packets to the robot on this serial port (board/protocol/SPEC.md).
+    #[arg(long, value_name = "PORT")]
+    serial: Option<String>,
+
+    /// Line rate of --serial, 8N1.
+    #[arg(long, default_value_t = serial::DEFAULT_BAUD, value_parser = clap::value_parser!(u32).range(50..=4_000_000))]
+    baud: u32,
 }
 
 #[derive(Debug, Clone, Copy, ValueEnum)]
@@ -177,18 +185,23 @@ pub fn run(args: TrackArgs) -> Result<ExitCode> {
         }
         learn_background(&mut pipeline, path, &args)?;
     }
+    let serial = args
+        .serial
+        .as_deref()
+        .map(|port| SerialSink::open(port, args.baud));
+    let serial = serial.transpose()?;
     let stdout = BufWriter::with_capacity(OUTPUT_BUFFER_BYTES, io::stdout().lock());
     let (summary, result) = match args.format {
         Format::Jsonl => monitor::run(
             &mut source,
             &mut pipeline,
-            &mut JsonLinesSink::new(stdout, live),
+            &mut Tee::new(JsonLinesSink::new(stdout, live), serial),
             &mut monitor,
         ),
         Format::Csv => monitor::run(
             &mut source,
             &mut pipeline,
-            &mut CsvSink::new(stdout, live),
+            &mut Tee::new(CsvSink::new(stdout, live), serial),
             &mut monitor,
         ),
     };

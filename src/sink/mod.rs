@@ -1,15 +1,20 @@
-//! Where reports go: JSON lines or CSV on a writer (standard output by default).
+//! Where reports go: JSON lines or CSV on a writer (standard output by default), and position
+//! packets to the robot over a serial port ([`serial`]), side by side through a [`Tee`].
 //!
-//! Both formats are written straight into the writer with `write!`, which formats numbers on
-//! the stack: no per-frame allocation, and the writer's buffer is allocated once.
+//! Both text formats are written straight into the writer with `write!`, which formats numbers
+//! on the stack: no per-frame allocation, and the writer's buffer is allocated once.
 
 mod csv;
 mod jsonl;
+pub mod serial;
+mod tee;
 
 use std::io;
 
 pub use csv::CsvSink;
 pub use jsonl::JsonLinesSink;
+pub use serial::SerialSink;
+pub use tee::Tee;
 
 use crate::pipeline::FrameReport;
 

@@ -8,6 +8,8 @@
 #
 # Exits with the guest script's status; 124 when the VM outlives GLINT_VM_TIMEOUT seconds
 # (default 90), 125 when the VM ends without the guest script having run.
+# GLINT_VM_QEMU_EXTRA adds qemu arguments (split at spaces), e.g. "-serial pty" for a second
+# UART (the guest's /dev/ttyS1) on a host pty, named in SHARE_DIR/qemu.log.
 #
 # KVM is not used: the /dev/kvm of the build machines cannot run a stock kernel. TCG boots the
 # uncompressed kernel in a few seconds.
@@ -29,6 +31,7 @@ timeout --kill-after=5 "$timeout_s" qemu-system-x86_64 \
     -fsdev "local,id=fs0,path=$share,security_model=none" \
     -device virtio-9p-pci,fsdev=fs0,mount_tag=hostshare \
     -serial "file:$share/console.log" -display none -monitor none -nodefaults -no-reboot \
+    ${GLINT_VM_QEMU_EXTRA:-} \
     </dev/null >"$share/qemu.log" 2>&1 || {
     status=$?
     if [ "$status" -eq 124 ] || [ "$status" -eq 137 ]; then

@@ -1,0 +1,250 @@
+//! The hand-over between the capture thread and the serial writer: one slot per message kind,
+//! newest wins.
+//!
+//! The capture thread must never wait for the UART. It copies each encoded frame into its slot
+//! and moves on; if the writer has not taken the previous one yet, that one is stale and is
+//! overwritten (and counted), never queued behind. The lock is only ever held to copy a few
+//! dozen bytes, by either side, so posting costs a copy and at most a futex wake.
+
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Condvar, Mutex, MutexGuard, PoisonError};
+use std::time::Duration;
+
+use glint_protocol::MAX_ENCODED_LEN;
+
+/// Bytes of one slot: the longest frame any protocol version sends, plus its delimiter.
+pub const SLOT_BYTES: usize = MAX_ENCODED_LEN + 1;
+
+/// One encoded frame, delimiter included, or nothing.
+#[derive(Debug, Clone, Copy)]
+pub struct Slot {
+    len: usize,
+    bytes: [u8; SLOT_BYTES],
+}
+
+impl Slot {
+    const EMPTY: Slot = Slot {
+        len: 0,
+        bytes: [0; SLOT_BYTES],
+    };
+
+    /// The frame's bytes (empty when the slot is).
+    pub fn as_bytes(&self) -> &[u8] {
+        self.bytes.get(..self.len).unwrap_or(&[])
+    }
+
+    /// Whether the slot holds a frame.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// Holds a copy of `frame`; returns `false` (and holds nothing) if it does not fit.
+    fn fill(&mut self, frame: &[u8]) -> bool {
+        match self.bytes.get_mut(..frame.len()) {
+            Some(dst) => {
+                dst.copy_from_slice(frame);
+                self.len = frame.len();
+                true
+            }
+            None => {
+                self.len = 0;
+                false
+            }
+        }
+    }
+}
+
+/// Which slot a frame goes to. A heartbeat and a position are independent: a new position does
+/// not make a pending heartbeat stale.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Kind {
+    /// A heartbeat.
+    Heartbeat,
+    /// A position update.
+    Position,
+}
+
+/// Frames taken for sending, heartbeat first.
+#[derive(Debug, Clone, Copy)]
+pub struct Batch {
+    /// The newest heartbeat, if one was posted.
+    pub heartbeat: Slot,
+    /// The newest position update, if one was posted.
+    pub position: Slot,
+}
+
+impl Batch {
+    /// Frames in the batch.
+    pub fn frames(&self) -> u64 {
+        u64::from(!self.heartbeat.is_empty()) + u64::from(!self.position.is_empty())
+    }
+}
+
+/// What [`Mailbox::take`] found.
+#[derive(Debug)]
+pub enum Take {
+    /// Frames to send.
+    Work(Batch),
+    /// The wait timed out with nothing posted.
+    Idle,
+    /// The sink closed and everything posted has been taken.
+    Closed,
+}
+
+#[derive(Debug)]
+struct State {
+    heartbeat: Slot,
+    position: Slot,
+    closing: bool,
+}
+
+/// The two slots, a wake-up for the writer, and the count of frames overwritten unsent.
+#[derive(Debug)]
+pub struct Mailbox {
+    state: Mutex<State>,
+    posted: Condvar,
+    superseded: AtomicU64,
+}
+
+impl Default for Mailbox {
+    fn default() -> Self {
+        Mailbox {
+            state: Mutex::new(State {
+                heartbeat: Slot::EMPTY,
+                position: Slot::EMPTY,
+                closing: false,
+            }),
+            posted: Condvar::new(),
+            superseded: AtomicU64::new(0),
+        }
+    }
+}
+
+impl Mailbox {
+    /// An empty mailbox.
+    pub fn new() -> Self {
+        Mailbox::default()
+    }
+
+    /// Replaces the `kind` slot with `frame` and wakes the writer. A frame still in the slot was
+    /// never taken: it is stale now, and counted in [`Mailbox::superseded`]. A frame longer than
+    /// a slot is refused (returns `false`); no message of the protocol is.
+    pub fn post(&self, kind: Kind, frame: &[u8]) -> bool {
+        let mut state = self.lock();
+        let slot = match kind {
+            Kind::Heartbeat => &mut state.heartbeat,
+            Kind::Position => &mut state.position,
+        };
+        if !slot.is_empty() {
+            self.superseded.fetch_add(1, Ordering::Relaxed);
+        }
+        let filled = slot.fill(frame);
+        drop(state);
+        self.posted.notify_one();
+        filled
+    }
+
+    /// Waits until something is posted (at most `timeout`, or indefinitely for `None`) and takes
+    /// everything posted. After [`Mailbox::close`], pending frames are still handed out once;
+    /// then it reports [`Take::Closed`].
+    pub fn take(&self, timeout: Option<Duration>) -> Take {
+        let idle = |s: &mut State| s.heartbeat.is_empty() && s.position.is_empty() && !s.closing;
+        let mut state = self.lock();
+        state = match timeout {
+            None => self
+                .posted
+                .wait_while(state, |s| idle(s))
+                .unwrap_or_else(PoisonError::into_inner),
+            Some(t) => {
+                self.posted
+                    .wait_timeout_while(state, t, |s| idle(s))
+                    .unwrap_or_else(PoisonError::into_inner)
+                    .0
+            }
+        };
+        let batch = Batch {
+            heartbeat: core::mem::replace(&mut state.heartbeat, Slot::EMPTY),
+            position: core::mem::replace(&mut state.position, Slot::EMPTY),
+        };
+        if batch.frames() > 0 {
+            Take::Work(batch)
+        } else if state.closing {
+            Take::Closed
+        } else {
+            Take::Idle
+        }
+    }
+
+    /// Tells the writer to send what is pending and stop.
+    pub fn close(&self) {
+        self.lock().closing = true;
+        self.posted.notify_one();
+    }
+
+    /// Frames overwritten by a newer one before the writer took them.
+    pub fn superseded(&self) -> u64 {
+        self.superseded.load(Ordering::Relaxed)
+    }
+
+    /// The state, even if a thread panicked while holding it: it is two byte arrays and a
+    /// flag, always consistent.
+    fn lock(&self) -> MutexGuard<'_, State> {
+        self.state.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::sync::Arc;
+
+    #[test]
+    fn newest_wins_and_stale_frames_are_counted() {
+        let m = Mailbox::new();
+        assert!(m.post(Kind::Position, &[1, 2, 0]));
+        assert!(m.post(Kind::Position, &[3, 4, 0]));
+        assert!(m.post(Kind::Heartbeat, &[9, 0]));
+        assert!(m.post(Kind::Position, &[5, 6, 0]));
+        assert_eq!(m.superseded(), 2);
+        let Take::Work(batch) = m.take(None) else {
+            panic!("expected work");
+        };
+        assert_eq!(batch.position.as_bytes(), [5, 6, 0]);
+        assert_eq!(batch.heartbeat.as_bytes(), [9, 0]);
+        assert_eq!(batch.frames(), 2);
+        // Taken slots are empty: the next post replaces nothing.
+        assert!(m.post(Kind::Position, &[7, 0]));
+        assert_eq!(m.superseded(), 2);
+    }
+
+    #[test]
+    fn idle_after_timeout_and_closed_after_pending_work() {
+        let m = Mailbox::new();
+        assert!(matches!(m.take(Some(Duration::from_millis(1))), Take::Idle));
+        m.post(Kind::Position, &[1, 0]);
+        m.close();
+        assert!(matches!(m.take(None), Take::Work(b) if b.position.as_bytes() == [1, 0]));
+        assert!(matches!(m.take(None), Take::Closed));
+    }
+
+    #[test]
+    fn oversized_frame_is_refused() {
+        let m = Mailbox::new();
+        assert!(!m.post(Kind::Position, &[1; SLOT_BYTES + 1]));
+        assert!(matches!(m.take(Some(Duration::from_millis(1))), Take::Idle));
+    }
+
+    #[test]
+    fn a_waiting_writer_wakes_on_post() {
+        let m = Arc::new(Mailbox::new());
+        let writer = {
+            let m = Arc::clone(&m);
+            std::thread::spawn(move || match m.take(None) {
+                Take::Work(b) => b.position.as_bytes().to_vec(),
+                other => panic!("expected work, got {other:?}"),
+            })
+        };
+        m.post(Kind::Position, &[42, 0]);
+        assert_eq!(writer.join().unwrap(), [42, 0]);
+    }
+}

@@ -1,0 +1,52 @@
+//! Two sinks fed the same reports: the usual output on standard output and the serial link.
+
+use std::io;
+
+use super::Sink;
+use crate::pipeline::FrameReport;
+
+/// Forwards every report to `first`, then to `second`.
+#[derive(Debug)]
+pub struct Tee<A, B> {
+    first: A,
+    second: B,
+}
+
+impl<A: Sink, B: Sink> Tee<A, B> {
+    /// Feeds `first` and `second`.
+    pub fn new(first: A, second: B) -> Self {
+        Tee { first, second }
+    }
+}
+
+impl<A: Sink, B: Sink> Sink for Tee<A, B> {
+    fn write(&mut self, report: &FrameReport) -> io::Result<()> {
+        self.first.write(report)?;
+        self.second.write(report)
+    }
+
+    /// Finishes both, even when the first fails, and reports the first error.
+    fn finish(&mut self) -> io::Result<()> {
+        let first = self.first.finish();
+        let second = self.second.finish();
+        first.and(second)
+    }
+}
+
+/// An optional sink: `None` takes reports and does nothing, so an output that is switched on by
+/// a flag (`--serial`) needs no second code path.
+impl<S: Sink> Sink for Option<S> {
+    fn write(&mut self, report: &FrameReport) -> io::Result<()> {
+        match self {
+            Some(sink) => sink.write(report),
+            None => Ok(()),
+        }
+    }
+
+    fn finish(&mut self) -> io::Result<()> {
+        match self {
+            Some(sink) => sink.finish(),
+            None => Ok(()),
+        }
+    }
+}
