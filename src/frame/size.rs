@@ -22,7 +22,7 @@ pub enum SizeError {
     Zero,
     /// YUYV carries pixels in pairs.
     OddWidth(u32),
-    /// Larger than [`MAX_SIDE_PX`].
+    /// Larger than `MAX_SIDE_PX`.
     TooLarge,
 }
 

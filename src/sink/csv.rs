@@ -11,7 +11,7 @@ pub const CSV_HEADER: &str = "frame,t,found,x,y,mid_x,mid_y,pos_method,vx,vy,v_m
 len_px,seq,dropped,blobs,threshold,ambiguous,blinded,overflow,heading_deg,floor_x,floor_y,\
 floor_vx,floor_vy,floor_speed,floor_heading_deg,floor_unit,beyond_horizon";
 
-/// Writes reports as CSV rows under [`CSV_HEADER`].
+/// Writes reports as CSV rows under a header line naming the columns.
 pub struct CsvSink<W: Write> {
     out: W,
     live: bool,

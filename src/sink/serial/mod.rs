@@ -2,11 +2,11 @@
 //! second, in the `glint-protocol` wire format (`board/protocol/SPEC.md`), over a UART.
 //!
 //! The capture thread only encodes (into a stack buffer) and posts into a one-slot
-//! [`mailbox`]; a writer thread owns the port and does the blocking I/O. A slow line therefore
+//! `mailbox`; a writer thread owns the port and does the blocking I/O. A slow line therefore
 //! never slows tracking: the newest position replaces a stale one still waiting, and the count
 //! of replaced, timed-out and port-down frames is reported in [`SerialStats`]. A port that
 //! vanishes (a USB adapter unplugged) is logged once and reopened with back-off while tracking
-//! goes on; see [`link`].
+//! goes on; see the `link` module.
 //!
 //! # Memory
 //!

@@ -38,7 +38,7 @@ pub struct Located {
 }
 
 impl Located {
-    /// The tracker's estimate in image pixels. Quality: see [`quality`].
+    /// The tracker's estimate in image pixels. Quality: see `quality`.
     pub fn from_pixels(estimate: &Estimate) -> Located {
         Located {
             units: Units::Pixels,
