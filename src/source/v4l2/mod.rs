@@ -10,7 +10,7 @@
 //! returns. [`devices`] lists cameras for `glint devices`.
 //!
 //! The `v4l` crate provides the ioctl layer and the kernel bindings; its higher-level calls that
-//! can panic on unexpected driver replies (see [`sys`]) are replaced by small local ones.
+//! can panic on unexpected driver replies (see the `sys` module) are replaced by small local ones.
 
 pub mod controls;
 pub mod devices;
