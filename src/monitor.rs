@@ -1,5 +1,7 @@
 //! Watching a run without changing it: per-frame timings for `--stats`, and for live runs a
-//! periodic summary on the log (frames, frame rate, drops, how often the LED was found).
+//! periodic one-line summary on the log (frames, frame rate, drops, how often the LED was found,
+//! the period's latency percentiles per stage, and what the sinks say of their state, such as
+//! the serial link being up).
 //!
 //! [`run`] is [`pipeline::run`] with a timing wrapper around the source and a watching wrapper
 //! around the sink (the shape of smoltcp's `phy` tracers around a device), so a camera and a
@@ -7,6 +9,7 @@
 //! times per frame and allocate nothing.
 
 use core::cell::Cell;
+use core::fmt;
 use std::io;
 use std::time::{Duration, Instant};
 
@@ -60,6 +63,8 @@ impl Counts {
 #[derive(Debug)]
 pub struct Monitor {
     stats: Option<LatencyStats>,
+    /// The current summary period's latencies (with a periodic summary).
+    period_stats: Option<LatencyStats>,
     summary_every: Option<Duration>,
     totals: Counts,
     period: Counts,
@@ -69,9 +74,11 @@ pub struct Monitor {
 impl Monitor {
     /// A monitor; the histograms (if asked for) are allocated here, once.
     pub fn new(config: MonitorConfig) -> Self {
+        let summary_every = config.summary_every.filter(|d| !d.is_zero());
         Monitor {
             stats: config.stats.then(LatencyStats::new),
-            summary_every: config.summary_every.filter(|d| !d.is_zero()),
+            period_stats: summary_every.map(|_| LatencyStats::new()),
+            summary_every,
             totals: Counts::default(),
             period: Counts::default(),
             period_started: None,
@@ -88,10 +95,19 @@ impl Monitor {
         self.stats.as_ref()
     }
 
-    fn on_frame(&mut self, report: &FrameReport, times: &FrameTimes, now: Instant) {
+    fn on_frame(
+        &mut self,
+        report: &FrameReport,
+        times: &FrameTimes,
+        now: Instant,
+        sink: &dyn Sink,
+    ) {
         self.totals.add(report);
         self.period.add(report);
-        if let Some(stats) = self.stats.as_mut() {
+        for stats in [&mut self.stats, &mut self.period_stats]
+            .into_iter()
+            .flatten()
+        {
             stats.record(times);
         }
         let Some(every) = self.summary_every else {
@@ -100,26 +116,48 @@ impl Monitor {
         let started = *self.period_started.get_or_insert(now);
         let elapsed = now.saturating_duration_since(started);
         if elapsed >= every {
-            self.log_summary(elapsed);
+            log::info!(
+                "{}",
+                Status {
+                    monitor: self,
+                    elapsed,
+                    sink
+                }
+            );
             self.period = Counts::default();
             self.period_started = Some(now);
+            if let Some(stats) = self.period_stats.as_mut() {
+                stats.reset();
+            }
         }
     }
+}
 
-    fn log_summary(&self, elapsed: Duration) {
-        let p = &self.period;
-        log::info!(
+/// The periodic summary: one line, so that journald keeps it as one record.
+struct Status<'a> {
+    monitor: &'a Monitor,
+    elapsed: Duration,
+    sink: &'a dyn Sink,
+}
+
+impl fmt::Display for Status<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let m = self.monitor;
+        let p = &m.period;
+        write!(
+            f,
             "last {:.1} s: {} frames ({:.1} fps), {} dropped ({} in all), LED found in {:.0} %",
-            elapsed.as_secs_f64(),
+            self.elapsed.as_secs_f64(),
             p.frames,
-            p.frames as f64 / elapsed.as_secs_f64(),
+            p.frames as f64 / self.elapsed.as_secs_f64(),
             p.dropped,
-            self.totals.dropped,
+            m.totals.dropped,
             p.found_percent()
-        );
-        if let Some(stats) = &self.stats {
-            log::info!("{stats}");
+        )?;
+        if let Some(stats) = &m.period_stats {
+            write!(f, ", {}", stats.one_line())?;
         }
+        self.sink.status(f)
     }
 }
 
@@ -168,12 +206,16 @@ impl<K: Sink> Sink for Watched<'_, K> {
             process: ready.saturating_duration_since(marks.lent),
             output: written.saturating_duration_since(ready),
         };
-        self.monitor.on_frame(report, &times, written);
+        self.monitor.on_frame(report, &times, written, &*self.inner);
         Ok(())
     }
 
     fn finish(&mut self) -> io::Result<()> {
         self.inner.finish()
+    }
+
+    fn status(&self, out: &mut fmt::Formatter<'_>) -> fmt::Result {
+        self.inner.status(out)
     }
 }
 

@@ -127,6 +127,47 @@ impl LatencyStats {
     fn stages(&self) -> [&Stage; 4] {
         [&self.wait, &self.process, &self.output, &self.end_to_end]
     }
+
+    /// Forgets every sample (keeping the histograms' memory), to start a new period.
+    pub fn reset(&mut self) {
+        for stage in [
+            &mut self.wait,
+            &mut self.process,
+            &mut self.output,
+            &mut self.end_to_end,
+        ] {
+            stage.histogram.reset();
+        }
+    }
+
+    /// The percentiles on one line, for a log that keeps one record per line (journald):
+    /// `latency p50/p90/p99 µs: wait 1.0/2.0/3.0, process ...`.
+    pub fn one_line(&self) -> OneLine<'_> {
+        OneLine(self)
+    }
+}
+
+/// [`LatencyStats::one_line`].
+pub struct OneLine<'a>(&'a LatencyStats);
+
+impl fmt::Display for OneLine<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str("latency ")?;
+        for (i, (_, label)) in QUANTILES.iter().enumerate() {
+            let sep = if i == 0 { "" } else { "/" };
+            write!(f, "{sep}{label}")?;
+        }
+        f.write_str(" µs:")?;
+        for (i, stage) in self.0.stages().into_iter().enumerate() {
+            let sep = if i == 0 { " " } else { ", " };
+            write!(f, "{sep}{}", stage.name)?;
+            for (j, (q, _)) in QUANTILES.iter().enumerate() {
+                let sep = if j == 0 { " " } else { "/" };
+                write!(f, "{sep}{:.1}", stage.quantile_us(*q))?;
+            }
+        }
+        Ok(())
+    }
 }
 
 /// One line per stage: `p50 / p90 / p99 / max` in microseconds.
@@ -176,6 +217,22 @@ mod tests {
         assert!(close(stats.process_us(0.99), 8_000.0), "{stats}");
         assert!(close(stats.end_to_end_us(0.5), 2_010.0), "{stats}");
         assert!(close(stats.end_to_end_us(0.95), 8_050.0), "{stats}");
+    }
+
+    #[test]
+    fn one_line_holds_every_stage_on_a_single_line_and_reset_empties() {
+        let mut stats = LatencyStats::new();
+        stats.record(&times(30_000, 2_000, 10));
+        let line = stats.one_line().to_string();
+        assert!(!line.contains('\n'), "{line}");
+        assert!(
+            line.starts_with("latency p50/p90/p99 µs: wait 30"),
+            "{line}"
+        );
+        assert!(line.contains(", process 20"), "{line}");
+        assert!(line.contains(", dequeue→results 20"), "{line}");
+        stats.reset();
+        assert_eq!(stats.frames(), 0);
     }
 
     #[test]

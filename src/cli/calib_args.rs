@@ -18,7 +18,7 @@ pub struct FloorArgs {
     /// A calibration written by `glint calibrate`: adds floor coordinates (`floor_x`,
     /// `floor_y`, and the floor velocity when known) to every found frame.
     #[arg(long, value_name = "FILE")]
-    calib: Option<PathBuf>,
+    pub calib: Option<PathBuf>,
 
     /// With `--detector aruco`: the id of the marker the robot carries.
     #[arg(long, value_name = "ID")]

@@ -2,20 +2,14 @@
 //! a reopening V4L2 source whose stop flag Ctrl-C and SIGTERM set.
 
 use std::path::Path;
-use std::sync::atomic::AtomicBool;
-use std::sync::Arc;
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use clap::{Args, ValueEnum};
-use signal_hook::consts::{SIGINT, SIGTERM};
 
 use glint::frame::FrameSize;
 use glint::source::v4l2::{
     CaptureConfig, ControlRequest, NamedControl, PowerLine, ReopeningSource, DEFAULT_BUFFER_COUNT,
 };
-
-/// Exit status when a second Ctrl-C cuts a stop short (128 + SIGINT, as shells report it).
-const EXIT_SECOND_SIGNAL: i32 = 130;
 
 /// Most mmap buffers accepted; drivers cap far lower (UVC at 32).
 const MAX_BUFFERS: i64 = 32;
@@ -128,25 +122,8 @@ pub fn open(
             inner.buffer_count()
         );
     }
-    stop_on_signals(&source.stop_flag())?;
+    super::signals::stop_on_signals(&source.stop_flag())?;
     Ok(source)
-}
-
-/// Ctrl-C and SIGTERM set `stop`, which ends the stream after the current frame; a second one
-/// while stopping ends the process at once, in case stopping hangs.
-fn stop_on_signals(stop: &Arc<AtomicBool>) -> Result<()> {
-    for signal in [SIGINT, SIGTERM] {
-        // The shutdown must be registered first, so that it sees the flag before this signal
-        // sets it.
-        signal_hook::flag::register_conditional_shutdown(
-            signal,
-            EXIT_SECOND_SIGNAL,
-            Arc::clone(stop),
-        )
-        .and_then(|_| signal_hook::flag::register(signal, Arc::clone(stop)))
-        .context("installing the Ctrl-C handler")?;
-    }
-    Ok(())
 }
 
 /// A `--fps` for a camera: V4L2 frame intervals are asked for in whole frames per second.

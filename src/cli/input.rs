@@ -76,6 +76,24 @@ impl InputArgs {
         #[cfg(not(feature = "v4l2"))]
         return None;
     }
+
+    /// The dump file given with `--input` (not standard input).
+    pub fn dump_path(&self) -> Option<&Path> {
+        self.source
+            .input
+            .as_deref()
+            .filter(|i| *i != "-")
+            .map(Path::new)
+    }
+
+    /// What to watch: `--stats`, and a summary every `--summary-every` seconds.
+    pub fn monitor_config(&self) -> MonitorConfig {
+        MonitorConfig {
+            stats: self.stats,
+            summary_every: (self.summary_every > 0.0)
+                .then(|| Duration::from_secs_f64(self.summary_every)),
+        }
+    }
 }
 
 fn parse_seconds(s: &str) -> Result<f64, String> {
@@ -143,18 +161,13 @@ pub struct Input {
 
 /// Opens what `args` name for frames of `size`; `fps` is the `--fps` given, if any.
 pub fn open(args: &InputArgs, size: FrameSize, fps: Option<f64>) -> Result<Input> {
-    let summary_every =
-        (args.summary_every > 0.0).then(|| Duration::from_secs_f64(args.summary_every));
     #[cfg(feature = "v4l2")]
     if let Some(device) = &args.source.device {
         let source = camera::open(device, size, camera::whole_fps(fps)?, &args.camera)?;
         return Ok(Input {
             source: InputSource::Camera(Box::new(source)),
             live: true,
-            monitor: Monitor::new(MonitorConfig {
-                stats: args.stats,
-                summary_every,
-            }),
+            monitor: Monitor::new(args.monitor_config()),
         });
     }
     #[cfg(feature = "v4l2")]
@@ -162,8 +175,8 @@ pub fn open(args: &InputArgs, size: FrameSize, fps: Option<f64>) -> Result<Input
         bail!("camera options (--buffers, --gain, --control, ...) need --device");
     }
     let monitor = Monitor::new(MonitorConfig {
-        stats: args.stats,
         summary_every: None,
+        ..args.monitor_config()
     });
     let Some(input) = args.source.input.as_deref() else {
         bail!("--input or --device is required");

@@ -10,11 +10,14 @@ mod input;
 mod logger;
 #[cfg(feature = "v4l2")]
 mod record;
+mod run;
+mod run_config;
+mod signals;
 mod track;
 
 use std::process::ExitCode;
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, Parser, Subcommand};
 
 /// Exit code for bad arguments (as clap uses).
 const EXIT_USAGE: u8 = 2;
@@ -35,6 +38,10 @@ struct Cli {
 enum Command {
     /// Track the LED in a raw YUYV dump (file or `-` for standard input) or from a camera.
     Track(track::TrackArgs),
+    /// The long-running mode: track from a camera (or a dump) to the serial link and JSON
+    /// lines, with the settings in a file (`--config`), a periodic status in the log, and a
+    /// clean stop on SIGTERM.
+    Run(run::RunArgs),
     /// Calibrate screen to floor from ArUco markers at known floor positions in a dump.
     Calibrate(calibrate::CalibrateArgs),
     /// List the V4L2 cameras with their formats, sizes, frame intervals and controls.
@@ -48,7 +55,14 @@ enum Command {
 /// Parses the arguments, runs the command, and turns any error into one line on standard
 /// error and a non-zero exit code.
 pub fn main() -> ExitCode {
-    let cli = match Cli::try_parse() {
+    let spliced = match run_config::splice(std::env::args_os().collect(), &Cli::command()) {
+        Ok(spliced) => spliced,
+        Err(message) => {
+            eprintln!("glint: {message}");
+            return ExitCode::from(EXIT_USAGE);
+        }
+    };
+    let cli = match Cli::try_parse_from(&spliced.argv) {
         Ok(cli) => cli,
         Err(e) if !e.use_stderr() => {
             // --help and --version go to standard output as usual.
@@ -66,13 +80,14 @@ pub fn main() -> ExitCode {
                     lines.map(str::trim).take_while(|l| !l.is_empty()).collect();
                 message = format!("{message} {}", listed.join(", "));
             }
-            eprintln!("glint: {message}");
+            eprintln!("glint: {}", spliced.attribute(&e, message));
             return ExitCode::from(EXIT_USAGE);
         }
     };
     logger::init(cli.verbose);
     let result = match cli.command {
         Command::Track(args) => track::run(args),
+        Command::Run(args) => run::run(args),
         Command::Calibrate(args) => calibrate::run(args),
         #[cfg(feature = "v4l2")]
         Command::Devices => devices::run(),

@@ -16,7 +16,7 @@ use glint::detect::skeleton::SkeletonMethod;
 use glint::detect::threshold::Threshold;
 use glint::detect::{DetectorConfig, MaskMethod};
 use glint::frame::FrameSize;
-use glint::monitor;
+use glint::monitor::{self, Monitor};
 use glint::pipeline::{self, Pipeline, PipelineConfig, RunSummary};
 use glint::sink::{serial, CsvSink, JsonLinesSink, SerialSink, Tee};
 use glint::source::dump::DumpSource;
@@ -29,7 +29,19 @@ const OUTPUT_BUFFER_BYTES: usize = 64 * 1024;
 #[derive(Debug, Args)]
 pub struct TrackArgs {
     #[command(flatten)]
-    input: input::InputArgs,
+    pub settings: TrackSettings,
+
+    /// Output format.
+    #[arg(long, value_enum, default_value_t = Format::Jsonl)]
+    format: Format,
+}
+
+/// The options `glint track` shares with `glint run` (whose configuration file has the same
+/// keys): input, detection, tracking, floor and serial link.
+#[derive(Debug, Args)]
+pub struct TrackSettings {
+    #[command(flatten)]
+    pub input: input::InputArgs,
 
     /// Frame size in pixels.
     #[arg(long, value_name = "WxH")]
@@ -43,10 +55,6 @@ pub struct TrackArgs {
     /// Saturation threshold (luma 0–255), or `auto` to follow each frame's top level.
     #[arg(long, default_value = "auto", value_parser = parse_threshold)]
     threshold: Threshold,
-
-    /// Output format.
-    #[arg(long, value_enum, default_value_t = Format::Jsonl)]
-    format: Format,
 
     /// Erosions of the mask before blobs are found (the seed used 10, which erases LEDs
     /// narrower than 21 px).
@@ -71,7 +79,7 @@ pub struct TrackArgs {
     /// With `--detector bgdiff`: learn the background from a separate raw dump of the empty
     /// scene instead (its first `--background-frames` frames, at least one).
     #[arg(long, value_name = "PATH")]
-    background: Option<PathBuf>,
+    pub background: Option<PathBuf>,
 
     /// With `--detector bgdiff`: the luma difference from the background that counts.
     #[arg(long, default_value_t = 60, value_name = "LUMA",
@@ -83,11 +91,11 @@ pub struct TrackArgs {
     skeleton: SkeletonArg,
 
     #[command(flatten)]
-    floor: calib_args::FloorArgs,
+    pub floor: calib_args::FloorArgs,
 
     /// Also send position packets to the robot on this serial port (board/protocol/SPEC.md).
     #[arg(long, value_name = "PORT")]
-    serial: Option<String>,
+    pub serial: Option<String>,
 
     /// Line rate of --serial, 8N1.
     #[arg(long, default_value_t = serial::DEFAULT_BAUD, value_parser = clap::value_parser!(u32).range(50..=4_000_000))]
@@ -140,7 +148,7 @@ fn parse_threshold(s: &str) -> Result<Threshold, String> {
         .map_err(|_| format!("{s:?} is neither `auto` nor a luma level 0–255"))
 }
 
-impl TrackArgs {
+impl TrackSettings {
     fn pipeline_config(&self) -> PipelineConfig {
         PipelineConfig {
             detector: DetectorConfig {
@@ -170,26 +178,59 @@ impl TrackArgs {
     }
 }
 
-pub fn run(args: TrackArgs) -> Result<ExitCode> {
+/// A run's parts, opened and checked: everything but the text output.
+pub struct Opened {
+    pub source: input::InputSource,
+    /// Reports are flushed one by one (a pipe or a camera), not in blocks.
+    pub live: bool,
+    pub monitor: Monitor,
+    pub pipeline: Pipeline,
+    pub serial: Option<SerialSink>,
+}
+
+/// Opens the input, builds the pipeline (learning a separate background when asked) and opens
+/// the serial link, in that order.
+pub fn open(settings: &TrackSettings) -> Result<Opened> {
     let input::Input {
+        source,
+        live,
+        monitor,
+    } = input::open(&settings.input, settings.size, settings.fps)?;
+    let aruco = settings.detector == DetectorArg::Aruco;
+    let mut pipeline = calib_args::build_pipeline(
+        &settings.floor,
+        settings.size,
+        aruco,
+        settings.pipeline_config(),
+    )?;
+    if let Some(path) = &settings.background {
+        if settings.detector != DetectorArg::Bgdiff {
+            bail!("--background goes with --detector bgdiff");
+        }
+        learn_background(&mut pipeline, path, settings)?;
+    }
+    let serial = settings
+        .serial
+        .as_deref()
+        .map(|port| SerialSink::open(port, settings.baud))
+        .transpose()?;
+    Ok(Opened {
+        source,
+        live,
+        monitor,
+        pipeline,
+        serial,
+    })
+}
+
+pub fn run(args: TrackArgs) -> Result<ExitCode> {
+    let Opened {
         mut source,
         live,
         mut monitor,
-    } = input::open(&args.input, args.size, args.fps)?;
-    let aruco = args.detector == DetectorArg::Aruco;
-    let mut pipeline =
-        calib_args::build_pipeline(&args.floor, args.size, aruco, args.pipeline_config())?;
-    if let Some(path) = &args.background {
-        if args.detector != DetectorArg::Bgdiff {
-            bail!("--background goes with --detector bgdiff");
-        }
-        learn_background(&mut pipeline, path, &args)?;
-    }
-    let serial = args
-        .serial
-        .as_deref()
-        .map(|port| SerialSink::open(port, args.baud));
-    let serial = serial.transpose()?;
+        mut pipeline,
+        serial,
+    } = open(&args.settings)?;
     let stdout = BufWriter::with_capacity(OUTPUT_BUFFER_BYTES, io::stdout().lock());
     let (summary, result) = match args.format {
         Format::Jsonl => monitor::run(
@@ -206,7 +247,18 @@ pub fn run(args: TrackArgs) -> Result<ExitCode> {
         ),
     };
     input::report(&monitor);
-    log_summary(&summary);
+    conclude(&summary, result)
+}
+
+/// Reports the end of a run and turns its outcome into an exit code.
+pub fn conclude<E>(
+    summary: &RunSummary,
+    result: Result<(), pipeline::RunError<E>>,
+) -> Result<ExitCode>
+where
+    pipeline::RunError<E>: std::error::Error + Send + Sync + 'static,
+{
+    log_summary(summary);
     match result {
         Ok(()) => Ok(ExitCode::SUCCESS),
         // A reader that went away (`| head`) is not an error of ours.
@@ -218,7 +270,7 @@ pub fn run(args: TrackArgs) -> Result<ExitCode> {
 }
 
 /// Feeds the first `--background-frames` frames of a separate dump to the background model.
-fn learn_background(pipeline: &mut Pipeline, path: &Path, args: &TrackArgs) -> Result<()> {
+fn learn_background(pipeline: &mut Pipeline, path: &Path, args: &TrackSettings) -> Result<()> {
     let file =
         File::open(path).with_context(|| format!("cannot open background {}", path.display()))?;
     let fps = args.fps.unwrap_or(input::DEFAULT_DUMP_FPS);

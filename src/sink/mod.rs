@@ -4,13 +4,16 @@
 //! Both text formats are written straight into the writer with `write!`, which formats numbers
 //! on the stack: no per-frame allocation, and the writer's buffer is allocated once.
 
+mod best_effort;
 mod csv;
 mod jsonl;
 pub mod serial;
 mod tee;
 
+use core::fmt;
 use std::io;
 
+pub use best_effort::BestEffort;
 pub use csv::CsvSink;
 pub use jsonl::JsonLinesSink;
 pub use serial::SerialSink;
@@ -25,4 +28,10 @@ pub trait Sink {
 
     /// Flushes whatever is buffered at the end of a run.
     fn finish(&mut self) -> io::Result<()>;
+
+    /// Appends this sink's state (say, whether its link is up) to the periodic status line,
+    /// as `, name state` clauses; nothing by default.
+    fn status(&self, _out: &mut fmt::Formatter<'_>) -> fmt::Result {
+        Ok(())
+    }
 }

@@ -1,5 +1,6 @@
 //! Two sinks fed the same reports: the usual output on standard output and the serial link.
 
+use core::fmt;
 use std::io;
 
 use super::Sink;
@@ -31,6 +32,11 @@ impl<A: Sink, B: Sink> Sink for Tee<A, B> {
         let second = self.second.finish();
         first.and(second)
     }
+
+    fn status(&self, out: &mut fmt::Formatter<'_>) -> fmt::Result {
+        self.first.status(out)?;
+        self.second.status(out)
+    }
 }
 
 /// An optional sink: `None` takes reports and does nothing, so an output that is switched on by
@@ -46,6 +52,13 @@ impl<S: Sink> Sink for Option<S> {
     fn finish(&mut self) -> io::Result<()> {
         match self {
             Some(sink) => sink.finish(),
+            None => Ok(()),
+        }
+    }
+
+    fn status(&self, out: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Some(sink) => sink.status(out),
             None => Ok(()),
         }
     }

@@ -6,6 +6,7 @@
 pub mod dump;
 pub mod record;
 pub mod sidecar;
+pub mod stoppable;
 
 use crate::frame::Frame;
 

@@ -241,6 +241,24 @@ impl Sink for SerialSink {
         log::info!("serial port {}: {}", self.path, self.stats());
         Ok(())
     }
+
+    /// `, serial up|down (sent N, dropped M, reopened K)`: the port is down from a loss until
+    /// its reopening.
+    fn status(&self, out: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let stats = self.stats();
+        let state = if stats.losses > stats.reopens {
+            "down"
+        } else {
+            "up"
+        };
+        write!(
+            out,
+            ", serial {state} (sent {}, dropped {}, reopened {})",
+            stats.sent,
+            stats.dropped(),
+            stats.reopens
+        )
+    }
 }
 
 impl Drop for SerialSink {
