@@ -4,8 +4,12 @@
 #   tools/cross.sh                  build the glint binary for aarch64 and armv7, then run the
 #                                   library tests for aarch64 under qemu-aarch64
 #   tools/cross.sh build [TARGET..] build the release binary for the given targets (default both)
+#   tools/cross.sh check [TARGET..] type-check the library and binary for the given targets
+#                                   (default both): catches 32-bit and ARM type differences
+#                                   (time_t, off_t, c_char) without the cost of an optimised build
 #   tools/cross.sh test             run the unit tests of glint and glint-protocol for aarch64
 #                                   under qemu-aarch64 (the NEON kernel against the portable one)
+#   tools/cross.sh ci               what CI runs (tools/test.sh): build aarch64, check armv7, test
 #
 # TARGET is aarch64-unknown-linux-gnu (Pi 3/4/5 with a 64-bit OS) or
 # armv7-unknown-linux-gnueabihf (Pi 2/3/4 with a 32-bit OS); `aarch64` and `armv7` are accepted
@@ -46,6 +50,14 @@ build() {
     done
 }
 
+check() {
+    local target
+    for target in "$@"; do
+        ensure_rustup_target "$target"
+        cargo check --locked --target "$target" -p glint --lib --bins
+    done
+}
+
 run_tests() {
     ensure_rustup_target "$TEST_TARGET"
     # The runner in .cargo/config.toml (qemu-aarch64) executes the test binaries.
@@ -59,19 +71,24 @@ case "$command" in
         build "${ALL_TARGETS[@]}"
         run_tests
         ;;
-    build)
+    build | check)
         [ $# -gt 0 ] || set -- "${ALL_TARGETS[@]}"
         targets=()
         for name in "$@"; do
-            targets+=("$(full_name "$name")")
+            targets+=("$(full_name "$name")") # exits on an unknown name
         done
-        build "${targets[@]}"
+        "$command" "${targets[@]}"
         ;;
     test)
         run_tests
         ;;
+    ci)
+        build aarch64-unknown-linux-gnu
+        check armv7-unknown-linux-gnueabihf
+        run_tests
+        ;;
     *)
-        echo "usage: tools/cross.sh [all | build [aarch64|armv7 ...] | test]" >&2
+        echo "usage: tools/cross.sh [all | build|check [aarch64|armv7 ...] | test | ci]" >&2
         exit 2
         ;;
 esac
