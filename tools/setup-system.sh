@@ -10,12 +10,18 @@
 #   socat            serial port pairs for UART tests
 #   binutils         strip, to shrink the test programs copied into the VM
 #   xz-utils         unpacking the kernel image to the uncompressed vmlinux qemu boots fastest
+#   gcc-aarch64-linux-gnu, gcc-arm-linux-gnueabihf
+#                    cross linkers for the Raspberry Pi targets (tools/cross.sh); they pull in the
+#                    targets' C library and kernel headers (libc6-dev-arm64-cross,
+#                    linux-libc-dev-arm64-cross, ...), which bindgen finds for the `v4l` crate
+#   qemu-user        qemu-aarch64, the runner of the aarch64 library tests (.cargo/config.toml)
 #
 # The VM runs host-built (glibc) test programs: tests/vm/prepare.sh copies the C libraries they
 # need into the guest, so no extra Rust target is needed.
 set -eu
 
-PACKAGES="libclang-dev qemu-system-x86 busybox-static v4l-utils cpio kmod socat xz-utils binutils"
+PACKAGES="libclang-dev qemu-system-x86 busybox-static v4l-utils cpio kmod socat xz-utils binutils
+    gcc-aarch64-linux-gnu gcc-arm-linux-gnueabihf qemu-user"
 
 missing=""
 for pkg in $PACKAGES; do

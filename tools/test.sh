@@ -2,10 +2,15 @@
 # The test command of the README: installs what the tests need from the system, then runs every
 # test of the workspace (unit, integration, end-to-end on rendered scenes, the allocation
 # counter, the protocol's fuzz pass and C decoder, the vivid VM suite) and builds the example
-# firmware for its microcontroller target.
+# firmware for its microcontroller target; then the Raspberry Pi side: the aarch64 binary is
+# cross-built, the armv7 build type-checked, the library's tests run for aarch64 under
+# qemu-aarch64 (NEON kernels against the portable ones), and the deployment files installed
+# into a temporary DESTDIR.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 tools/setup-system.sh
 cargo test --workspace
 bash board/firmware/check.sh
+tools/cross.sh ci
+bash board/raspberry-pi/check.sh

@@ -6,9 +6,12 @@
 //!   floor calibration tests.
 //! - [`overlay`]: a frame as a PNG with glint's mask, skeleton and answers and the ground truth
 //!   drawn on it (the `glint-view` and `glint-demo` binaries).
+//! - [`plot`]: a JSON-lines track as a PNG of the trajectory and the speed over time (the
+//!   `glint-plot` binary).
 //! - [`stats`]: medians and percentiles of per-frame errors and times.
 
 pub mod markers;
 pub mod overlay;
+pub mod plot;
 pub mod scene;
 pub mod stats;

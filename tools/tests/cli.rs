@@ -200,3 +200,79 @@ fn view_reports_a_truncated_dump_from_a_file_and_from_a_pipe() {
     assert!(stderr.contains("input ends inside frame 1"), "{stderr}");
     assert!(!out.exists());
 }
+
+/// Runs `glint-plot` on `track` (written to a file) with `extra` arguments.
+fn plot(dir: &Path, track: &str, extra: &[&str]) -> (Output, String) {
+    let input = dir.join("track.jsonl");
+    fs::write(&input, track).unwrap();
+    let mut command = Command::new(env!("CARGO_BIN_EXE_glint-plot"));
+    command
+        .arg("--input")
+        .arg(&input)
+        .arg("--out")
+        .arg(dir.join("plot.png"))
+        .args(extra);
+    let (output, _, stderr) = run(command);
+    (output, stderr)
+}
+
+#[test]
+fn glint_plot_writes_a_png_of_the_requested_size() {
+    use glint_tools::plot::style as plot_style;
+    let dir = tempfile::tempdir().unwrap();
+    let track: String = (0..40)
+        .map(|k| {
+            let found = k % 13 != 7;
+            let a = f64::from(k) * 0.2;
+            if found {
+                format!(
+                    "{{\"frame\":{k},\"t\":{},\"found\":true,\"x\":{},\"y\":{}}}\n",
+                    f64::from(k) / 30.0,
+                    320.0 + 100.0 * a.cos(),
+                    240.0 + 60.0 * a.sin()
+                )
+            } else {
+                format!(
+                    "{{\"frame\":{k},\"t\":{},\"found\":false}}\n",
+                    f64::from(k) / 30.0
+                )
+            }
+        })
+        .collect();
+    let (output, stderr) = plot(dir.path(), &track, &["--width", "640", "--height", "720"]);
+    assert!(output.status.success(), "{stderr}");
+    assert!(stderr.contains("40 frames (37 with a position"), "{stderr}");
+    let (width, height, rgb) = decode_png(&dir.path().join("plot.png"));
+    assert_eq!((width, height), (640, 720));
+    assert!(has_colour(&rgb, plot_style::TRAJECTORY));
+    assert!(has_colour(&rgb, plot_style::SPEED));
+}
+
+#[test]
+fn glint_plot_refuses_bad_lines_empty_input_and_bad_sizes() {
+    let dir = tempfile::tempdir().unwrap();
+    let good = "{\"t\":0.0,\"found\":true,\"x\":1.0,\"y\":2.0}\n";
+    let cases = [
+        (
+            format!("{good}{{\"t\":0.1,\"found\":tru\n"),
+            "line 2: not a glint track record",
+        ),
+        (String::new(), "the track is empty"),
+        (
+            "{\"t\":0.0,\"found\":false}\n".into(),
+            "none of the 1 frames has a position",
+        ),
+    ];
+    for (track, expected) in cases {
+        let (output, stderr) = plot(dir.path(), &track, &[]);
+        assert!(!output.status.success(), "accepted {track:?}");
+        assert!(stderr.contains(expected), "{track:?}: {stderr}");
+        assert!(
+            !dir.path().join("plot.png").exists(),
+            "wrote a PNG for {track:?}"
+        );
+    }
+    let (output, stderr) = plot(dir.path(), good, &["--width", "10"]);
+    assert!(!output.status.success());
+    assert!(stderr.contains("outside 240..=8192"), "{stderr}");
+}

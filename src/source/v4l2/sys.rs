@@ -181,8 +181,12 @@ pub fn query_controls(fd: c_int) -> io::Result<Vec<ControlDesc>> {
             break; // a driver that does not advance would loop forever
         }
         id = query.id;
-        // `c_char` is i8 here; reinterpret the bytes.
-        let name_bytes: Vec<u8> = query.name.iter().map(|&c| c as u8).collect();
+        // `c_char` is i8 on x86 and u8 on ARM; reinterpret the bytes either way.
+        let name_bytes: Vec<u8> = query
+            .name
+            .iter()
+            .map(|&c| u8::from_ne_bytes(c.to_ne_bytes()))
+            .collect();
         controls.push(ControlDesc {
             id: query.id,
             kind: query.type_,
@@ -292,9 +296,15 @@ pub fn dequeue_buffer(fd: c_int) -> io::Result<Dequeued> {
         bytes_used: buffer.bytesused,
         flags: buffer.flags,
         sequence: buffer.sequence,
-        timestamp_sec: buffer.timestamp.tv_sec,
-        timestamp_usec: buffer.timestamp.tv_usec,
+        timestamp_sec: c_long_to_i64(buffer.timestamp.tv_sec),
+        timestamp_usec: c_long_to_i64(buffer.timestamp.tv_usec),
     })
+}
+
+/// `time_t` and `suseconds_t` are `long`: 32 bits on 32-bit targets (armv7), 64 elsewhere.
+#[allow(clippy::useless_conversion)] // the identity on 64-bit targets
+fn c_long_to_i64(value: libc::c_long) -> i64 {
+    i64::from(value)
 }
 
 /// Starts (`on`) or stops capture streaming (VIDIOC_STREAMON / VIDIOC_STREAMOFF).
@@ -338,6 +348,10 @@ impl Mapping {
     /// Maps buffer memory at `offset` of the node (as QUERYBUF told).
     pub fn new(fd: c_int, offset: u32, len: u32) -> io::Result<Self> {
         let len = len as usize;
+        // `off_t` is 32 bits on 32-bit targets (armv7); an offset beyond it cannot be mapped.
+        #[allow(clippy::unnecessary_fallible_conversions)] // infallible on 64-bit targets
+        let offset = libc::off_t::try_from(offset)
+            .map_err(|_| io::Error::from(io::ErrorKind::InvalidInput))?;
         // SAFETY: a fresh shared mapping chosen by the kernel; nothing else refers to it.
         let ptr = unsafe {
             libc::mmap(
@@ -346,7 +360,7 @@ impl Mapping {
                 libc::PROT_READ,
                 libc::MAP_SHARED,
                 fd,
-                libc::off_t::from(offset),
+                offset,
             )
         };
         if ptr == libc::MAP_FAILED {
@@ -384,7 +398,10 @@ pub fn monotonic_now_us() -> u64 {
     };
     // SAFETY: a valid timespec out-pointer; CLOCK_MONOTONIC always exists on Linux.
     unsafe { libc::clock_gettime(libc::CLOCK_MONOTONIC, &mut now) };
-    timeval_us(now.tv_sec, now.tv_nsec / 1_000)
+    timeval_us(
+        c_long_to_i64(now.tv_sec),
+        c_long_to_i64(now.tv_nsec / 1_000),
+    )
 }
 
 /// Seconds and microseconds as microseconds; negative parts (never valid here) count as 0.

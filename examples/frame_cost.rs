@@ -1,0 +1,79 @@
+//! A fixed per-frame workload for counting instructions (not for timing): `tools/pi-cost.sh`
+//! runs it under callgrind (x86_64) and under `qemu-aarch64` with an instruction-counting
+//! plugin, twice with different frame counts, and divides the difference by the extra frames,
+//! so set-up (rendering the frames, allocation, process start) cancels out.
+//!
+//! `cargo run --release --example frame_cost -- STAGE FRAMES`
+//!
+//! STAGE is `pipeline` (the whole `Pipeline::process` on each frame of the `fast-line` scene, a
+//! 60 px streak at 640×480, in order so the tracker follows it), `threshold` (the automatic
+//! threshold alone) or `none` (set-up only).
+
+use std::hint::black_box;
+
+use glint::detect::bitimage::BitImage;
+use glint::detect::threshold::{self, Threshold};
+use glint::frame::{Frame, FrameSize};
+use glint::pipeline::{Pipeline, PipelineConfig};
+use glint::source::FrameMeta;
+use glint::track::TrackerConfig;
+use glint_tools::scene::Scene;
+
+/// Frames rendered up front (and cycled through): the same set whatever FRAMES is, so the
+/// rendering cost is the same in every run and cancels out of the difference.
+const RENDERED_FRAMES: usize = 16;
+const SCENE: &str = "fast-line";
+const USAGE: &str = "usage: frame_cost pipeline|threshold|none FRAMES";
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let mut args = std::env::args().skip(1);
+    let stage = args.next().ok_or(USAGE)?;
+    let frames: usize = args.next().ok_or(USAGE)?.parse()?;
+
+    let mut config = Scene::preset_config(SCENE).ok_or("unknown scene")?;
+    // Frames from the middle of the scene, where the LED is in view and streaked.
+    let first = config.frame_count / 2;
+    config.frame_count = first + RENDERED_FRAMES;
+    let scene = Scene::new(config)?;
+    let size = FrameSize::new(scene.width_px(), scene.height_px())?;
+    let mut rendered = vec![vec![0u8; size.frame_bytes()]; RENDERED_FRAMES];
+    for (k, bytes) in rendered.iter_mut().enumerate() {
+        scene.render(first + k, bytes)?;
+    }
+    let frame_of =
+        |k: usize| Frame::new_checked(&rendered[k % RENDERED_FRAMES], size, size.row_bytes());
+
+    let tracker = TrackerConfig {
+        exposure_us: Some(scene.exposure_us()),
+    };
+    let mut pipeline = Pipeline::new(
+        size,
+        PipelineConfig {
+            tracker,
+            ..PipelineConfig::default()
+        },
+    )?;
+    let mut mask = BitImage::new(size);
+    let mut found = 0usize;
+    for k in 0..frames {
+        let frame = frame_of(k)?;
+        match stage.as_str() {
+            "pipeline" => {
+                let meta = FrameMeta {
+                    index: k as u64,
+                    sequence: k as u64,
+                    dropped: 0,
+                    timestamp_us: (k as f64 * 1e6 / scene.fps()) as u64,
+                };
+                found += usize::from(pipeline.process(black_box(&frame), meta).position.is_some());
+            }
+            "threshold" => {
+                found += threshold::apply(black_box(&frame), Threshold::Auto, &mut mask).1;
+            }
+            "none" => {}
+            _ => return Err(USAGE.into()),
+        }
+    }
+    println!("{stage}: {frames} frames of {SCENE} at {size}, result {found}");
+    Ok(())
+}

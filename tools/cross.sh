@@ -1,0 +1,94 @@
+#!/usr/bin/env bash
+# Cross builds for the Raspberry Pi, and the library's tests under qemu.
+#
+#   tools/cross.sh                  build the glint binary for aarch64 and armv7, then run the
+#                                   library tests for aarch64 under qemu-aarch64
+#   tools/cross.sh build [TARGET..] build the release binary for the given targets (default both)
+#   tools/cross.sh check [TARGET..] type-check the library and binary for the given targets
+#                                   (default both): catches 32-bit and ARM type differences
+#                                   (time_t, off_t, c_char) without the cost of an optimised build
+#   tools/cross.sh test             run the unit tests of glint and glint-protocol for aarch64
+#                                   under qemu-aarch64 (the NEON kernel against the portable one)
+#   tools/cross.sh ci               what CI runs (tools/test.sh): build aarch64, check armv7, test
+#
+# TARGET is aarch64-unknown-linux-gnu (Pi 3/4/5 with a 64-bit OS) or
+# armv7-unknown-linux-gnueabihf (Pi 2/3/4 with a 32-bit OS); `aarch64` and `armv7` are accepted
+# as short names. Binaries land in target/TARGET/release/glint.
+#
+# Needs the Debian cross linkers and qemu-user (tools/setup-system.sh installs them); the rustup
+# targets are installed here when missing. Linkers and runners are set in .cargo/config.toml.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+ALL_TARGETS=(aarch64-unknown-linux-gnu armv7-unknown-linux-gnueabihf)
+TEST_TARGET=aarch64-unknown-linux-gnu
+
+full_name() {
+    case "$1" in
+        aarch64) echo aarch64-unknown-linux-gnu ;;
+        armv7) echo armv7-unknown-linux-gnueabihf ;;
+        aarch64-unknown-linux-gnu | armv7-unknown-linux-gnueabihf) echo "$1" ;;
+        *)
+            echo "cross.sh: unknown target '$1' (aarch64 or armv7)" >&2
+            exit 2
+            ;;
+    esac
+}
+
+ensure_rustup_target() {
+    if ! rustup target list --installed | grep -qx "$1"; then
+        rustup target add "$1"
+    fi
+}
+
+build() {
+    local target
+    for target in "$@"; do
+        ensure_rustup_target "$target"
+        cargo build --release --locked --target "$target" --bin glint
+        echo "cross.sh: built target/$target/release/glint" >&2
+    done
+}
+
+check() {
+    local target
+    for target in "$@"; do
+        ensure_rustup_target "$target"
+        cargo check --locked --target "$target" -p glint --lib --bins
+    done
+}
+
+run_tests() {
+    ensure_rustup_target "$TEST_TARGET"
+    # The runner in .cargo/config.toml (qemu-aarch64) executes the test binaries.
+    cargo test --locked --target "$TEST_TARGET" --lib -p glint -p glint-protocol
+}
+
+command="${1:-all}"
+[ $# -gt 0 ] && shift
+case "$command" in
+    all)
+        build "${ALL_TARGETS[@]}"
+        run_tests
+        ;;
+    build | check)
+        [ $# -gt 0 ] || set -- "${ALL_TARGETS[@]}"
+        targets=()
+        for name in "$@"; do
+            targets+=("$(full_name "$name")") # exits on an unknown name
+        done
+        "$command" "${targets[@]}"
+        ;;
+    test)
+        run_tests
+        ;;
+    ci)
+        build aarch64-unknown-linux-gnu
+        check armv7-unknown-linux-gnueabihf
+        run_tests
+        ;;
+    *)
+        echo "usage: tools/cross.sh [all | build|check [aarch64|armv7 ...] | test | ci]" >&2
+        exit 2
+        ;;
+esac
