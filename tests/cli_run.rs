@@ -227,3 +227,54 @@ fn sigterm_stops_a_live_run_cleanly_after_status_lines() {
         assert_eq!(report["frame"].as_u64(), Some(i as u64));
     }
 }
+
+/// The example settings file shipped for the Raspberry Pi is one `glint run` accepts: with its
+/// camera, calibration and serial port swapped for a rendered dump, it runs and reports.
+#[test]
+fn the_shipped_example_settings_are_accepted() {
+    let r = render("slow-line");
+    let dir = tempfile::tempdir().unwrap();
+    let jsonl = dir.path().join("out.jsonl");
+    let example = include_str!("../board/raspberry-pi/glint.toml");
+    let mut swapped = 0;
+    let text: String = example
+        .lines()
+        .map(|line| {
+            let key = line.split('=').next().unwrap_or("").trim();
+            match key {
+                "device" => {
+                    swapped += 1;
+                    format!(
+                        "input = {:?}\njsonl = {:?}",
+                        r.dump.display().to_string(),
+                        jsonl.display().to_string()
+                    )
+                }
+                "calib" | "serial" | "baud" => {
+                    swapped += 1;
+                    String::new()
+                }
+                _ => line.to_owned(),
+            }
+        })
+        .collect::<Vec<_>>()
+        .join("\n");
+    assert_eq!(
+        swapped, 4,
+        "the example still names device, calib, serial and baud"
+    );
+    let path = settings(dir.path(), &text);
+    let out = glint()
+        .args(["run", "--config"])
+        .arg(&path)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let reports = parse_jsonl(&std::fs::read(&jsonl).unwrap());
+    assert_eq!(reports.len(), r.truths.len());
+    assert!(reports.iter().all(|r| r["found"] == true));
+}
