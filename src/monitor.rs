@@ -195,10 +195,15 @@ struct Watched<'a, K> {
     monitor: &'a mut Monitor,
 }
 
-impl<K: Sink> Sink for Watched<'_, K> {
-    fn write(&mut self, report: &FrameReport) -> io::Result<()> {
+impl<K: Sink> Watched<'_, K> {
+    /// Times `write` (the inner sink's output of `report`) and tells the monitor.
+    fn timed(
+        &mut self,
+        report: &FrameReport,
+        write: impl FnOnce(&mut K) -> io::Result<()>,
+    ) -> io::Result<()> {
         let ready = Instant::now();
-        self.inner.write(report)?;
+        write(self.inner)?;
         let written = Instant::now();
         let marks = self.marks.get();
         let times = FrameTimes {
@@ -208,6 +213,16 @@ impl<K: Sink> Sink for Watched<'_, K> {
         };
         self.monitor.on_frame(report, &times, written, &*self.inner);
         Ok(())
+    }
+}
+
+impl<K: Sink> Sink for Watched<'_, K> {
+    fn write(&mut self, report: &FrameReport) -> io::Result<()> {
+        self.timed(report, |inner| inner.write(report))
+    }
+
+    fn write_frame(&mut self, frame: &Frame<'_>, report: &FrameReport) -> io::Result<()> {
+        self.timed(report, |inner| inner.write_frame(frame, report))
     }
 
     fn finish(&mut self) -> io::Result<()> {

@@ -249,7 +249,7 @@ pub fn run<S: FrameSource, K: Sink>(
             );
         }
         overflow_reported = overflow.any();
-        if let Err(e) = sink.write(&report) {
+        if let Err(e) = sink.write_frame(&frame, &report) {
             return (summary, Err(RunError::Sink(e)));
         }
     }

@@ -15,13 +15,14 @@
 #                    targets' C library and kernel headers (libc6-dev-arm64-cross,
 #                    linux-libc-dev-arm64-cross, ...), which bindgen finds for the `v4l` crate
 #   qemu-user        qemu-aarch64, the runner of the aarch64 library tests (.cargo/config.toml)
+#   chromium         headless browser screenshot of `glint run --preview`'s page (tests/preview.rs)
 #
 # The VM runs host-built (glibc) test programs: tests/vm/prepare.sh copies the C libraries they
 # need into the guest, so no extra Rust target is needed.
 set -eu
 
 PACKAGES="libclang-dev qemu-system-x86 busybox-static v4l-utils cpio kmod socat xz-utils binutils
-    gcc-aarch64-linux-gnu gcc-arm-linux-gnueabihf qemu-user"
+    gcc-aarch64-linux-gnu gcc-arm-linux-gnueabihf qemu-user chromium"
 
 missing=""
 for pkg in $PACKAGES; do

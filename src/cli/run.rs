@@ -6,6 +6,7 @@
 
 use std::fs::OpenOptions;
 use std::io::{self, BufWriter, Write};
+use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::atomic::AtomicBool;
@@ -15,11 +16,14 @@ use anyhow::{Context, Result};
 use clap::Args;
 
 use glint::monitor::{self, Monitor};
-use glint::sink::{BestEffort, JsonLinesSink, Tee};
+use glint::sink::{BestEffort, JsonLinesSink, PreviewSink, Tee};
 use glint::source::stoppable::Stoppable;
 
 use super::signals;
 use super::track::{self, Opened, TrackSettings};
+
+/// Where `--preview` serves without an address: this machine only.
+const DEFAULT_PREVIEW_ADDR: &str = "127.0.0.1:8080";
 
 /// Buffer of the JSON lines output (flushed after every line).
 const JSONL_BUFFER_BYTES: usize = 16 * 1024;
@@ -39,6 +43,13 @@ pub struct RunArgs {
     /// `-` for standard output. A failing output is logged and dropped; tracking goes on.
     #[arg(long, value_name = "PATH|-")]
     jsonl: Option<String>,
+
+    /// Serve a live page for aiming the camera (the frame, the saturation mask, the streak and
+    /// track, the frame rate) on this address; on 127.0.0.1:8080 when given no value (or
+    /// `preview = true`). Frames are copied only while a viewer is connected, at 2 Hz.
+    #[arg(long, value_name = "ADDR:PORT", num_args = 0..=1,
+          default_missing_value = DEFAULT_PREVIEW_ADDR)]
+    preview: Option<SocketAddr>,
 }
 
 pub fn run(args: RunArgs) -> Result<ExitCode> {
@@ -63,7 +74,11 @@ pub fn run(args: RunArgs) -> Result<ExitCode> {
     signals::stop_on_signals(&stop)?;
     let mut source = Stoppable::new(source, stop);
     let jsonl = jsonl.map(|out| BestEffort::new("jsonl", JsonLinesSink::new(out, true)));
-    let mut sink = Tee::new(jsonl, serial);
+    let preview = args
+        .preview
+        .map(|addr| start_preview(addr, &args.settings))
+        .transpose()?;
+    let mut sink = Tee::new(Tee::new(jsonl, preview), serial);
     let (summary, result) = monitor::run(&mut source, &mut pipeline, &mut sink, &mut monitor);
     let totals = monitor.totals();
     log::info!(
@@ -75,6 +90,14 @@ pub fn run(args: RunArgs) -> Result<ExitCode> {
         log::info!("whole run: {}", stats.one_line());
     }
     track::conclude(&summary, result)
+}
+
+/// Starts the preview server and says where it is (the address actually bound, for port 0).
+fn start_preview(addr: SocketAddr, settings: &TrackSettings) -> Result<PreviewSink> {
+    let preview = PreviewSink::start(addr, settings.size)
+        .with_context(|| format!("preview = \"{addr}\": cannot serve there"))?;
+    log::info!("preview on http://{}/", preview.local_addr());
+    Ok(preview)
 }
 
 /// The files the settings name exist, so a typo stops start-up with the key that holds it.

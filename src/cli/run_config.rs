@@ -8,8 +8,8 @@
 //! file's). What clap cannot see is checked here: a key that is no option of `glint run`, and a
 //! value of the wrong TOML type. Each message names the file and the key.
 //!
-//! Values: a string or a number is the option's value; `true` gives a switch (`stats = true`),
-//! `false` leaves it off; a list gives a repeatable option once per item
+//! Values: a string or a number is the option's value; `true` gives a switch (`stats = true`) or
+//! an option whose value may be left out (`preview = true`), `false` leaves it off; a list gives a repeatable option once per item
 //! (`control = ["sharpness=0", "contrast=32"]`).
 
 use std::collections::BTreeSet;
@@ -166,6 +166,12 @@ fn to_options(text: &str, run: &Command) -> Result<Vec<(String, Vec<OsString>)>,
                 }
             }
             (ArgAction::SetTrue, _) => return Err(wrong("a switch takes true or false")),
+            // An option whose value may be left out (`--preview`): `true` is the option alone.
+            (_, Value::Boolean(on)) if arg.get_num_args().is_some_and(|n| n.min_values() == 0) => {
+                if *on {
+                    options.push(flag());
+                }
+            }
             (ArgAction::Append, Value::Array(items)) => {
                 for item in items {
                     options.push(with_value(item).ok_or_else(|| {
@@ -282,6 +288,23 @@ mod tests {
             "overridden on the command line"
         );
         assert_eq!(argv[0], "glint");
+    }
+
+    #[test]
+    fn preview_takes_an_address_or_true() {
+        let options = |text: &str| -> Vec<String> {
+            let s = splice_text(text, &[]).unwrap();
+            let argv = s.argv.iter().map(|a| a.to_string_lossy().into_owned());
+            argv.filter(|a| a.starts_with("--preview")).collect()
+        };
+        assert_eq!(options("preview = true\n"), ["--preview"]);
+        assert_eq!(options("preview = false\n"), Vec::<String>::new());
+        assert_eq!(
+            options("preview = \"0.0.0.0:9000\"\n"),
+            ["--preview=0.0.0.0:9000"]
+        );
+        // A switch-less option without a missing value still wants one.
+        assert!(splice_text("fps = true\n", &[]).is_err());
     }
 
     #[test]

@@ -45,7 +45,7 @@ pub struct TrackSettings {
 
     /// Frame size in pixels.
     #[arg(long, value_name = "WxH")]
-    size: FrameSize,
+    pub size: FrameSize,
 
     /// Frame rate: of a dump without a sidecar, for timestamps (default 30); of a camera, to
     /// ask for (default: its current one).

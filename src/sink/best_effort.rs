@@ -6,6 +6,7 @@ use core::fmt;
 use std::io;
 
 use super::Sink;
+use crate::frame::Frame;
 use crate::pipeline::FrameReport;
 
 /// `inner` until its first error, then nothing.
@@ -32,6 +33,13 @@ impl<S: Sink> BestEffort<S> {
 impl<S: Sink> Sink for BestEffort<S> {
     fn write(&mut self, report: &FrameReport) -> io::Result<()> {
         if let Some(Err(e)) = self.inner.as_mut().map(|s| s.write(report)) {
+            self.give_up(&e);
+        }
+        Ok(())
+    }
+
+    fn write_frame(&mut self, frame: &Frame<'_>, report: &FrameReport) -> io::Result<()> {
+        if let Some(Err(e)) = self.inner.as_mut().map(|s| s.write_frame(frame, report)) {
             self.give_up(&e);
         }
         Ok(())

@@ -4,6 +4,7 @@ use core::fmt;
 use std::io;
 
 use super::Sink;
+use crate::frame::Frame;
 use crate::pipeline::FrameReport;
 
 /// Forwards every report to `first`, then to `second`.
@@ -26,6 +27,11 @@ impl<A: Sink, B: Sink> Sink for Tee<A, B> {
         self.second.write(report)
     }
 
+    fn write_frame(&mut self, frame: &Frame<'_>, report: &FrameReport) -> io::Result<()> {
+        self.first.write_frame(frame, report)?;
+        self.second.write_frame(frame, report)
+    }
+
     /// Finishes both, even when the first fails, and reports the first error.
     fn finish(&mut self) -> io::Result<()> {
         let first = self.first.finish();
@@ -45,6 +51,13 @@ impl<S: Sink> Sink for Option<S> {
     fn write(&mut self, report: &FrameReport) -> io::Result<()> {
         match self {
             Some(sink) => sink.write(report),
+            None => Ok(()),
+        }
+    }
+
+    fn write_frame(&mut self, frame: &Frame<'_>, report: &FrameReport) -> io::Result<()> {
+        match self {
+            Some(sink) => sink.write_frame(frame, report),
             None => Ok(()),
         }
     }

@@ -1,0 +1,214 @@
+//! A live web page for aiming the camera (`glint run --preview`): the frame in grey with the
+//! saturation mask tinted, the streak and the recent track drawn over it, and the frame rate.
+//!
+//! The pipeline must not notice it. The sink copies a frame's luma into a buffer allocated
+//! once, at start, and only while a viewer has asked for something in the last few seconds,
+//! at most every [`COPY_PERIOD`], and only if the server is not reading the buffer at that
+//! moment (`try_lock`: tracking never waits). Encoding and serving happen on other threads
+//! ([`http`]); a slow or vanished client only ever holds up its own connection's thread.
+
+mod bmp;
+mod http;
+
+use std::io;
+use std::net::{SocketAddr, TcpListener};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex, PoisonError};
+use std::time::{Duration, Instant};
+
+use heapless::{Deque, Vec as BoundedVec};
+
+use super::Sink;
+use crate::frame::{Frame, FrameSize};
+use crate::pipeline::FrameReport;
+
+/// How often a frame is copied while someone watches (2 Hz).
+pub const COPY_PERIOD: Duration = Duration::from_millis(500);
+/// A viewer counts as gone when it has asked for nothing for this long.
+const VIEWER_PATIENCE: Duration = Duration::from_secs(5);
+/// Positions kept for the drawn track.
+pub const TRACK_POINTS: usize = 128;
+/// What the page draws: an image position in pixels.
+type Px = (f32, f32);
+
+/// The last copied frame and what was found in it: what the server encodes.
+#[derive(Debug, Clone)]
+struct Snapshot {
+    size: FrameSize,
+    /// One luma byte per pixel, rows top to bottom; allocated once in [`PreviewSink::start`].
+    luma: Vec<u8>,
+    /// Whether `luma` holds a frame yet.
+    captured: bool,
+    index: u64,
+    t_s: f64,
+    threshold_luma: Option<u8>,
+    position_px: Option<Px>,
+    mid_px: Option<Px>,
+    ends_px: Option<[Px; 2]>,
+    marker_px: Option<[(f64, f64); 4]>,
+    track_px: BoundedVec<Px, TRACK_POINTS>,
+    /// Frames per second over the last copy period; `None` until two copies were made.
+    fps: Option<f64>,
+}
+
+impl Snapshot {
+    fn new(size: FrameSize) -> Self {
+        Snapshot {
+            size,
+            luma: vec![0; size.pixels()],
+            captured: false,
+            index: 0,
+            t_s: 0.0,
+            threshold_luma: None,
+            position_px: None,
+            mid_px: None,
+            ends_px: None,
+            marker_px: None,
+            track_px: BoundedVec::new(),
+            fps: None,
+        }
+    }
+
+    /// Copies the frame's luma (the even bytes of each YUYV row) and the report. A frame of
+    /// another size fills what overlaps.
+    fn fill(&mut self, frame: &Frame<'_>, report: &FrameReport, track: &Deque<Px, TRACK_POINTS>) {
+        let width = self.size.width();
+        for (dst, row) in self.luma.chunks_exact_mut(width).zip(frame.rows()) {
+            for (d, y) in dst.iter_mut().zip(row.iter().step_by(2)) {
+                *d = *y;
+            }
+        }
+        self.captured = true;
+        self.index = report.meta.index;
+        self.t_s = report.t_s();
+        self.threshold_luma = report.detection.levels.threshold_luma;
+        self.position_px = report.position.map(|p| p.position_px);
+        self.mid_px = report.position.map(|p| p.mid_px);
+        self.ends_px = report.detection.best.map(|(_, streak)| streak.ends_px);
+        self.marker_px = report
+            .marker
+            .map(|m| m.corners_px.map(|corner| (corner.x, corner.y)));
+        self.track_px.clear();
+        for p in track {
+            // Both hold TRACK_POINTS: never full here.
+            let _ = self.track_px.push(*p);
+        }
+    }
+}
+
+/// State shared by the sink and the server threads.
+#[derive(Debug)]
+struct Shared {
+    /// Start of the clock of `last_request_ms`.
+    epoch: Instant,
+    /// Milliseconds after `epoch` of the last request, plus one; 0: none yet.
+    last_request_ms: AtomicU64,
+    snapshot: Mutex<Snapshot>,
+}
+
+impl Shared {
+    fn note_request(&self) {
+        let ms = u64::try_from(self.epoch.elapsed().as_millis()).unwrap_or(u64::MAX);
+        self.last_request_ms
+            .store(ms.saturating_add(1), Ordering::Relaxed);
+    }
+
+    /// Whether someone asked for something within [`VIEWER_PATIENCE`] of `now`.
+    fn watched(&self, now: Instant) -> bool {
+        match self.last_request_ms.load(Ordering::Relaxed) {
+            0 => false,
+            stamp => {
+                let asked = self.epoch + Duration::from_millis(stamp - 1);
+                now.saturating_duration_since(asked) <= VIEWER_PATIENCE
+            }
+        }
+    }
+
+    /// A copy of the snapshot, taken under the lock (on a server thread).
+    fn snapshot(&self) -> Snapshot {
+        self.snapshot
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .clone()
+    }
+}
+
+/// The preview: a sink that hands frames to a small HTTP server.
+#[derive(Debug)]
+pub struct PreviewSink {
+    shared: Arc<Shared>,
+    local_addr: SocketAddr,
+    /// Recent positions, every frame (not only copied ones).
+    track: Deque<Px, TRACK_POINTS>,
+    /// When the last copy was made, while watched.
+    last_copy: Option<Instant>,
+    /// Frames since `last_copy`.
+    frames_since_copy: u64,
+}
+
+impl PreviewSink {
+    /// Binds `addr` (port 0: any free port) and starts serving the page for frames of
+    /// `size`. The frame buffer is allocated here, once.
+    pub fn start(addr: SocketAddr, size: FrameSize) -> io::Result<Self> {
+        let listener = TcpListener::bind(addr)?;
+        let local_addr = listener.local_addr()?;
+        let shared = Arc::new(Shared {
+            epoch: Instant::now(),
+            last_request_ms: AtomicU64::new(0),
+            snapshot: Mutex::new(Snapshot::new(size)),
+        });
+        http::spawn(listener, Arc::clone(&shared))?;
+        Ok(PreviewSink {
+            shared,
+            local_addr,
+            track: Deque::new(),
+            last_copy: None,
+            frames_since_copy: 0,
+        })
+    }
+
+    /// Where the page is served.
+    pub fn local_addr(&self) -> SocketAddr {
+        self.local_addr
+    }
+}
+
+impl Sink for PreviewSink {
+    /// Without the pixels there is nothing to show but the track.
+    fn write(&mut self, report: &FrameReport) -> io::Result<()> {
+        if let Some(p) = report.position {
+            if self.track.is_full() {
+                self.track.pop_front();
+            }
+            let _ = self.track.push_back(p.position_px);
+        }
+        Ok(())
+    }
+
+    fn write_frame(&mut self, frame: &Frame<'_>, report: &FrameReport) -> io::Result<()> {
+        self.write(report)?;
+        let now = Instant::now();
+        if !self.shared.watched(now) {
+            self.last_copy = None;
+            return Ok(());
+        }
+        self.frames_since_copy += 1;
+        let since = self.last_copy.map(|t| now.saturating_duration_since(t));
+        if since.is_some_and(|s| s < COPY_PERIOD) {
+            return Ok(());
+        }
+        // The server is copying the snapshot out: skip this frame rather than wait.
+        let Ok(mut snapshot) = self.shared.snapshot.try_lock() else {
+            return Ok(());
+        };
+        snapshot.fill(frame, report, &self.track);
+        snapshot.fps = since.map(|s| self.frames_since_copy as f64 / s.as_secs_f64());
+        self.last_copy = Some(now);
+        self.frames_since_copy = 0;
+        Ok(())
+    }
+
+    fn finish(&mut self) -> io::Result<()> {
+        Ok(())
+    }
+}
