@@ -223,3 +223,47 @@ fn serial_sink_allocates_nothing_per_frame() {
     );
     assert_eq!(allocations, 0, "allocations during {} frames", truths.len());
 }
+
+/// The preview copies frames for a connected viewer without allocating on the capture thread
+/// (the server thread's own allocations, for HTTP and BMP encoding, do not count).
+#[test]
+fn preview_sink_with_a_viewer_allocates_nothing_per_frame() {
+    use std::io::{Read, Write};
+    use std::time::Duration;
+
+    let (size, bytes, count) = frames();
+    let mut sink =
+        glint::sink::preview::PreviewSink::start("127.0.0.1:0".parse().unwrap(), size).unwrap();
+    // A viewer asks for the state: from now on frames are copied (at most twice a second).
+    let mut viewer = std::net::TcpStream::connect(sink.local_addr()).unwrap();
+    viewer
+        .set_read_timeout(Some(Duration::from_secs(10)))
+        .unwrap();
+    viewer
+        .write_all(b"GET /state.json HTTP/1.1\r\nHost: x\r\n\r\n")
+        .unwrap();
+    let mut answer = String::new();
+    viewer.read_to_string(&mut answer).unwrap();
+    assert!(answer.starts_with("HTTP/1.1 200"), "{answer}");
+
+    let mut source = DumpSource::new(Cursor::new(&bytes), size, 30.0);
+    let mut pipeline = Pipeline::new(size, PipelineConfig::default()).unwrap();
+    let allocations = allocations_during(|| {
+        let (s, result) = pipeline::run(&mut source, &mut pipeline, &mut sink);
+        result.unwrap();
+        assert_eq!(s.frames, count as u64);
+    });
+    assert_eq!(allocations, 0);
+
+    // And the copy happened: the state now names a frame.
+    let mut viewer = std::net::TcpStream::connect(sink.local_addr()).unwrap();
+    viewer
+        .set_read_timeout(Some(Duration::from_secs(10)))
+        .unwrap();
+    viewer
+        .write_all(b"GET /state.json HTTP/1.1\r\nHost: x\r\n\r\n")
+        .unwrap();
+    let mut answer = String::new();
+    viewer.read_to_string(&mut answer).unwrap();
+    assert!(answer.contains("\"captured\":true"), "{answer}");
+}
