@@ -245,6 +245,7 @@ fn preview_sink_with_a_viewer_allocates_nothing_per_frame() {
     let mut answer = String::new();
     viewer.read_to_string(&mut answer).unwrap();
     assert!(answer.starts_with("HTTP/1.1 200"), "{answer}");
+    assert!(answer.contains("\"captured\":false"), "nothing copied yet: {answer}");
 
     let mut source = DumpSource::new(Cursor::new(&bytes), size, 30.0);
     let mut pipeline = Pipeline::new(size, PipelineConfig::default()).unwrap();
