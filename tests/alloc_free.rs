@@ -233,7 +233,8 @@ fn preview_sink_with_a_viewer_allocates_nothing_per_frame() {
 
     let (size, bytes, count) = frames();
     let mut sink =
-        glint::sink::preview::PreviewSink::start("127.0.0.1:0".parse().unwrap(), size).unwrap();
+        glint::sink::preview::PreviewSink::start("127.0.0.1:0".parse().unwrap(), size, Vec::new())
+            .unwrap();
     // A viewer asks for the state: from now on frames are copied (at most twice a second).
     let mut viewer = std::net::TcpStream::connect(sink.local_addr()).unwrap();
     viewer
@@ -245,7 +246,10 @@ fn preview_sink_with_a_viewer_allocates_nothing_per_frame() {
     let mut answer = String::new();
     viewer.read_to_string(&mut answer).unwrap();
     assert!(answer.starts_with("HTTP/1.1 200"), "{answer}");
-    assert!(answer.contains("\"captured\":false"), "nothing copied yet: {answer}");
+    assert!(
+        answer.contains("\"captured\":false"),
+        "nothing copied yet: {answer}"
+    );
 
     let mut source = DumpSource::new(Cursor::new(&bytes), size, 30.0);
     let mut pipeline = Pipeline::new(size, PipelineConfig::default()).unwrap();

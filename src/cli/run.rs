@@ -15,6 +15,7 @@ use std::sync::Arc;
 use anyhow::{Context, Result};
 use clap::Args;
 
+use glint::geometry::CalibrationFile;
 use glint::monitor::{self, Monitor};
 use glint::sink::{BestEffort, JsonLinesSink, PreviewSink, Tee};
 use glint::source::stoppable::Stoppable;
@@ -94,7 +95,17 @@ pub fn run(args: RunArgs) -> Result<ExitCode> {
 
 /// Starts the preview server and says where it is (the address actually bound, for port 0).
 fn start_preview(addr: SocketAddr, settings: &TrackSettings) -> Result<PreviewSink> {
-    let preview = PreviewSink::start(addr, settings.size)
+    // The calibration was checked when the pipeline was built; here only its markers are read.
+    let markers = match settings.floor.calib.as_deref() {
+        Some(path) => {
+            let text = std::fs::read_to_string(path)
+                .with_context(|| format!("calib = {:?}: cannot read it", path.display()))?;
+            CalibrationFile::marker_corners_px(&text)
+                .with_context(|| format!("calib = {:?}", path.display()))?
+        }
+        None => Vec::new(),
+    };
+    let preview = PreviewSink::start(addr, settings.size, markers)
         .with_context(|| format!("preview = \"{addr}\": cannot serve there"))?;
     log::info!("preview on http://{}/", preview.local_addr());
     Ok(preview)

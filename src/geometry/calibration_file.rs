@@ -183,6 +183,17 @@ pub struct CalibrationFile {
 }
 
 impl CalibrationFile {
+    /// The corners (TL, TR, BR, BL, pixels) of the markers a calibration was made from, for
+    /// drawing them; `text` should have passed [`CalibrationFile::parse`].
+    pub fn marker_corners_px(text: &str) -> Result<Vec<[(f32, f32); 4]>, CalibrationFileError> {
+        let layout: FileLayout = toml::from_str(text).map_err(|e| syntax_error(text, &e))?;
+        Ok(layout
+            .marker
+            .iter()
+            .map(|m| m.corners_px.map(|[x, y]| (x as f32, y as f32)))
+            .collect())
+    }
+
     /// Parses and checks `text` (the file's contents) for frames of `frames`.
     pub fn parse(text: &str, frames: FrameSize) -> Result<Self, CalibrationFileError> {
         let layout: FileLayout = toml::from_str(text).map_err(|e| syntax_error(text, &e))?;
@@ -380,6 +391,20 @@ mod tests {
             rows(inv.matrix()),
             corners.join(", ")
         )
+    }
+
+    #[test]
+    fn the_markers_corners_come_back_for_drawing() {
+        let text = good_file();
+        assert!(parse(&text).is_ok());
+        let markers = CalibrationFile::marker_corners_px(&text).unwrap();
+        assert_eq!(markers.len(), 1);
+        // The first corner is the marker's floor origin seen through the matrix.
+        let h = Homography::from_matrix(floor_to_screen()).unwrap();
+        let p = h.apply(&Point::new(0.0, 0.0)).unwrap();
+        let (x, y) = markers[0][0];
+        assert!((f64::from(x) - p.x).abs() < 1e-3 && (f64::from(y) - p.y).abs() < 1e-3);
+        assert!(CalibrationFile::marker_corners_px("not toml [").is_err());
     }
 
     fn frames() -> FrameSize {

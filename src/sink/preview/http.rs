@@ -130,7 +130,10 @@ fn respond(head: &[u8], shared: &Shared) -> Response {
     let path = target.split('?').next().unwrap_or_default();
     let body = match path {
         "/" | "/index.html" => (PAGE_HTML.as_bytes().to_vec(), "text/html; charset=utf-8"),
-        "/state.json" => (state_json(&shared.snapshot()), "application/json"),
+        "/state.json" => (
+            state_json(&shared.snapshot(), &shared.calibration_markers_px),
+            "application/json",
+        ),
         "/frame.bmp" => {
             let mut out = Vec::new();
             bmp::encode(&shared.snapshot(), &mut out);
@@ -147,7 +150,7 @@ fn respond(head: &[u8], shared: &Shared) -> Response {
 }
 
 /// What the page draws and prints. Non-finite numbers become `null`.
-fn state_json(s: &Snapshot) -> Vec<u8> {
+fn state_json(s: &Snapshot, calibration_markers_px: &[[(f32, f32); 4]]) -> Vec<u8> {
     let point = |p: (f32, f32)| [p.0, p.1];
     let state = json!({
         "captured": s.captured,
@@ -162,6 +165,10 @@ fn state_json(s: &Snapshot) -> Vec<u8> {
         "ends_px": s.ends_px.map(|e| e.map(point)),
         "marker_px": s.marker_px.map(|m| m.map(|c| [c.0, c.1])),
         "track_px": s.track_px.iter().copied().map(point).collect::<Vec<_>>(),
+        "calibration_markers_px": calibration_markers_px
+            .iter()
+            .map(|m| m.map(point))
+            .collect::<Vec<_>>(),
         "fps": s.fps,
     });
     state.to_string().into_bytes()
@@ -180,6 +187,7 @@ mod tests {
             epoch: Instant::now(),
             last_request_ms: AtomicU64::new(0),
             snapshot: Mutex::new(Snapshot::new(FrameSize::new(4, 2).unwrap())),
+            calibration_markers_px: vec![[(0.5, 0.5), (3.0, 0.5), (3.0, 1.5), (0.5, 1.5)]],
         }
     }
 
@@ -213,6 +221,7 @@ mod tests {
         let value: serde_json::Value = serde_json::from_slice(&state.body).unwrap();
         assert_eq!(value["width"], 4);
         assert_eq!(value["captured"], false);
+        assert_eq!(value["calibration_markers_px"][0][2][0], 3.0);
         let frame = respond(b"GET /frame.bmp HTTP/1.0\r\n\r\n", &shared);
         assert_eq!(frame.content_type, "image/bmp");
         assert_eq!(&frame.body[..2], b"BM");

@@ -29,7 +29,7 @@ const VIEWER_PATIENCE: Duration = Duration::from_secs(5);
 /// Positions kept for the drawn track.
 pub const TRACK_POINTS: usize = 128;
 /// What the page draws: an image position in pixels.
-type Px = (f32, f32);
+pub type Px = (f32, f32);
 
 /// The last copied frame and what was found in it: what the server encodes.
 #[derive(Debug, Clone)]
@@ -104,6 +104,9 @@ struct Shared {
     /// Milliseconds after `epoch` of the last request, plus one; 0: none yet.
     last_request_ms: AtomicU64,
     snapshot: Mutex<Snapshot>,
+    /// The calibration markers' corners (TL, TR, BR, BL), fixed for the whole run: drawn so
+    /// the user sees whether the camera still looks where it was calibrated.
+    calibration_markers_px: Vec<[Px; 4]>,
 }
 
 impl Shared {
@@ -149,13 +152,18 @@ pub struct PreviewSink {
 impl PreviewSink {
     /// Binds `addr` (port 0: any free port) and starts serving the page for frames of
     /// `size`. The frame buffer is allocated here, once.
-    pub fn start(addr: SocketAddr, size: FrameSize) -> io::Result<Self> {
+    pub fn start(
+        addr: SocketAddr,
+        size: FrameSize,
+        calibration_markers_px: Vec<[Px; 4]>,
+    ) -> io::Result<Self> {
         let listener = TcpListener::bind(addr)?;
         let local_addr = listener.local_addr()?;
         let shared = Arc::new(Shared {
             epoch: Instant::now(),
             last_request_ms: AtomicU64::new(0),
             snapshot: Mutex::new(Snapshot::new(size)),
+            calibration_markers_px,
         });
         http::spawn(listener, Arc::clone(&shared))?;
         Ok(PreviewSink {
