@@ -24,6 +24,7 @@ pub mod detect;
 pub mod frame;
 pub mod geometry;
 pub mod monitor;
+pub mod options;
 pub mod pipeline;
 pub mod sink;
 pub mod source;

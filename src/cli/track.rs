@@ -11,12 +11,10 @@ use clap::{Args, ValueEnum};
 use super::{calib_args, input};
 
 use glint::detect::bgdiff::MAX_BACKGROUND_FRAMES;
-use glint::detect::morph::Kernel;
-use glint::detect::skeleton::SkeletonMethod;
-use glint::detect::threshold::Threshold;
-use glint::detect::{DetectorConfig, MaskMethod};
+use glint::detect::MaskMethod;
 use glint::frame::FrameSize;
 use glint::monitor::{self, Monitor};
+use glint::options::{parse_fps, LedArgs};
 use glint::pipeline::{self, Pipeline, PipelineConfig, RunSummary};
 use glint::sink::{serial, CsvSink, JsonLinesSink, SerialSink, Tee};
 use glint::source::dump::DumpSource;
@@ -52,18 +50,8 @@ pub struct TrackSettings {
     #[arg(long, value_parser = parse_fps)]
     fps: Option<f64>,
 
-    /// Saturation threshold (luma 0–255), or `auto` to follow each frame's top level.
-    #[arg(long, default_value = "auto", value_parser = parse_threshold)]
-    threshold: Threshold,
-
-    /// Erosions of the mask before blobs are found (the seed used 10, which erases LEDs
-    /// narrower than 21 px).
-    #[arg(long, default_value_t = 0, value_name = "N")]
-    erode: u32,
-
-    /// Structuring element of the erosions.
-    #[arg(long, value_enum, default_value_t = KernelArg::Square)]
-    erode_kernel: KernelArg,
+    #[command(flatten)]
+    led: LedArgs,
 
     /// What finds the robot: saturated pixels, pixels that differ from a background, or an
     /// ArUco marker it carries (`aruco`, with `--marker ID`).
@@ -85,10 +73,6 @@ pub struct TrackSettings {
     #[arg(long, default_value_t = 60, value_name = "LUMA",
           value_parser = clap::value_parser!(u8).range(1..))]
     diff: u8,
-
-    /// Skeleton for the streak's middle and ends.
-    #[arg(long, value_enum, default_value_t = SkeletonArg::Thinning)]
-    skeleton: SkeletonArg,
 
     #[command(flatten)]
     pub floor: calib_args::FloorArgs,
@@ -118,59 +102,16 @@ enum DetectorArg {
     Aruco,
 }
 
-#[derive(Debug, Clone, Copy, ValueEnum)]
-enum KernelArg {
-    Square,
-    Cross,
-}
-
-#[derive(Debug, Clone, Copy, ValueEnum)]
-enum SkeletonArg {
-    /// Guo–Hall thinning: connected and one pixel wide.
-    Thinning,
-    /// The seed's morphological skeleton.
-    Seed,
-}
-
-fn parse_fps(s: &str) -> Result<f64, String> {
-    match s.parse::<f64>() {
-        Ok(f) if f.is_finite() && f > 0.0 && f <= 10_000.0 => Ok(f),
-        _ => Err(format!("{s:?} is not a frame rate between 0 and 10000")),
-    }
-}
-
-fn parse_threshold(s: &str) -> Result<Threshold, String> {
-    if s == "auto" {
-        return Ok(Threshold::Auto);
-    }
-    s.parse::<u8>()
-        .map(Threshold::Fixed)
-        .map_err(|_| format!("{s:?} is neither `auto` nor a luma level 0–255"))
-}
-
 impl TrackSettings {
     fn pipeline_config(&self) -> PipelineConfig {
         PipelineConfig {
-            detector: DetectorConfig {
-                method: match self.detector {
-                    DetectorArg::Saturation | DetectorArg::Aruco => MaskMethod::Saturation,
-                    DetectorArg::Bgdiff => MaskMethod::BackgroundDifference {
-                        diff_luma: self.diff,
-                        frames: usize::from(self.background_frames),
-                    },
+            detector: self.led.detector_config(match self.detector {
+                DetectorArg::Saturation | DetectorArg::Aruco => MaskMethod::Saturation,
+                DetectorArg::Bgdiff => MaskMethod::BackgroundDifference {
+                    diff_luma: self.diff,
+                    frames: usize::from(self.background_frames),
                 },
-                threshold: self.threshold,
-                erosions: self.erode,
-                erosion_kernel: match self.erode_kernel {
-                    KernelArg::Square => Kernel::Square,
-                    KernelArg::Cross => Kernel::Cross,
-                },
-                skeleton: match self.skeleton {
-                    SkeletonArg::Thinning => SkeletonMethod::Thinning,
-                    SkeletonArg::Seed => SkeletonMethod::Morphological,
-                },
-                ..DetectorConfig::default()
-            },
+            }),
             tracker: TrackerConfig {
                 exposure_us: self.input.exposure_us(),
             },

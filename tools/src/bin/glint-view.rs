@@ -13,11 +13,9 @@ use std::process::ExitCode;
 
 use anyhow::{bail, Context, Result};
 use clap::{Parser, ValueEnum};
-use glint::detect::morph::Kernel;
-use glint::detect::skeleton::SkeletonMethod;
-use glint::detect::threshold::Threshold;
-use glint::detect::DetectorConfig;
+use glint::detect::MaskMethod;
 use glint::frame::FrameSize;
+use glint::options::{parse_fps, LedArgs};
 use glint::pipeline::{Pipeline, PipelineConfig};
 use glint::source::dump::DumpSource;
 use glint::source::FrameSource;
@@ -47,38 +45,15 @@ struct Args {
     /// Frame rate of the dump, for timestamps (as `glint track --fps`).
     #[arg(long, default_value_t = 30.0, value_parser = parse_fps)]
     fps: f64,
-    /// Saturation threshold, as `glint track --threshold`.
-    #[arg(long, default_value = "auto", value_parser = parse_threshold)]
-    threshold: Threshold,
-    /// Erosions of the mask, as `glint track --erode`.
-    #[arg(long, default_value_t = 0, value_name = "N")]
-    erode: u32,
-    /// Structuring element of the erosions, as `glint track --erode-kernel`.
-    #[arg(long, value_enum, default_value_t = KernelArg::Square)]
-    erode_kernel: KernelArg,
+    /// The detector's options, exactly as `glint track` takes them.
+    #[command(flatten)]
+    led: LedArgs,
     /// The camera's exposure time, as `glint track --exposure-us`.
     #[arg(long, value_name = "US", value_parser = clap::value_parser!(u32).range(1..=10_000_000))]
     exposure_us: Option<u32>,
-    /// Skeleton, as `glint track --skeleton`.
-    #[arg(long, value_enum, default_value_t = SkeletonArg::Thinning)]
-    skeleton: SkeletonArg,
     /// How the camera codes its YUV, for display only (auto: guessed from the frame's luma).
     #[arg(long, value_enum, default_value_t = RangeArg::Auto)]
     range: RangeArg,
-}
-
-#[derive(Debug, Clone, Copy, ValueEnum)]
-enum KernelArg {
-    Square,
-    Cross,
-}
-
-#[derive(Debug, Clone, Copy, ValueEnum)]
-enum SkeletonArg {
-    /// Guo–Hall thinning.
-    Thinning,
-    /// The seed's morphological skeleton.
-    Seed,
 }
 
 #[derive(Debug, Clone, Copy, ValueEnum)]
@@ -88,39 +63,11 @@ enum RangeArg {
     Studio,
 }
 
-fn parse_fps(s: &str) -> Result<f64, String> {
-    match s.parse::<f64>() {
-        Ok(f) if f.is_finite() && f > 0.0 && f <= 10_000.0 => Ok(f),
-        _ => Err(format!("{s:?} is not a frame rate between 0 and 10000")),
-    }
-}
-
-fn parse_threshold(s: &str) -> Result<Threshold, String> {
-    if s == "auto" {
-        return Ok(Threshold::Auto);
-    }
-    s.parse::<u8>()
-        .map(Threshold::Fixed)
-        .map_err(|_| format!("{s:?} is neither `auto` nor a luma level 0–255"))
-}
-
 impl Args {
     /// The pipeline settings `glint track` would use with the same options.
     fn pipeline_config(&self) -> PipelineConfig {
         PipelineConfig {
-            detector: DetectorConfig {
-                threshold: self.threshold,
-                erosions: self.erode,
-                erosion_kernel: match self.erode_kernel {
-                    KernelArg::Square => Kernel::Square,
-                    KernelArg::Cross => Kernel::Cross,
-                },
-                skeleton: match self.skeleton {
-                    SkeletonArg::Thinning => SkeletonMethod::Thinning,
-                    SkeletonArg::Seed => SkeletonMethod::Morphological,
-                },
-                ..DetectorConfig::default()
-            },
+            detector: self.led.detector_config(MaskMethod::Saturation),
             tracker: TrackerConfig {
                 exposure_us: self.exposure_us,
             },

@@ -1,0 +1,121 @@
+//! The LED detector's command-line options, shared by `glint track` (and `glint run`, whose
+//! settings file has the same keys) and by the tools that replay a dump exactly as
+//! `glint track` would (`glint-view`): one parser and one mapping to [`DetectorConfig`], so the
+//! two cannot drift apart.
+
+use clap::{Args, ValueEnum};
+
+use crate::detect::morph::Kernel;
+use crate::detect::skeleton::SkeletonMethod;
+use crate::detect::threshold::Threshold;
+use crate::detect::{DetectorConfig, MaskMethod};
+
+/// The highest frame rate accepted, far above any webcam.
+const MAX_FPS: f64 = 10_000.0;
+
+/// How the LED is cut out of a frame and thinned.
+#[derive(Debug, Clone, Args)]
+pub struct LedArgs {
+    /// Saturation threshold (luma 0–255), or `auto` to follow each frame's top level.
+    #[arg(long, default_value = "auto", value_parser = parse_threshold)]
+    pub threshold: Threshold,
+
+    /// Erosions of the mask before blobs are found (the seed used 10, which erases LEDs
+    /// narrower than 21 px).
+    #[arg(long, default_value_t = 0, value_name = "N")]
+    pub erode: u32,
+
+    /// Structuring element of the erosions.
+    #[arg(long, value_enum, default_value_t = KernelArg::Square)]
+    pub erode_kernel: KernelArg,
+
+    /// Skeleton for the streak's middle and ends.
+    #[arg(long, value_enum, default_value_t = SkeletonArg::Thinning)]
+    pub skeleton: SkeletonArg,
+}
+
+/// `--erode-kernel`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum KernelArg {
+    Square,
+    Cross,
+}
+
+/// `--skeleton`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum SkeletonArg {
+    /// Guo–Hall thinning: connected and one pixel wide.
+    Thinning,
+    /// The seed's morphological skeleton.
+    Seed,
+}
+
+impl LedArgs {
+    /// The detector these options describe, finding the LED by `method`.
+    pub fn detector_config(&self, method: MaskMethod) -> DetectorConfig {
+        DetectorConfig {
+            method,
+            threshold: self.threshold,
+            erosions: self.erode,
+            erosion_kernel: match self.erode_kernel {
+                KernelArg::Square => Kernel::Square,
+                KernelArg::Cross => Kernel::Cross,
+            },
+            skeleton: match self.skeleton {
+                SkeletonArg::Thinning => SkeletonMethod::Thinning,
+                SkeletonArg::Seed => SkeletonMethod::Morphological,
+            },
+            ..DetectorConfig::default()
+        }
+    }
+}
+
+/// Parses `--fps`: a positive, finite rate up to 10 000.
+pub fn parse_fps(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(f) if f.is_finite() && f > 0.0 && f <= MAX_FPS => Ok(f),
+        _ => Err(format!("{s:?} is not a frame rate between 0 and {MAX_FPS}")),
+    }
+}
+
+/// Parses `--threshold`: `auto` or a luma level.
+pub fn parse_threshold(s: &str) -> Result<Threshold, String> {
+    if s == "auto" {
+        return Ok(Threshold::Auto);
+    }
+    s.parse::<u8>()
+        .map(Threshold::Fixed)
+        .map_err(|_| format!("{s:?} is neither `auto` nor a luma level 0–255"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn values_parse_or_say_why_not() {
+        assert_eq!(parse_threshold("auto"), Ok(Threshold::Auto));
+        assert_eq!(parse_threshold("240"), Ok(Threshold::Fixed(240)));
+        assert!(parse_threshold("256").unwrap_err().contains("neither"));
+        assert_eq!(parse_fps("29.97"), Ok(29.97));
+        for bad in ["0", "-1", "nan", "inf", "10001", "fast"] {
+            assert!(parse_fps(bad).is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn the_options_map_onto_the_detector() {
+        let args = LedArgs {
+            threshold: Threshold::Fixed(200),
+            erode: 10,
+            erode_kernel: KernelArg::Cross,
+            skeleton: SkeletonArg::Seed,
+        };
+        let config = args.detector_config(MaskMethod::Saturation);
+        assert_eq!(config.threshold, Threshold::Fixed(200));
+        assert_eq!(config.erosions, 10);
+        assert_eq!(config.erosion_kernel, Kernel::Cross);
+        assert_eq!(config.skeleton, SkeletonMethod::Morphological);
+        assert_eq!(config.min_area_px, DetectorConfig::default().min_area_px);
+    }
+}
