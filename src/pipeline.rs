@@ -151,14 +151,6 @@ impl Pipeline {
         }
     }
 
-    /// The LED tracking stage (`None` when tracking a marker).
-    pub fn tracker(&self) -> Option<&Tracker> {
-        match &self.front {
-            Front::Led { tracker, .. } => Some(tracker),
-            Front::Marker(_) => None,
-        }
-    }
-
     /// The floor stage, when a calibration is loaded.
     pub fn floor(&self) -> Option<&FloorStage> {
         self.floor.as_ref()

@@ -132,9 +132,9 @@ pub enum Choice {
 #[derive(Debug, Default)]
 pub struct Tracker {
     config: TrackerConfig,
+    /// The frames the LED was found in, newest last: the newest is what the next frame is
+    /// predicted and its head chosen from.
     history: HistoryBuf<Sample, HISTORY_FRAMES>,
-    /// The last frame the LED was found in, and when.
-    last: Option<Sample>,
     missed_frames: u32,
     statics: Statics,
     /// Whether the previous frame had the LED: the head needs the position just before.
@@ -157,7 +157,7 @@ impl Tracker {
 
     /// Where the streak's middle is expected at `t_us`, and the gate radius around it.
     pub fn prediction(&self, t_us: u64) -> Option<((f32, f32), f32)> {
-        let last = self.last?;
+        let last = *self.history.recent()?;
         if self.missed_frames > MAX_MISSED_FRAMES {
             return None;
         }
@@ -231,7 +231,11 @@ impl Tracker {
             self.previous_found = false;
             return None;
         };
-        let previous = self.last.filter(|_| self.previous_found);
+        let previous = self
+            .history
+            .recent()
+            .copied()
+            .filter(|_| self.previous_found);
         let mid_px = streak.mid_px;
         let head = streak.tips.and_then(|tips| {
             let before = previous?.estimate.position_px;
@@ -264,7 +268,6 @@ impl Tracker {
             velocity_px_s,
         };
         let sample = Sample { t_us, estimate };
-        self.last = Some(sample);
         self.history.write(sample);
         self.missed_frames = 0;
         self.previous_found = true;
