@@ -16,13 +16,16 @@
 #                    linux-libc-dev-arm64-cross, ...), which bindgen finds for the `v4l` crate
 #   qemu-user        qemu-aarch64, the runner of the aarch64 library tests (.cargo/config.toml)
 #   chromium         headless browser screenshot of `glint run --preview`'s page (tests/preview.rs)
+#   systemd, python3 systemd-analyze/systemd-sysusers and tomllib for the deployment files' check
+#                    (board/raspberry-pi/check.sh); both are on the base image, listed so a leaner
+#                    machine gets them too
 #
 # The VM runs host-built (glibc) test programs: tests/vm/prepare.sh copies the C libraries they
 # need into the guest, so no extra Rust target is needed.
 set -eu
 
 PACKAGES="libclang-dev qemu-system-x86 busybox-static v4l-utils cpio kmod socat xz-utils binutils
-    gcc-aarch64-linux-gnu gcc-arm-linux-gnueabihf qemu-user chromium"
+    gcc-aarch64-linux-gnu gcc-arm-linux-gnueabihf qemu-user chromium systemd python3"
 
 missing=""
 for pkg in $PACKAGES; do

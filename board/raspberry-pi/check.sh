@@ -78,7 +78,7 @@ if command -v systemd-sysusers >/dev/null 2>&1; then
             fail "glint is not in group $group"
     done
 else
-    echo "raspberry-pi/check.sh: systemd-sysusers missing, sysusers.d file not applied" >&2
+    fail "systemd-sysusers missing (tools/setup-system.sh installs systemd)"
 fi
 
 # The unit parses and passes systemd's checks; its ExecStart is pointed at the DESTDIR's binary
@@ -92,7 +92,7 @@ if command -v systemd-analyze >/dev/null 2>&1; then
         fail "systemd-analyze verify rejected glint.service: $verdict"
     [ -z "$verdict" ] || fail "systemd-analyze verify: $verdict"
 else
-    echo "raspberry-pi/check.sh: systemd-analyze missing, unit not verified" >&2
+    fail "systemd-analyze missing (tools/setup-system.sh installs systemd)"
 fi
 
 # The example configuration is valid TOML.
