@@ -228,24 +228,16 @@ fn serial_sink_allocates_nothing_per_frame() {
 /// (the server thread's own allocations, for HTTP and BMP encoding, do not count).
 #[test]
 fn preview_sink_with_a_viewer_allocates_nothing_per_frame() {
-    use std::io::{Read, Write};
-    use std::time::Duration;
+    use common::live::get;
 
     let (size, bytes, count) = frames();
     let mut sink =
         glint::sink::preview::PreviewSink::start("127.0.0.1:0".parse().unwrap(), size, Vec::new())
             .unwrap();
     // A viewer asks for the state: from now on frames are copied (at most twice a second).
-    let mut viewer = std::net::TcpStream::connect(sink.local_addr()).unwrap();
-    viewer
-        .set_read_timeout(Some(Duration::from_secs(10)))
-        .unwrap();
-    viewer
-        .write_all(b"GET /state.json HTTP/1.1\r\nHost: x\r\n\r\n")
-        .unwrap();
-    let mut answer = String::new();
-    viewer.read_to_string(&mut answer).unwrap();
-    assert!(answer.starts_with("HTTP/1.1 200"), "{answer}");
+    let (status, body) = get(sink.local_addr(), "/state.json");
+    assert_eq!(status, "HTTP/1.1 200 OK");
+    let answer = String::from_utf8_lossy(&body);
     assert!(
         answer.contains("\"captured\":false"),
         "nothing copied yet: {answer}"
@@ -261,14 +253,7 @@ fn preview_sink_with_a_viewer_allocates_nothing_per_frame() {
     assert_eq!(allocations, 0);
 
     // And the copy happened: the state now names a frame.
-    let mut viewer = std::net::TcpStream::connect(sink.local_addr()).unwrap();
-    viewer
-        .set_read_timeout(Some(Duration::from_secs(10)))
-        .unwrap();
-    viewer
-        .write_all(b"GET /state.json HTTP/1.1\r\nHost: x\r\n\r\n")
-        .unwrap();
-    let mut answer = String::new();
-    viewer.read_to_string(&mut answer).unwrap();
+    let (_, body) = get(sink.local_addr(), "/state.json");
+    let answer = String::from_utf8_lossy(&body);
     assert!(answer.contains("\"captured\":true"), "{answer}");
 }

@@ -3,13 +3,11 @@
 
 mod common;
 
-use std::io::{BufRead, BufReader, Write};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
-use std::sync::mpsc;
-use std::thread;
 use std::time::{Duration, Instant};
 
+use common::live::{feed_endlessly, lines_of};
 use common::{glint, parse_jsonl, render, track, Rendered};
 
 /// Longest wait for the live run to show a status line or to stop.
@@ -171,27 +169,10 @@ fn sigterm_stops_a_live_run_cleanly_after_status_lines() {
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    let mut stdin = child.stdin.take().unwrap();
-    let scene_frames = r.truths.len();
     // The "camera": the scene over and over, until glint stops reading.
-    let feeder = thread::spawn(move || {
-        let frame_bytes = frames.len() / scene_frames;
-        'feed: loop {
-            for frame in frames.chunks(frame_bytes) {
-                if stdin.write_all(frame).is_err() {
-                    break 'feed;
-                }
-                thread::sleep(Duration::from_millis(5));
-            }
-        }
-    });
-    let (lines_tx, lines) = mpsc::channel();
-    let stderr = child.stderr.take().unwrap();
-    let reader = thread::spawn(move || {
-        for line in BufReader::new(stderr).lines().map_while(Result::ok) {
-            let _ = lines_tx.send(line);
-        }
-    });
+    let frame_bytes = frames.len() / r.truths.len();
+    let feeder = feed_endlessly(child.stdin.take().unwrap(), frames, frame_bytes);
+    let (lines, reader) = lines_of(child.stderr.take().unwrap());
     let start = Instant::now();
     let mut status = Vec::new();
     while status.len() < 2 {

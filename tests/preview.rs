@@ -3,14 +3,14 @@
 
 mod common;
 
-use std::io::{BufRead, BufReader, Read, Write};
+use std::io::BufReader;
 use std::net::{SocketAddr, TcpStream};
 use std::path::Path;
 use std::process::{Child, Command, Stdio};
-use std::sync::mpsc;
 use std::thread;
 use std::time::{Duration, Instant};
 
+use common::live::{exchange, feed_endlessly, get, lines_of};
 use common::{render, Rendered};
 use serde_json::Value;
 
@@ -40,23 +40,9 @@ impl Live {
             .stderr(Stdio::piped())
             .spawn()
             .unwrap();
-        let mut stdin = child.stdin.take().unwrap();
         let frame_bytes = frames.len() / r.truths.len();
-        let feeder = thread::spawn(move || 'feed: loop {
-            for frame in frames.chunks(frame_bytes) {
-                if stdin.write_all(frame).is_err() {
-                    break 'feed;
-                }
-                thread::sleep(Duration::from_millis(5));
-            }
-        });
-        let (tx, lines) = mpsc::channel();
-        let stderr = child.stderr.take().unwrap();
-        thread::spawn(move || {
-            for line in BufReader::new(stderr).lines().map_while(Result::ok) {
-                let _ = tx.send(line);
-            }
-        });
+        let feeder = feed_endlessly(child.stdin.take().unwrap(), frames, frame_bytes);
+        let (lines, _reader) = lines_of(child.stderr.take().unwrap());
         let addr = loop {
             let line = lines.recv_timeout(PATIENCE).expect("the preview's address");
             if let Some(rest) = line.split("preview on http://").nth(1) {
@@ -79,36 +65,6 @@ impl Drop for Live {
             let _ = feeder.join();
         }
     }
-}
-
-/// Sends `request` and returns the status line and the body.
-fn exchange(addr: SocketAddr, request: &[u8]) -> (String, Vec<u8>) {
-    let mut stream = TcpStream::connect(addr).unwrap();
-    stream.set_read_timeout(Some(PATIENCE)).unwrap();
-    stream.write_all(request).unwrap();
-    let mut reply = Vec::new();
-    stream.read_to_end(&mut reply).unwrap();
-    let split = reply
-        .windows(4)
-        .position(|w| w == b"\r\n\r\n")
-        .expect("a header");
-    let head = String::from_utf8_lossy(&reply[..split]).into_owned();
-    let status = head.lines().next().unwrap_or_default().to_owned();
-    let length: usize = head
-        .lines()
-        .find_map(|l| l.strip_prefix("Content-Length: "))
-        .and_then(|l| l.parse().ok())
-        .expect("a length");
-    let body = reply[split + 4..].to_vec();
-    assert_eq!(body.len(), length, "{status}");
-    (status, body)
-}
-
-fn get(addr: SocketAddr, path: &str) -> (String, Vec<u8>) {
-    exchange(
-        addr,
-        format!("GET {path} HTTP/1.1\r\nHost: glint\r\n\r\n").as_bytes(),
-    )
 }
 
 fn state(addr: SocketAddr) -> Value {

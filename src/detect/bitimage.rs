@@ -11,6 +11,19 @@ use crate::frame::FrameSize;
 /// Pixels per storage word.
 pub const WORD_BITS: usize = 64;
 
+/// The eight neighbours of a pixel as `(dx, dy)`, clockwise from north (y grows downwards):
+/// the order thinning's rule names them in, P2 to P9.
+pub const NEIGHBOURS_8: [(isize, isize); 8] = [
+    (0, -1),
+    (1, -1),
+    (1, 0),
+    (1, 1),
+    (0, 1),
+    (-1, 1),
+    (-1, 0),
+    (-1, -1),
+];
+
 /// A rectangle of whole words and rows that an operation is restricted to.
 ///
 /// Restricting morphology to the neighbourhood of one blob keeps its cost proportional to the

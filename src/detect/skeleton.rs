@@ -327,16 +327,7 @@ mod tests {
     #[test]
     fn the_word_rule_matches_the_papers_rule_for_every_neighbourhood() {
         // Ring order P2..P9 as (dx, dy) offsets from the centre.
-        let ring = [
-            (0, -1),
-            (1, -1),
-            (1, 0),
-            (1, 1),
-            (0, 1),
-            (-1, 1),
-            (-1, 0),
-            (-1, -1),
-        ];
+        let ring = super::super::bitimage::NEIGHBOURS_8;
         // Centres on both sides of a word boundary, so the carries are exercised too.
         for cx in [1usize, 63, 64, 100] {
             for n in 0..=255u8 {

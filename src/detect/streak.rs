@@ -10,7 +10,7 @@
 
 use heapless::Deque;
 
-use super::bitimage::{BitImage, Window};
+use super::bitimage::{BitImage, Window, NEIGHBOURS_8};
 use super::blobs::{Blob, Labeler};
 use super::morph::{self, Kernel};
 use super::skeleton::{self, SkeletonMethod, SkeletonScratch, SEED_PRE_DILATIONS};
@@ -339,17 +339,6 @@ fn farthest_along(
     }
     farthest
 }
-
-const NEIGHBOURS_8: [(isize, isize); 8] = [
-    (0, -1),
-    (1, -1),
-    (1, 0),
-    (1, 1),
-    (0, 1),
-    (-1, 1),
-    (-1, 0),
-    (-1, -1),
-];
 
 /// The streak's middle: the centroid moved across the streak to the centre of its
 /// cross-section through the centroid, perpendicular to the chord between the ends.
