@@ -66,8 +66,8 @@ fn run(args: Args) -> Result<()> {
     };
     let track = Track::from_jsonl(input).with_context(|| format!("in {}", args.input))?;
     let units = match track.units {
-        Units::Pixels => "image pixels",
-        Units::Floor => "floor units",
+        Units::Pixels => "image pixels".to_string(),
+        Units::Floor => format!("floor {}", track.length_name()),
     };
     let title = args.title.clone().unwrap_or_else(|| {
         format!(
