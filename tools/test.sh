@@ -9,7 +9,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-tools/setup-system.sh
+tools/setup-system.sh test
 cargo test --workspace
 bash board/firmware/check.sh
 tools/cross.sh ci
