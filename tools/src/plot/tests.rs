@@ -74,7 +74,11 @@ fn floor_coordinates_are_preferred_when_present() {
     let track = parse(text).unwrap();
     assert_eq!(track.units, Units::Floor);
     assert_eq!(track.speed_runs(), vec![vec![(0.5, 10.0)]]); // 5 floor units in 0.5 s
-    assert_eq!(track.length_name(), "floor units", "no floor_unit in the records");
+    assert_eq!(
+        track.length_name(),
+        "floor units",
+        "no floor_unit in the records"
+    );
 }
 
 #[test]

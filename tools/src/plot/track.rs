@@ -123,7 +123,11 @@ impl Track {
         let units = if floor { Units::Floor } else { Units::Pixels };
         let mut floor_unit: Option<String> = None;
         if floor {
-            for unit in records.iter().filter(|r| r.found).filter_map(|r| r.floor_unit.as_ref()) {
+            for unit in records
+                .iter()
+                .filter(|r| r.found)
+                .filter_map(|r| r.floor_unit.as_ref())
+            {
                 match &floor_unit {
                     None => floor_unit = Some(unit.clone()),
                     Some(first) if first != unit => {
