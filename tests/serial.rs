@@ -585,8 +585,7 @@ fn the_baud_rate_is_checked() {
 /// Needs tools/setup-system.sh's packages; `GLINT_SKIP_VM=1` skips it (loudly).
 #[test]
 fn a_real_uart_in_a_vm_delivers_every_frame_sent() {
-    if std::env::var("GLINT_SKIP_VM").is_ok_and(|v| v == "1") {
-        eprintln!("\n*** GLINT_SKIP_VM=1: SKIPPING the UART VM test ***\n");
+    if common::skipped("GLINT_SKIP_VM", "the serial link over the VM's 8250 UART") {
         return;
     }
     let repo = Path::new(env!("CARGO_MANIFEST_DIR"));
