@@ -5,7 +5,8 @@
 //! resident size.
 //!
 //! `GLINT_PREVIEW_MEMORY_SIZE=4096x4096` measures at another frame size (the default is
-//! 2048×2048); run with `--nocapture` for the figures.
+//! 2048×2048), `GLINT_PREVIEW_MEMORY_STALL_S=8` watches the stalled readers longer (the default
+//! is 2 s); run with `--nocapture` for the figures.
 
 use std::io::{Cursor, Read, Write};
 use std::net::{SocketAddr, TcpStream};
@@ -19,8 +20,9 @@ use glint::source::dump::DumpSource;
 
 /// Viewers that ask for the frame and stall.
 const STALLED_READERS: usize = 8;
-/// How long the stalled readers are watched; the server has blocked on them well before.
-const STALL: Duration = Duration::from_secs(2);
+/// How long the stalled readers are watched by default; the server has blocked on them well
+/// before.
+const STALL_S: u64 = 2;
 /// Between two readings of the resident size.
 const SAMPLE_PERIOD: Duration = Duration::from_millis(100);
 /// File and info headers of a BMP.
@@ -48,6 +50,11 @@ fn get(addr: SocketAddr, path: &str) -> Vec<u8> {
     let mut reply = Vec::new();
     stream.read_to_end(&mut reply).unwrap();
     reply
+}
+
+fn stall() -> Duration {
+    let text = std::env::var("GLINT_PREVIEW_MEMORY_STALL_S").unwrap_or_default();
+    Duration::from_secs(text.parse().unwrap_or(STALL_S))
 }
 
 fn size() -> FrameSize {
@@ -93,12 +100,12 @@ fn stalled_frame_readers_share_one_image_and_it_is_freed() {
         .collect();
     let mut peak = before;
     let start = Instant::now();
-    while start.elapsed() < STALL {
+    while start.elapsed() < stall() {
         thread::sleep(SAMPLE_PERIOD);
         peak = peak.max(rss_bytes());
     }
     drop(stalled);
-    thread::sleep(STALL / 2);
+    thread::sleep(Duration::from_secs(1));
     let after = rss_bytes();
 
     let grown = peak.saturating_sub(before);
