@@ -7,7 +7,7 @@
 use std::collections::BTreeSet;
 use std::fmt::Write as _;
 use std::fs::File;
-use std::io::{self, Read};
+use std::io::{self, Read, Write as _};
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::str::FromStr;
@@ -108,7 +108,7 @@ pub fn run(args: CalibrateArgs) -> Result<ExitCode> {
         }
         Box::new(file)
     };
-    let mut source = DumpSource::new(reader, args.size, NOMINAL_FPS);
+    let mut source = DumpSource::try_new(reader, args.size, NOMINAL_FPS)?;
     let mut detector = Detector::new(args.size, DetectorConfig::new(args.dict));
     let mut sums = vec![CornerSums::default(); placements.len()];
     let mut seen_ids = BTreeSet::new();
@@ -183,8 +183,11 @@ pub fn run(args: CalibrateArgs) -> Result<ExitCode> {
     let toml = report.toml()?;
     std::fs::write(&args.out, toml)
         .with_context(|| format!("cannot write {}", args.out.display()))?;
-    print!("{}", report.summary()?);
-    println!("wrote {}", args.out.display());
+    // The file is written; a closed or full standard output is not worth a panic.
+    let mut stdout = io::stdout().lock();
+    write!(stdout, "{}", report.summary()?)
+        .and_then(|()| writeln!(stdout, "wrote {}", args.out.display()))
+        .context("writing the summary to standard output")?;
     Ok(ExitCode::SUCCESS)
 }
 

@@ -58,7 +58,7 @@ pub fn main() -> ExitCode {
     let spliced = match run_config::splice(std::env::args_os().collect(), &Cli::command()) {
         Ok(spliced) => spliced,
         Err(message) => {
-            eprintln!("glint: {message}");
+            logger::write_line(format_args!("glint: {message}"));
             return ExitCode::from(EXIT_USAGE);
         }
     };
@@ -80,7 +80,7 @@ pub fn main() -> ExitCode {
                     lines.map(str::trim).take_while(|l| !l.is_empty()).collect();
                 message = format!("{message} {}", listed.join(", "));
             }
-            eprintln!("glint: {}", spliced.attribute(&e, message));
+            logger::write_line(format_args!("glint: {}", spliced.attribute(&e, message)));
             return ExitCode::from(EXIT_USAGE);
         }
     };
@@ -97,7 +97,7 @@ pub fn main() -> ExitCode {
     match result {
         Ok(code) => code,
         Err(e) => {
-            eprintln!("glint: {e:#}");
+            logger::write_line(format_args!("glint: {e:#}"));
             ExitCode::FAILURE
         }
     }

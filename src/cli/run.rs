@@ -9,8 +9,6 @@ use std::io::{self, BufWriter, Write};
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use std::sync::atomic::AtomicBool;
-use std::sync::Arc;
 
 use anyhow::{Context, Result};
 use clap::Args;
@@ -18,9 +16,8 @@ use clap::Args;
 use glint::geometry::CalibrationFile;
 use glint::monitor::{self, Monitor};
 use glint::sink::{BestEffort, JsonLinesSink, PreviewSink, Tee};
-use glint::source::stoppable::Stoppable;
 
-use super::signals;
+use super::logger;
 use super::track::{self, Opened, TrackSettings};
 
 /// Where `--preview` serves without an address: this machine only.
@@ -64,16 +61,13 @@ pub fn run(args: RunArgs) -> Result<ExitCode> {
     check_files(&args)?;
     let jsonl = args.jsonl.as_deref().map(open_jsonl).transpose()?;
     let Opened {
-        source,
+        mut source,
         mut pipeline,
         serial,
         ..
     } = track::open(&args.settings)?;
     // Unlike `glint track`, every run reports its status, whatever the source.
     let mut monitor = Monitor::new(args.settings.input.monitor_config());
-    let stop = Arc::new(AtomicBool::new(false));
-    signals::stop_on_signals(&stop)?;
-    let mut source = Stoppable::new(source, stop);
     let jsonl = jsonl.map(|out| BestEffort::new("jsonl", JsonLinesSink::new(out, true)));
     let preview = args
         .preview
@@ -83,9 +77,10 @@ pub fn run(args: RunArgs) -> Result<ExitCode> {
     let (summary, result) = monitor::run(&mut source, &mut pipeline, &mut sink, &mut monitor);
     let totals = monitor.totals();
     log::info!(
-        "stopped after {} frames ({} dropped upstream)",
+        "stopped after {} frames ({} dropped upstream, {} log lines lost)",
         totals.frames,
-        totals.dropped
+        totals.dropped,
+        logger::dropped_lines()
     );
     if let Some(stats) = monitor.stats() {
         log::info!("whole run: {}", stats.one_line());

