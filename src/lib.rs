@@ -27,6 +27,7 @@ pub mod monitor;
 pub mod options;
 pub mod pipeline;
 pub mod sink;
+pub mod small_file;
 pub mod source;
 pub mod stats;
 pub mod track;

@@ -216,3 +216,132 @@ fn empty_input_says_there_were_no_frames() {
         .unwrap();
     assert_refused(&out, 1, "no frames");
 }
+
+/// Runs `glint` with `args`, returning its output and how long it took.
+fn timed(args: &[&str]) -> (Output, Duration) {
+    let start = Instant::now();
+    let out = run_bounded(args);
+    (out, start.elapsed())
+}
+
+/// Fault 5: `--calib` on devices, a FIFO and a huge file is refused at once with one line.
+#[test]
+fn calibration_files_must_be_small_regular_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let dump = dark_dump(dir.path(), 1);
+    let fifo = dir.path().join("calib.fifo");
+    mkfifo(&fifo);
+    let huge = dir.path().join("huge.toml");
+    std::fs::write(&huge, vec![b'\n'; 10 * 1024 * 1024]).unwrap();
+    let cases = [
+        ("/dev/zero", "a character device, not a regular file"),
+        ("/dev/urandom", "a character device, not a regular file"),
+        (fifo.to_str().unwrap(), "a FIFO, not a regular file"),
+        (huge.to_str().unwrap(), "too large (at most 1048576 bytes)"),
+    ];
+    for command in ["track", "run"] {
+        for (calib, want) in cases {
+            let (out, took) = timed(&[
+                command,
+                "--size",
+                SIZE,
+                "--input",
+                dump.to_str().unwrap(),
+                "--calib",
+                calib,
+            ]);
+            assert_refused(&out, 1, want);
+            assert!(stderr_of(&out).contains(calib), "names the file");
+            eprintln!("{command} --calib {calib}: refused in {took:?}");
+        }
+    }
+}
+
+/// Fault 5: the settings file of `glint run` likewise, including 10 MB of blank lines.
+#[test]
+fn settings_files_must_be_small_regular_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let fifo = dir.path().join("glint.fifo");
+    mkfifo(&fifo);
+    let blank = dir.path().join("blank.toml");
+    std::fs::write(&blank, vec![b'\n'; 10 * 1024 * 1024]).unwrap();
+    for (config, want) in [
+        ("/dev/zero", "a character device, not a regular file"),
+        (fifo.to_str().unwrap(), "a FIFO, not a regular file"),
+        (blank.to_str().unwrap(), "too large (at most 1048576 bytes)"),
+    ] {
+        let (out, took) = timed(&["run", "--config", config]);
+        assert_refused(&out, 2, want);
+        eprintln!("run --config {config}: refused in {took:?}");
+    }
+}
+
+/// Fault 5 and 8: a sidecar that is a FIFO is refused without waiting; one that says version 0
+/// is not called newer.
+#[test]
+fn sidecars_that_are_fifos_or_version_0_are_refused_for_what_they_are() {
+    let dir = tempfile::tempdir().unwrap();
+    let dump = dark_dump(dir.path(), 2);
+    let sidecar = dir.path().join("dark.yuv.json");
+    mkfifo(&sidecar);
+    let args = ["track", "--size", SIZE, "--input", dump.to_str().unwrap()];
+    let (out, took) = timed(&args);
+    assert_refused(&out, 1, "a FIFO, not a regular file (--no-sidecar");
+    eprintln!("a FIFO as the sidecar: refused in {took:?}");
+    std::fs::remove_file(&sidecar).unwrap();
+    std::fs::write(
+        &sidecar,
+        r#"{"version":0,"format":"YUYV","width":64,"height":48,"stride":128,
+            "driver_stride":128,"frames":[{"seq":0,"t_us":0},{"seq":1,"t_us":33333}]}"#,
+    )
+    .unwrap();
+    let out = run_bounded(&args);
+    assert_refused(&out, 1, "sidecar version 0 does not exist");
+    assert!(!stderr_of(&out).contains("newer"), "{}", stderr_of(&out));
+}
+
+/// Fault 8: the system's text appears once, not once per layer of the error.
+#[test]
+fn errors_say_the_system_s_text_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let dump = dark_dump(dir.path(), 1);
+    let dump = dump.to_str().unwrap();
+    let mut cases = vec![
+        (
+            vec![
+                "track",
+                "--size",
+                SIZE,
+                "--input",
+                dump,
+                "--serial",
+                "/dev/null",
+            ],
+            "Not a typewriter",
+        ),
+        (
+            vec![
+                "track",
+                "--size",
+                SIZE,
+                "--input",
+                dump,
+                "--serial",
+                "/nonexistent/tty",
+            ],
+            "No such file or directory",
+        ),
+    ];
+    if cfg!(feature = "v4l2") {
+        cases.push((
+            vec!["track", "--size", SIZE, "--device", "/nonexistent/video0"],
+            "No such file or directory",
+        ));
+    }
+    for (args, text) in cases {
+        let out = run_bounded(&args);
+        let err = stderr_of(&out);
+        assert_eq!(out.status.code(), Some(1), "{err}");
+        assert_eq!(err.matches(text).count(), 1, "{args:?}: {err}");
+    }
+}

@@ -10,6 +10,7 @@ use glint::frame::FrameSize;
 use glint::geometry::aruco::Dictionary;
 use glint::geometry::CalibrationFile;
 use glint::pipeline::{Pipeline, PipelineConfig};
+use glint::small_file;
 use glint::track::MarkerTracker;
 
 /// Options of `glint track` that this module handles.
@@ -56,7 +57,7 @@ pub fn build_pipeline(
 
 /// Reads and checks a calibration file for frames of `size`.
 fn load_calibration(path: &Path, size: FrameSize) -> Result<CalibrationFile> {
-    let text = std::fs::read_to_string(path)
+    let text = small_file::read_text(path, small_file::MAX_SETTINGS_BYTES)
         .with_context(|| format!("cannot read calibration {}", path.display()))?;
     let calibration = CalibrationFile::parse(&text, size)
         .with_context(|| format!("calibration {}", path.display()))?;

@@ -16,6 +16,7 @@ use clap::Args;
 use glint::geometry::CalibrationFile;
 use glint::monitor::{self, Monitor};
 use glint::sink::{BestEffort, JsonLinesSink, PreviewSink, Tee};
+use glint::small_file;
 
 use super::logger;
 use super::track::{self, Opened, TrackSettings};
@@ -93,7 +94,7 @@ fn start_preview(addr: SocketAddr, settings: &TrackSettings) -> Result<PreviewSi
     // The calibration was checked when the pipeline was built; here only its markers are read.
     let markers = match settings.floor.calib.as_deref() {
         Some(path) => {
-            let text = std::fs::read_to_string(path)
+            let text = small_file::read_text(path, small_file::MAX_SETTINGS_BYTES)
                 .with_context(|| format!("calib = {:?}: cannot read it", path.display()))?;
             CalibrationFile::marker_corners_px(&text)
                 .with_context(|| format!("calib = {:?}", path.display()))?

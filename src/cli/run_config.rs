@@ -18,6 +18,7 @@ use std::path::PathBuf;
 
 use clap::error::{ContextKind, ContextValue};
 use clap::{ArgAction, Command};
+use glint::small_file;
 use toml::Value;
 
 /// The subcommand that takes a settings file.
@@ -86,7 +87,7 @@ pub fn splice(argv: Vec<OsString>, cli: &Command) -> Result<Spliced, String> {
     let Some(path) = config_path(given) else {
         return Ok(unchanged(argv));
     };
-    let text = std::fs::read_to_string(&path)
+    let text = small_file::read_text(&path, small_file::MAX_SETTINGS_BYTES)
         .map_err(|e| format!("cannot read settings {}: {e}", path.display()))?;
     let settings = to_options(&text, run).map_err(|e| format!("{}: {e}", path.display()))?;
     let overridden = overridden_keys(given, run);
@@ -357,7 +358,7 @@ mod tests {
             .collect();
         let e = splice(argv, &cli()).unwrap_err();
         assert!(
-            e.contains("cannot read settings /nonexistent/glint.toml"),
+            e.contains("cannot read settings /nonexistent/glint.toml: "),
             "{e}"
         );
     }
