@@ -20,6 +20,7 @@
 //! floor, with a calibration) → [`pipeline`] → [`sink`]. [`pipeline::Pipeline::process`] reads
 //! top to bottom.
 
+pub mod budget;
 pub mod detect;
 pub mod frame;
 pub mod geometry;

@@ -345,3 +345,238 @@ fn errors_say_the_system_s_text_once() {
         assert_eq!(err.matches(text).count(), 1, "{args:?}: {err}");
     }
 }
+
+/// Fault 6 and issue 10: numbers out of range are refused by the option's name, negative ones
+/// included, and the message does not say a bound the value meets.
+#[test]
+fn numbers_out_of_range_name_their_option() {
+    let dir = tempfile::tempdir().unwrap();
+    let dump = dark_dump(dir.path(), 1);
+    let dump = dump.to_str().unwrap();
+    let cases: &[(&[&str], &str)] = &[
+        (
+            &["--fps", "0"],
+            "'--fps <FPS>': a frame rate is 0.1 to 1000",
+        ),
+        (
+            &["--fps", "-1"],
+            "'--fps <FPS>': a frame rate is 0.1 to 1000",
+        ),
+        (&["--fps", "1e-300"], "'--fps <FPS>'"),
+        (
+            &["--erode", "100000"],
+            "'--erode <N>': 100000 is not in 0..=32",
+        ),
+        (&["--erode", "4294967295"], "'--erode <N>'"),
+        (&["--erode", "-1"], "'--erode <N>'"),
+        (&["--background-frames", "64"], "'--background-frames <N>'"),
+        (&["--background-frames", "-3"], "'--background-frames <N>'"),
+        (&["--baud", "0"], "'--baud <BAUD>'"),
+        (&["--summary-every", "-1"], "'--summary-every <SECONDS>'"),
+        (&["--max-memory-mb", "0"], "'--max-memory-mb <MB>'"),
+    ];
+    for (extra, want) in cases {
+        let mut args = vec!["track", "--size", SIZE, "--input", dump];
+        args.extend_from_slice(extra);
+        let (out, took) = timed(&args);
+        assert_refused(&out, 2, want);
+        assert!(
+            !stderr_of(&out).contains("between 0 and"),
+            "{}",
+            stderr_of(&out)
+        );
+        assert!(took < HANG);
+    }
+}
+
+/// `--help` shows the bounds it enforces.
+#[test]
+fn help_shows_the_bounds() {
+    let out = glint().args(["track", "--help"]).output().unwrap();
+    let help = String::from_utf8_lossy(&out.stdout)
+        .split_whitespace()
+        .collect::<Vec<_>>()
+        .join(" ");
+    for bound in [
+        "0 to 32",
+        "1 to 63",
+        "0.1 to 1000",
+        "50 to 4000000 baud",
+        "up to 86400",
+        "sides 1 to 16384",
+        "16 to 65536",
+    ] {
+        assert!(help.contains(bound), "{bound:?} in {help}");
+    }
+}
+
+/// Fault 8: a huge value is quoted back cut short, and one too long for any option (on the
+/// command line, or from the settings file) is refused before parsing, naming its option.
+#[test]
+fn huge_values_are_not_echoed_whole() {
+    let long = "a".repeat(2_000);
+    let out = run_bounded(&["track", "--input", "-", "--size", &long]);
+    assert_refused(&out, 2, "'--size <WxH>'");
+    assert!(stderr_of(&out).len() < 400, "{}", stderr_of(&out));
+    assert!(stderr_of(&out).contains('…'));
+    // The kernel takes at most 128 kB per argument.
+    let huge = "b".repeat(100_000);
+    let out = run_bounded(&["track", "--input", "-", "--size", &huge]);
+    assert_refused(&out, 2, "the value of --size is 100000 bytes");
+    assert!(stderr_of(&out).len() < 400);
+    let dir = tempfile::tempdir().unwrap();
+    let config = dir.path().join("glint.toml");
+    let value = "c".repeat(1_000_000);
+    for text in [
+        format!("size = \"{value}\"\n"),
+        format!("size = [\"{value}\"]\n"),
+        format!("{value} = 1\n"),
+    ] {
+        std::fs::write(&config, text).unwrap();
+        let out = run_bounded(&["run", "--config", config.to_str().unwrap()]);
+        assert_eq!(out.status.code(), Some(2), "{}", stderr_of(&out));
+        assert!(stderr_of(&out).len() < 400, "{}", stderr_of(&out));
+    }
+}
+
+/// Issue 10: `glint` alone prints the usage, and exits 2.
+#[test]
+fn no_arguments_print_the_usage() {
+    let out = glint().output().unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let err = stderr_of(&out);
+    assert!(err.contains("Usage: glint"), "{err}");
+    assert!(err.contains("track"), "{err}");
+}
+
+/// Issue 10: the Pi's settings file can be tried on a dump, without its serial port or its
+/// calibration, from the command line.
+#[test]
+fn the_pi_settings_run_on_a_dump_without_serial_or_calibration() {
+    let dir = tempfile::tempdir().unwrap();
+    let dump = dark_dump(dir.path(), 3);
+    let config = concat!(env!("CARGO_MANIFEST_DIR"), "/board/raspberry-pi/glint.toml");
+    let base = [
+        "run",
+        "--config",
+        config,
+        "--size",
+        SIZE,
+        "--input",
+        dump.to_str().unwrap(),
+    ];
+    let out = run_bounded(&base);
+    assert_eq!(
+        out.status.code(),
+        Some(1),
+        "without the switches: {}",
+        stderr_of(&out)
+    );
+    let mut args = base.to_vec();
+    args.extend(["--no-serial", "--no-calib", "--jsonl", "-"]);
+    let out = run_bounded(&args);
+    assert!(out.status.success(), "{}", stderr_of(&out));
+    assert_eq!(String::from_utf8_lossy(&out.stdout).lines().count(), 3);
+    // The switch also wins over a --serial given before it, and loses to one after it.
+    let mut args = base.to_vec();
+    args.extend(["--no-calib", "--no-serial", "--serial", "/nonexistent/tty"]);
+    let out = run_bounded(&args);
+    assert!(
+        stderr_of(&out).contains("/nonexistent/tty"),
+        "{}",
+        stderr_of(&out)
+    );
+}
+
+/// Fault 4: options that need more memory than `--max-memory-mb` are refused before anything
+/// is allocated, with one line naming the option and the need; no abort, no backtrace.
+#[test]
+fn options_that_need_too_much_memory_are_refused_up_front() {
+    let cases: &[(&[&str], &str)] = &[
+        (
+            &[
+                "track",
+                "--input",
+                "-",
+                "--size",
+                "16384x16384",
+                "--detector",
+                "bgdiff",
+            ],
+            "the options need 3365 MB, more than --max-memory-mb 256: the background model \
+             (--background-frames 9 × --size 16384x16384) takes 2560 MB",
+        ),
+        (
+            &[
+                "track",
+                "--input",
+                "-",
+                "--size",
+                "16384x16384",
+                "--detector",
+                "bgdiff",
+                "--background-frames",
+                "63",
+            ],
+            "(--background-frames 63 × --size 16384x16384) takes 16384 MB",
+        ),
+        (
+            &["run", "--input", "-", "--size", "16384x16384"],
+            "the frame buffer (--size 16384x16384) takes 512 MB",
+        ),
+        (
+            &[
+                "calibrate",
+                "--input",
+                "-",
+                "--size",
+                "16384x16384",
+                "--marker",
+                "7:20",
+                "--out",
+                "/nonexistent/calib.toml",
+            ],
+            "the frame buffer (--size 16384x16384) takes 512 MB",
+        ),
+        (
+            &[
+                "track",
+                "--input",
+                "-",
+                "--size",
+                "4096x4096",
+                "--max-memory-mb",
+                "16",
+            ],
+            "more than --max-memory-mb 16",
+        ),
+    ];
+    for (args, want) in cases {
+        let (out, took) = timed(args);
+        assert_refused(&out, 1, want);
+        eprintln!("{args:?}: refused in {took:?}");
+    }
+    // Within a raised limit it is what the system gives that counts: under a 2 GB address
+    // space limit, a message rather than an abort.
+    let out = Command::new("sh")
+        .args(["-c", "ulimit -v 2000000 && exec \"$0\" \"$@\""])
+        .arg(env!("CARGO_BIN_EXE_glint"))
+        .args([
+            "track",
+            "--input",
+            "-",
+            "--size",
+            "16384x16384",
+            "--detector",
+            "bgdiff",
+        ])
+        .args(["--max-memory-mb", "65536"])
+        .stdin(Stdio::null())
+        .output()
+        .unwrap();
+    assert_refused(
+        &out,
+        1,
+        "the options need 3365 MB, which this system will not give",
+    );
+}

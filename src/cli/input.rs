@@ -66,8 +66,9 @@ pub struct InputArgs {
     stats: bool,
 
     /// Seconds between summaries (frames, fps, drops, found ratio) on standard error while
-    /// tracking from a camera; 0 for none.
-    #[arg(long, value_name = "SECONDS", default_value_t = 10.0, value_parser = parse_seconds)]
+    /// tracking from a camera, up to 86400; 0 for none.
+    #[arg(long, value_name = "SECONDS", default_value_t = 10.0, value_parser = parse_seconds,
+          allow_negative_numbers = true)]
     summary_every: f64,
 }
 
@@ -79,6 +80,15 @@ impl InputArgs {
         return self.camera.exposure_us();
         #[cfg(not(feature = "v4l2"))]
         return None;
+    }
+
+    /// The mmap buffers a camera will fill, when the input is a camera.
+    pub fn camera_buffers(&self) -> Option<u32> {
+        #[cfg(feature = "v4l2")]
+        if self.source.device.is_some() {
+            return Some(self.camera.buffers());
+        }
+        None
     }
 
     /// The dump file given with `--input` (not standard input).
@@ -103,9 +113,7 @@ impl InputArgs {
 fn parse_seconds(s: &str) -> Result<f64, String> {
     match s.parse::<f64>() {
         Ok(v) if v.is_finite() && (0.0..=86_400.0).contains(&v) => Ok(v),
-        _ => Err(format!(
-            "{s:?} is not a number of seconds between 0 and 86400"
-        )),
+        _ => Err("not a number of seconds from 0 to 86400".to_string()),
     }
 }
 

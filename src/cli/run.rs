@@ -13,6 +13,7 @@ use std::process::ExitCode;
 use anyhow::{Context, Result};
 use clap::Args;
 
+use glint::budget::{self, MemoryPlan};
 use glint::geometry::CalibrationFile;
 use glint::monitor::{self, Monitor};
 use glint::sink::{BestEffort, JsonLinesSink, PreviewSink, Tee};
@@ -66,7 +67,7 @@ pub fn run(args: RunArgs) -> Result<ExitCode> {
         mut pipeline,
         serial,
         ..
-    } = track::open(&args.settings)?;
+    } = track::open(&args.settings, &memory_plan(&args))?;
     // Unlike `glint track`, every run reports its status, whatever the source.
     let mut monitor = Monitor::new(args.settings.input.monitor_config());
     let jsonl = jsonl.map(|out| BestEffort::new("jsonl", JsonLinesSink::new(out, true)));
@@ -87,6 +88,20 @@ pub fn run(args: RunArgs) -> Result<ExitCode> {
         log::info!("whole run: {}", stats.one_line());
     }
     track::conclude(&summary, result)
+}
+
+/// What the run will allocate: the tracking's needs, and the preview's.
+fn memory_plan(args: &RunArgs) -> MemoryPlan {
+    let mut plan = args.settings.memory_plan();
+    if args.preview.is_some() {
+        let size = args.settings.size;
+        plan.add(
+            "the preview",
+            format!("--preview, --size {size}"),
+            budget::preview_bytes(size),
+        );
+    }
+    plan
 }
 
 /// Starts the preview server and says where it is (the address actually bound, for port 0).

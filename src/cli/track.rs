@@ -10,8 +10,9 @@ use std::sync::Arc;
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
 
-use super::{calib_args, input, signals};
+use super::{calib_args, input, memory, signals};
 
+use glint::budget::{self, MemoryPlan};
 use glint::detect::bgdiff::MAX_BACKGROUND_FRAMES;
 use glint::detect::MaskMethod;
 use glint::frame::FrameSize;
@@ -44,13 +45,14 @@ pub struct TrackSettings {
     #[command(flatten)]
     pub input: input::InputArgs,
 
-    /// Frame size in pixels.
+    /// Frame size in pixels: sides 1 to 16384, the width even. What the options need for
+    /// frames of this size must fit in --max-memory-mb.
     #[arg(long, value_name = "WxH")]
     pub size: FrameSize,
 
-    /// Frame rate: of a dump without a sidecar, for timestamps (default 30); of a camera, to
-    /// ask for (default: its current one).
-    #[arg(long, value_parser = parse_fps)]
+    /// Frame rate, 0.1 to 1000: of a dump without a sidecar, for timestamps (default 30); of
+    /// a camera, to ask for (default: its current one).
+    #[arg(long, value_parser = parse_fps, allow_negative_numbers = true)]
     fps: Option<f64>,
 
     #[command(flatten)]
@@ -62,8 +64,9 @@ pub struct TrackSettings {
     detector: DetectorArg,
 
     /// With `--detector bgdiff`: learn the background from the first N frames (their
-    /// per-pixel median), which are then reported as not found.
-    #[arg(long, default_value_t = 9, value_name = "N",
+    /// per-pixel median), which are then reported as not found; 1 to 63, each one frame of
+    /// luma in memory.
+    #[arg(long, default_value_t = 9, value_name = "N", allow_negative_numbers = true,
           value_parser = clap::value_parser!(u16).range(1..=MAX_BACKGROUND_FRAMES as i64))]
     background_frames: u16,
 
@@ -72,8 +75,9 @@ pub struct TrackSettings {
     #[arg(long, value_name = "PATH")]
     pub background: Option<PathBuf>,
 
-    /// With `--detector bgdiff`: the luma difference from the background that counts.
-    #[arg(long, default_value_t = 60, value_name = "LUMA",
+    /// With `--detector bgdiff`: the luma difference from the background that counts, 1 to
+    /// 255.
+    #[arg(long, default_value_t = 60, value_name = "LUMA", allow_negative_numbers = true,
           value_parser = clap::value_parser!(u8).range(1..))]
     diff: u8,
 
@@ -81,11 +85,20 @@ pub struct TrackSettings {
     pub floor: calib_args::FloorArgs,
 
     /// Also send position packets to the robot on this serial port (board/protocol/SPEC.md).
-    #[arg(long, value_name = "PORT")]
+    #[arg(long, value_name = "PORT", overrides_with = "no_serial")]
     pub serial: Option<String>,
 
-    /// Line rate of --serial, 8N1.
-    #[arg(long, default_value_t = serial::DEFAULT_BAUD, value_parser = clap::value_parser!(u32).range(50..=4_000_000))]
+    /// No serial link, whatever a --serial before it (or the settings file's `serial`) says:
+    /// try a Pi's settings on a dump without its UART.
+    #[arg(long, overrides_with = "serial")]
+    no_serial: bool,
+
+    #[command(flatten)]
+    pub memory: memory::MemoryArgs,
+
+    /// Line rate of --serial, 8N1: 50 to 4000000 baud.
+    #[arg(long, default_value_t = serial::DEFAULT_BAUD, allow_negative_numbers = true,
+          value_parser = clap::value_parser!(u32).range(50..=4_000_000))]
     baud: u32,
 }
 
@@ -106,6 +119,47 @@ enum DetectorArg {
 }
 
 impl TrackSettings {
+    /// What these settings will allocate, by the options that ask for it.
+    pub fn memory_plan(&self) -> MemoryPlan {
+        let size = self.size;
+        let mut plan = MemoryPlan::new();
+        match self.input.camera_buffers() {
+            Some(buffers) => plan.add(
+                "the camera's buffers",
+                format!("--buffers {buffers} × --size {size}"),
+                u64::from(buffers).saturating_mul(budget::frame_bytes(size)),
+            ),
+            None => plan.add(
+                "the frame buffer",
+                format!("--size {size}"),
+                budget::frame_bytes(size),
+            ),
+        }
+        match self.detector {
+            DetectorArg::Aruco => plan.add(
+                "the marker detector",
+                format!("--detector aruco, --size {size}"),
+                budget::marker_detector_bytes(size, self.floor.max_perimeter_px()),
+            ),
+            DetectorArg::Saturation | DetectorArg::Bgdiff => plan.add(
+                "the masks and scratch",
+                format!("--size {size}"),
+                budget::led_detector_bytes(size),
+            ),
+        }
+        if self.detector == DetectorArg::Bgdiff {
+            plan.add(
+                "the background model",
+                format!(
+                    "--background-frames {} × --size {size}",
+                    self.background_frames
+                ),
+                budget::background_bytes(size, usize::from(self.background_frames)),
+            );
+        }
+        plan
+    }
+
     fn pipeline_config(&self) -> PipelineConfig {
         PipelineConfig {
             detector: self.led.detector_config(match self.detector {
@@ -133,9 +187,11 @@ pub struct Opened {
     pub serial: Option<SerialSink>,
 }
 
-/// Opens the input, builds the pipeline (learning a separate background when asked) and opens
-/// the serial link, in that order; from then on Ctrl-C and SIGTERM stop the run cleanly.
-pub fn open(settings: &TrackSettings) -> Result<Opened> {
+/// Checks that `plan` (these settings' memory, and whatever the caller adds) fits the limit,
+/// then opens the input, builds the pipeline (learning a separate background when asked) and
+/// opens the serial link, in that order; from then on Ctrl-C and SIGTERM stop the run cleanly.
+pub fn open(settings: &TrackSettings, plan: &MemoryPlan) -> Result<Opened> {
+    settings.memory.check(plan)?;
     let stop = Arc::new(AtomicBool::new(false));
     let input::Input {
         source,
@@ -177,7 +233,7 @@ pub fn run(args: TrackArgs) -> Result<ExitCode> {
         mut monitor,
         mut pipeline,
         serial,
-    } = open(&args.settings)?;
+    } = open(&args.settings, &args.settings.memory_plan())?;
     let stdout = BufWriter::with_capacity(OUTPUT_BUFFER_BYTES, io::stdout().lock());
     let (summary, result) = match args.format {
         Format::Jsonl => monitor::run(
