@@ -12,7 +12,8 @@ mod memory;
 #[cfg(feature = "v4l2")]
 mod record;
 mod run;
-mod run_config;
+// Reached from tests/readme_commands.rs, which splices settings files as `main` does.
+pub(crate) mod run_config;
 mod signals;
 mod track;
 
