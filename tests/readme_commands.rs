@@ -1,7 +1,8 @@
 //! Every `glint ...` command shown in the READMEs (the project's, `board/`'s, the Pi's and
-//! `tools/`') parses with glint's own command line (the
-//! binary's `cli` module, compiled in here from its source, not a copy), so the README cannot
-//! name an option that does not exist or drop one that is required.
+//! `tools/`') parses with glint's own command line (the binary's `cli` module, compiled in
+//! here from its source, not a copy), and so does every `cargo run ... --bin glint-TOOL -- ...`
+//! with that tool's own parser: a README cannot name an option that does not exist or drop one
+//! that is required.
 //!
 //! Commands are taken from the README's fenced code blocks: lines starting with `glint `, with
 //! `\`-continued lines joined, `# comments` and redirections cut, and output lines
@@ -11,18 +12,30 @@
 //! example values the README uses elsewhere. A settings file is spliced in as `glint run`
 //! does, from this repository's copy of the file the README names.
 
-// The binary's argument parsing, compiled into this test: its `main` and helpers are not
+// The binaries' argument parsing, compiled into this test: their `main` and helpers are not
 // called here.
 #[allow(dead_code)]
 #[path = "../src/cli/mod.rs"]
 mod cli;
+#[allow(dead_code)]
+#[path = "../tools/src/bin/glint-demo.rs"]
+mod glint_demo;
+#[allow(dead_code)]
+#[path = "../tools/src/bin/glint-plot.rs"]
+mod glint_plot;
+#[allow(dead_code)]
+#[path = "../tools/src/bin/glint-scene.rs"]
+mod glint_scene;
+#[allow(dead_code)]
+#[path = "../tools/src/bin/glint-view.rs"]
+mod glint_view;
 
 use std::ffi::OsString;
 
 use clap::{CommandFactory, Parser};
 
 /// Example values for the README's placeholders.
-const PLACEHOLDERS: [(&str, &str); 10] = [
+const PLACEHOLDERS: [(&str, &str); 11] = [
     ("PATH", "run.yuv"),
     ("WxH", "640x480"),
     ("F", "30"),
@@ -33,6 +46,7 @@ const PLACEHOLDERS: [(&str, &str); 10] = [
     ("NAME=VALUE", "sharpness=0"),
     ("MB", "256"),
     ("BAUD", "115200"),
+    ("S", "7"),
 ];
 
 /// Words that end a command on a shell line.
@@ -80,9 +94,23 @@ fn commands(markdown: &str) -> Vec<Vec<String>> {
             .is_some_and(|w| w.ends_with(':'));
         if logical.starts_with("glint ") && !is_output {
             found.push(words(&logical));
+        } else if let Some(tool) = tool_command(&logical) {
+            found.push(words(&tool));
         }
     }
     found
+}
+
+/// A tool run through cargo (`cargo run ... --bin glint-view -- ARGS`) as the tool's own
+/// command line (`glint-view ARGS`).
+fn tool_command(line: &str) -> Option<String> {
+    let cargo = &line[line.find("cargo run ")?..];
+    let (before, args) = cargo.split_once(" -- ").unwrap_or((cargo, ""));
+    let bin = before
+        .split_whitespace()
+        .skip_while(|w| *w != "--bin")
+        .nth(1)?;
+    Some(format!("{bin} {args}"))
 }
 
 /// The words of a synopsis line, read as the module documentation says.
@@ -103,8 +131,8 @@ fn words(line: &str) -> Vec<String> {
         .collect()
 }
 
-/// Parses `argv` as `glint` does, the settings file spliced in first.
-fn parse(argv: &[String]) -> Result<cli::Cli, String> {
+/// Parses `argv` as its program does (`glint`: the settings file spliced in first).
+fn parse(argv: &[String]) -> Result<(), String> {
     let argv: Vec<OsString> = argv
         .iter()
         .map(|w| {
@@ -112,13 +140,38 @@ fn parse(argv: &[String]) -> Result<cli::Cli, String> {
             OsString::from(installed.map_or(w.as_str(), |(_, copy)| copy))
         })
         .collect();
-    let spliced = cli::run_config::splice(argv, &cli::Cli::command())?;
-    cli::Cli::try_parse_from(&spliced.argv).map_err(|e| e.render().to_string())
+    let render = |e: clap::Error| e.render().to_string();
+    match argv.first().and_then(|a| a.to_str()) {
+        Some("glint-demo") => glint_demo::Args::try_parse_from(&argv)
+            .map(drop)
+            .map_err(render),
+        Some("glint-plot") => glint_plot::Args::try_parse_from(&argv)
+            .map(drop)
+            .map_err(render),
+        Some("glint-scene") => glint_scene::Args::try_parse_from(&argv)
+            .map(drop)
+            .map_err(render),
+        Some("glint-view") => glint_view::Args::try_parse_from(&argv)
+            .map(drop)
+            .map_err(render),
+        _ => {
+            let spliced = cli::run_config::splice(argv, &cli::Cli::command())?;
+            cli::Cli::try_parse_from(&spliced.argv)
+                .map(drop)
+                .map_err(render)
+        }
+    }
 }
 
 #[test]
 fn every_readme_command_parses() {
     let commands: Vec<Vec<String>> = READMES.iter().flat_map(|r| commands(r)).collect();
+    for tool in ["glint-demo", "glint-plot", "glint-scene", "glint-view"] {
+        assert!(
+            commands.iter().any(|c| c[0] == tool),
+            "no {tool} command found"
+        );
+    }
     assert!(
         commands.len() >= 12,
         "found only {} commands: {commands:?}",
@@ -166,4 +219,12 @@ fn synopses_are_read_as_a_user_reads_them() {
     );
     assert!(parse(&found[0]).is_ok());
     assert!(parse(&found[1]).is_err());
+    let demo = "x && cargo run --release -p glint-tools --bin glint-demo";
+    assert_eq!(words(&tool_command(demo).unwrap()), ["glint-demo"]);
+    let view = "cargo run -p glint-tools --bin glint-view -- --input a.yuv --size WxH --frame 1";
+    let view = words(&tool_command(view).unwrap());
+    assert!(parse(&view).is_err(), "--out is required: {view:?}");
+    let mut view = view;
+    view.extend(["--out".into(), "a.png".into()]);
+    assert!(parse(&view).is_ok(), "{view:?}");
 }
