@@ -580,3 +580,32 @@ fn options_that_need_too_much_memory_are_refused_up_front() {
         "the options need 3365 MB, which this system will not give",
     );
 }
+
+/// Fault 1 at start-up: a background dump that is a quiet FIFO does not hold off SIGTERM.
+#[test]
+fn sigterm_stops_learning_from_a_quiet_fifo() {
+    let dir = tempfile::tempdir().unwrap();
+    let dump = dark_dump(dir.path(), 1);
+    let fifo = dir.path().join("background.fifo");
+    mkfifo(&fifo);
+    let mut child = glint()
+        .args(["track", "--size", SIZE, "--detector", "bgdiff", "--input"])
+        .arg(&dump)
+        .arg("--background")
+        .arg(&fifo)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    thread::sleep(Duration::from_millis(500));
+    let kill = Command::new("kill")
+        .args(["-TERM", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(kill.success());
+    let status = wait_or_kill(&mut child, HANG).expect("stopped after SIGTERM");
+    let err = std::io::read_to_string(child.stderr.take().unwrap()).unwrap();
+    assert_eq!(status.code(), Some(1), "{err}");
+    assert!(err.contains("stopped while waiting for input"), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+}

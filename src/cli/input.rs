@@ -208,7 +208,7 @@ pub fn open(
             monitor,
         });
     }
-    let file = open_without_waiting(input)?;
+    let file = open_without_waiting(Path::new(input))?;
     let metadata = file
         .metadata()
         .with_context(|| format!("cannot read {input}"))?;
@@ -240,12 +240,12 @@ pub fn open(
 
 /// Opens a dump for reading without waiting: a FIFO opens at once instead of blocking until a
 /// writer comes (the reads then wait, see [`Interruptible`]).
-fn open_without_waiting(input: &str) -> Result<File> {
+pub fn open_without_waiting(input: &Path) -> Result<File> {
     OpenOptions::new()
         .read(true)
         .custom_flags(nix::fcntl::OFlag::O_NONBLOCK.bits())
         .open(input)
-        .with_context(|| format!("cannot open {input}"))
+        .with_context(|| format!("cannot open {}", input.display()))
 }
 
 /// The checked sidecar of `dump`, or `None` when it has none.

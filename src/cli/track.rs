@@ -1,6 +1,5 @@
 //! `glint track`: run the pipeline on a raw YUYV dump or a camera and print one report per frame.
 
-use std::fs::File;
 use std::io::{self, BufWriter};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -21,6 +20,7 @@ use glint::options::{parse_fps, LedArgs};
 use glint::pipeline::{self, Pipeline, PipelineConfig, RunSummary};
 use glint::sink::{serial, CsvSink, JsonLinesSink, SerialSink, Tee};
 use glint::source::dump::DumpSource;
+use glint::source::interruptible::Interruptible;
 use glint::source::stoppable::Stoppable;
 use glint::source::FrameSource;
 use glint::track::TrackerConfig;
@@ -193,6 +193,7 @@ pub struct Opened {
 pub fn open(settings: &TrackSettings, plan: &MemoryPlan) -> Result<Opened> {
     settings.memory.check(plan)?;
     let stop = Arc::new(AtomicBool::new(false));
+    signals::stop_on_signals(&stop)?;
     let input::Input {
         source,
         live,
@@ -209,14 +210,13 @@ pub fn open(settings: &TrackSettings, plan: &MemoryPlan) -> Result<Opened> {
         if settings.detector != DetectorArg::Bgdiff {
             bail!("--background goes with --detector bgdiff");
         }
-        learn_background(&mut pipeline, path, settings)?;
+        learn_background(&mut pipeline, path, settings, &stop)?;
     }
     let serial = settings
         .serial
         .as_deref()
         .map(|port| SerialSink::open(port, settings.baud))
         .transpose()?;
-    signals::stop_on_signals(&stop)?;
     Ok(Opened {
         source: Stoppable::new(source, stop),
         live,
@@ -275,11 +275,17 @@ where
 }
 
 /// Feeds the first `--background-frames` frames of a separate dump to the background model.
-fn learn_background(pipeline: &mut Pipeline, path: &Path, args: &TrackSettings) -> Result<()> {
-    let file =
-        File::open(path).with_context(|| format!("cannot open background {}", path.display()))?;
+/// A FIFO that stays quiet gives up once `stop` is set.
+fn learn_background(
+    pipeline: &mut Pipeline,
+    path: &Path,
+    args: &TrackSettings,
+    stop: &Arc<AtomicBool>,
+) -> Result<()> {
+    let file = input::open_without_waiting(path).context("background")?;
+    let reader = Interruptible::new(file, Arc::clone(stop));
     let fps = args.fps.unwrap_or(input::DEFAULT_DUMP_FPS);
-    let mut source = DumpSource::try_new(file, args.size, fps)?;
+    let mut source = DumpSource::try_new(reader, args.size, fps)?;
     let mut learned = 0;
     while learned < args.background_frames {
         match source.next_frame() {
