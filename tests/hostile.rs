@@ -405,6 +405,7 @@ fn help_shows_the_bounds() {
         "up to 86400",
         "sides 1 to 16384",
         "16 to 65536",
+        "A regular file of at most 1 MB",
     ] {
         assert!(help.contains(bound), "{bound:?} in {help}");
     }

@@ -17,7 +17,8 @@ use glint::track::MarkerTracker;
 #[derive(Debug, Args)]
 pub struct FloorArgs {
     /// A calibration written by `glint calibrate`: adds floor coordinates (`floor_x`,
-    /// `floor_y`, and the floor velocity when known) to every found frame.
+    /// `floor_y`, and the floor velocity when known) to every found frame. A regular file of
+    /// at most 1 MB.
     #[arg(long, value_name = "FILE", overrides_with = "no_calib")]
     pub calib: Option<PathBuf>,
 

@@ -33,6 +33,7 @@ const JSONL_BUFFER_BYTES: usize = 16 * 1024;
 pub struct RunArgs {
     /// Settings file (TOML). Its keys are the long names of these options (`device`, `size`,
     /// `exposure-us`, `calib`, `serial`, `jsonl`, ...); options on the command line override it.
+    /// A regular file of at most 1 MB.
     #[arg(long, value_name = "FILE")]
     config: Option<PathBuf>,
 
