@@ -17,9 +17,8 @@ pub(crate) mod run_config;
 mod signals;
 mod track;
 
-use std::process::ExitCode;
-
 use std::ffi::OsString;
+use std::process::ExitCode;
 
 use clap::error::{ContextKind, ContextValue, ErrorKind};
 use clap::{CommandFactory, Parser, Subcommand};

@@ -93,13 +93,13 @@ pub struct TrackSettings {
     #[arg(long, overrides_with = "serial")]
     no_serial: bool,
 
-    #[command(flatten)]
-    pub memory: memory::MemoryArgs,
-
     /// Line rate of --serial, 8N1: 50 to 4000000 baud.
     #[arg(long, default_value_t = serial::DEFAULT_BAUD, allow_negative_numbers = true,
           value_parser = clap::value_parser!(u32).range(50..=4_000_000))]
     baud: u32,
+
+    #[command(flatten)]
+    pub memory: memory::MemoryArgs,
 }
 
 #[derive(Debug, Clone, Copy, ValueEnum)]
