@@ -23,8 +23,9 @@ pub enum SmallFileError {
     Open(io::Error),
     /// It is not a regular file; the kind it is instead.
     NotRegular(&'static str),
-    /// It is larger than the cap (or grew past it while being read).
-    TooLarge { bytes: u64, max_bytes: u64 },
+    /// It is larger than the cap: `bytes` long, or (`None`) it grew past the cap while being
+    /// read.
+    TooLarge { bytes: Option<u64>, max_bytes: u64 },
     /// Reading it failed.
     Read(io::Error),
     /// It is not UTF-8 text.
@@ -36,9 +37,16 @@ impl fmt::Display for SmallFileError {
         match self {
             SmallFileError::Open(e) => write!(f, "{e}"),
             SmallFileError::NotRegular(kind) => write!(f, "{kind}, not a regular file"),
-            SmallFileError::TooLarge { bytes, max_bytes } => write!(
+            SmallFileError::TooLarge {
+                bytes: Some(bytes),
+                max_bytes,
+            } => write!(f, "{bytes} bytes is too large (at most {max_bytes} bytes)"),
+            SmallFileError::TooLarge {
+                bytes: None,
+                max_bytes,
+            } => write!(
                 f,
-                "{bytes} bytes or more is too large (at most {max_bytes} bytes)"
+                "it grew while being read, and is too large (at most {max_bytes} bytes)"
             ),
             SmallFileError::Read(e) => write!(f, "{e}"),
             SmallFileError::NotText => write!(f, "not UTF-8 text"),
@@ -71,7 +79,7 @@ pub fn read_bytes(path: &Path, max_bytes: u64) -> Result<Vec<u8>, SmallFileError
     }
     if metadata.len() > max_bytes {
         return Err(SmallFileError::TooLarge {
-            bytes: metadata.len(),
+            bytes: Some(metadata.len()),
             max_bytes,
         });
     }
@@ -91,7 +99,7 @@ fn read_at_most(file: File, max_bytes: u64) -> Result<Vec<u8>, SmallFileError> {
         .map_err(SmallFileError::Read)?;
     if bytes.len() as u64 > max_bytes {
         return Err(SmallFileError::TooLarge {
-            bytes: bytes.len() as u64,
+            bytes: None,
             max_bytes,
         });
     }
@@ -146,10 +154,7 @@ mod tests {
         let path = dir.path().join("big.toml");
         std::fs::write(&path, vec![b'\n'; 101]).unwrap();
         let e = read_bytes(&path, 100).unwrap_err();
-        assert_eq!(
-            e.to_string(),
-            "101 bytes or more is too large (at most 100 bytes)"
-        );
+        assert_eq!(e.to_string(), "101 bytes is too large (at most 100 bytes)");
         let e = read_bytes(&dir.path().join("missing"), 100).unwrap_err();
         assert!(e.is_not_found(), "{e}");
     }

@@ -242,7 +242,10 @@ impl Sidecar {
             .saturating_add(frames_in_dump.saturating_mul(MAX_SIDECAR_BYTES_PER_FRAME));
         let bytes = small_file::read_bytes(path, limit_bytes).map_err(|e| match e {
             SmallFileError::Open(e) => SidecarError::Io(e),
-            SmallFileError::TooLarge { bytes, .. } => SidecarError::TooLarge { bytes, limit_bytes },
+            SmallFileError::TooLarge { bytes, .. } => SidecarError::TooLarge {
+                bytes: bytes.unwrap_or(limit_bytes.saturating_add(1)),
+                limit_bytes,
+            },
             e => SidecarError::File(e),
         })?;
         let sidecar = Self::read(&bytes[..])?;
