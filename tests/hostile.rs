@@ -552,6 +552,24 @@ fn options_that_need_too_much_memory_are_refused_up_front() {
             "more than --max-memory-mb 16",
         ),
     ];
+    let mut cases = cases.to_vec();
+    if cfg!(feature = "v4l2") {
+        // Refused before the camera is even looked for.
+        cases.push((
+            &[
+                "record",
+                "--device",
+                "/nonexistent/video0",
+                "--size",
+                "16384x16384",
+                "--frames",
+                "10",
+                "--out",
+                "/nonexistent/out.yuv",
+            ],
+            "the camera's buffers (--buffers 4 × --size 16384x16384) takes 2048 MB",
+        ));
+    }
     for (args, want) in cases {
         let (out, took) = timed(args);
         assert_refused(&out, 1, want);

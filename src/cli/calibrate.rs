@@ -34,7 +34,7 @@ pub struct CalibrateArgs {
     #[arg(long, value_name = "PATH|-")]
     input: String,
 
-    /// Frame size in pixels.
+    /// Frame size in pixels: sides 1 to 16384, the width even.
     #[arg(long, value_name = "WxH")]
     size: FrameSize,
 

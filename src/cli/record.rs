@@ -39,7 +39,7 @@ pub struct RecordArgs {
     #[arg(long, value_name = "/dev/videoN")]
     device: PathBuf,
 
-    /// Frame size in pixels.
+    /// Frame size in pixels: sides 1 to 16384, the width even.
     #[arg(long, value_name = "WxH")]
     size: FrameSize,
 
