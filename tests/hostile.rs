@@ -1,8 +1,9 @@
 //! The hostile world of issue 13, replayed in quick versions against the real binary: signals
 //! while the input is idle, a standard error that cannot be written, memory asked for by the
 //! options, settings and calibration files that are devices, FIFOs or huge, out-of-range
-//! numbers, and the rough edges of issue 10 (empty input, no arguments). Each test failed
-//! before the fix it guards.
+//! numbers, and the rough edges of issue 10 (empty input, no arguments). Every test of a fault
+//! failed against the binary before its fix; one (the slowest frame rate) guards what a fix
+//! must keep.
 
 mod common;
 
@@ -627,4 +628,27 @@ fn sigterm_stops_learning_from_a_quiet_fifo() {
     assert_eq!(status.code(), Some(1), "{err}");
     assert!(err.contains("stopped while waiting for input"), "{err}");
     assert_eq!(err.lines().count(), 1, "{err}");
+}
+
+/// Fault 8, what the fix must keep: `--fps 1e-300` (which pinned `t` at 18446744073709.55 s)
+/// is now refused, and the slowest rate still accepted gives frame times that move on.
+#[test]
+fn the_slowest_frame_rate_gives_true_times() {
+    let dir = tempfile::tempdir().unwrap();
+    let dump = dark_dump(dir.path(), 3);
+    let out = run_bounded(&[
+        "track",
+        "--size",
+        SIZE,
+        "--fps",
+        "0.1",
+        "--input",
+        dump.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", stderr_of(&out));
+    let times: Vec<f64> = common::parse_jsonl(&out.stdout)
+        .iter()
+        .map(|r| r["t"].as_f64().unwrap())
+        .collect();
+    assert_eq!(times, [0.0, 10.0, 20.0]);
 }
