@@ -257,3 +257,31 @@ fn preview_sink_with_a_viewer_allocates_nothing_per_frame() {
     let answer = String::from_utf8_lossy(&body);
     assert!(answer.contains("\"captured\":true"), "{answer}");
 }
+
+/// The command's own source, a dump read through the stop-aware reader (one `poll` before each
+/// read) and ended by the stop flag, allocates nothing per frame either.
+#[test]
+fn the_stop_aware_file_source_allocates_nothing_per_frame() {
+    use glint::source::interruptible::Interruptible;
+    use glint::source::stoppable::Stoppable;
+    use std::sync::atomic::AtomicBool;
+    use std::sync::Arc;
+
+    let (size, bytes, count) = frames();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("frames.yuv");
+    std::fs::write(&path, &bytes).unwrap();
+    let stop = Arc::new(AtomicBool::new(false));
+    let reader = Interruptible::new(std::fs::File::open(&path).unwrap(), Arc::clone(&stop));
+    let mut source = Stoppable::new(DumpSource::try_new(reader, size, 30.0).unwrap(), stop);
+    let mut pipeline = Pipeline::new(size, PipelineConfig::default()).unwrap();
+    let mut sink = JsonLinesSink::new(BufWriter::with_capacity(64 * 1024, io::sink()), false);
+    let mut frames_run = 0;
+    let allocations = allocations_during(|| {
+        let (s, result) = pipeline::run(&mut source, &mut pipeline, &mut sink);
+        result.unwrap();
+        frames_run = s.frames;
+    });
+    assert_eq!(frames_run, count as u64);
+    assert_eq!(allocations, 0, "allocations during {count} frames");
+}

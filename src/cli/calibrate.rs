@@ -7,7 +7,7 @@
 use std::collections::BTreeSet;
 use std::fmt::Write as _;
 use std::fs::File;
-use std::io::{self, Read};
+use std::io::{self, Read, Write as _};
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::str::FromStr;
@@ -16,11 +16,14 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use nalgebra::Matrix3;
 
+use glint::budget::{self, MemoryPlan};
 use glint::frame::FrameSize;
 use glint::geometry::aruco::{Detector, DetectorConfig, Dictionary, Marker};
 use glint::geometry::{calibrate, Calibration, MarkerPlacement, Point};
-use glint::source::dump::DumpSource;
+use glint::source::dump::{DumpError, DumpSource};
 use glint::source::FrameSource;
+
+use super::memory::MemoryArgs;
 
 /// Nominal frame rate given to the dump source; calibration does not use timestamps.
 const NOMINAL_FPS: f64 = 30.0;
@@ -31,7 +34,7 @@ pub struct CalibrateArgs {
     #[arg(long, value_name = "PATH|-")]
     input: String,
 
-    /// Frame size in pixels.
+    /// Frame size in pixels: sides 1 to 16384, the width even.
     #[arg(long, value_name = "WxH")]
     size: FrameSize,
 
@@ -47,6 +50,9 @@ pub struct CalibrateArgs {
     /// Where to write the calibration.
     #[arg(long, value_name = "FILE")]
     out: PathBuf,
+
+    #[command(flatten)]
+    memory: MemoryArgs,
 }
 
 /// One `--marker ID:SIZE_CM[@X,Y]` argument.
@@ -98,6 +104,20 @@ pub fn run(args: CalibrateArgs) -> Result<ExitCode> {
             bail!("marker {} is named more than once", p.id);
         }
     }
+    let config = DetectorConfig::new(args.dict);
+    let mut plan = MemoryPlan::new();
+    let size = args.size;
+    plan.add(
+        "the frame buffer",
+        format!("--size {size}"),
+        budget::frame_bytes(size),
+    );
+    plan.add(
+        "the marker detector",
+        format!("--size {size}"),
+        budget::marker_detector_bytes(size, config.max_perimeter_px),
+    );
+    args.memory.check(&plan)?;
     let reader: Box<dyn Read> = if args.input == "-" {
         Box::new(io::stdin().lock())
     } else {
@@ -108,15 +128,20 @@ pub fn run(args: CalibrateArgs) -> Result<ExitCode> {
         }
         Box::new(file)
     };
-    let mut source = DumpSource::new(reader, args.size, NOMINAL_FPS);
-    let mut detector = Detector::new(args.size, DetectorConfig::new(args.dict));
+    let mut source = DumpSource::try_new(reader, args.size, NOMINAL_FPS)?;
+    let mut detector = Detector::new(args.size, config);
     let mut sums = vec![CornerSums::default(); placements.len()];
     let mut seen_ids = BTreeSet::new();
     let mut frames = 0u64;
-    while let Some((frame, _meta)) = source
-        .next_frame()
-        .with_context(|| format!("after {frames} whole frames"))?
-    {
+    loop {
+        let (frame, _meta) = match source.next_frame() {
+            Ok(Some(next)) => next,
+            Ok(None) => break,
+            Err(DumpError::Empty) => {
+                bail!("{} holds no whole frame of {}", args.input, args.size)
+            }
+            Err(e) => return Err(e).with_context(|| format!("after {frames} whole frames")),
+        };
         frames += 1;
         let markers = detector.detect(&frame, None)?;
         seen_ids.extend(markers.iter().map(|m| m.id));
@@ -138,9 +163,6 @@ pub fn run(args: CalibrateArgs) -> Result<ExitCode> {
                 _ => {}
             }
         }
-    }
-    if frames == 0 {
-        bail!("{} holds no whole frame of {}", args.input, args.size);
     }
     for (p, sum) in placements.iter().zip(&sums) {
         if sum.frames == 0 {
@@ -183,8 +205,11 @@ pub fn run(args: CalibrateArgs) -> Result<ExitCode> {
     let toml = report.toml()?;
     std::fs::write(&args.out, toml)
         .with_context(|| format!("cannot write {}", args.out.display()))?;
-    print!("{}", report.summary()?);
-    println!("wrote {}", args.out.display());
+    // The file is written; a closed or full standard output is not worth a panic.
+    let mut stdout = io::stdout().lock();
+    write!(stdout, "{}", report.summary()?)
+        .and_then(|()| writeln!(stdout, "wrote {}", args.out.display()))
+        .context("writing the summary to standard output")?;
     Ok(ExitCode::SUCCESS)
 }
 

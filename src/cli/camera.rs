@@ -17,16 +17,17 @@ const MAX_BUFFERS: i64 = 32;
 /// What the camera is asked for beyond size and frame rate.
 #[derive(Debug, Args)]
 pub struct CameraArgs {
-    /// mmap buffers to ask the driver for.
+    /// mmap buffers to ask the driver for, 1 to 32 (each holds one frame).
     #[arg(long, value_name = "N", default_value_t = DEFAULT_BUFFER_COUNT,
+          allow_negative_numbers = true,
           value_parser = clap::value_parser!(u32).range(1..=MAX_BUFFERS))]
     buffers: u32,
 
     /// Manual exposure time in microseconds (turns auto exposure off unless
     /// --auto-exposure on). A short exposure leaves the LED the only saturated thing. The
     /// tracker uses it too: the streak's length over it is the speed within one frame; so for
-    /// a recording, give the exposure it was made with.
-    #[arg(long, value_name = "MICROSECONDS",
+    /// a recording, give the exposure it was made with. 1 to 10000000.
+    #[arg(long, value_name = "MICROSECONDS", allow_negative_numbers = true,
           value_parser = clap::value_parser!(u32).range(1..=10_000_000))]
     exposure_us: Option<u32>,
 
@@ -72,6 +73,11 @@ impl CameraArgs {
             ..self.request()
         };
         self.buffers != DEFAULT_BUFFER_COUNT || !request.is_empty()
+    }
+
+    /// The mmap buffers asked for.
+    pub fn buffers(&self) -> u32 {
+        self.buffers
     }
 
     /// The exposure time given, in microseconds.

@@ -4,6 +4,7 @@
 //! driver's mmap buffer); the frame borrows the source until the next call, so nothing is copied.
 
 pub mod dump;
+pub mod interruptible;
 pub mod record;
 pub mod sidecar;
 pub mod stoppable;

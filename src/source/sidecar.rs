@@ -14,7 +14,6 @@
 //! it must agree with itself and with the dump beside it, or the replay refuses to start.
 
 use core::fmt;
-use std::fs::File;
 use std::io::{self, Read, Write};
 use std::path::{Path, PathBuf};
 
@@ -23,6 +22,7 @@ use serde::{Deserialize, Serialize};
 use super::dump::{DumpError, DumpSource};
 use super::{FrameMeta, FrameSource};
 use crate::frame::{Frame, FrameSize, SizeError};
+use crate::small_file::{self, SmallFileError};
 
 /// The sidecar layout written by this version of glint.
 pub const SIDECAR_VERSION: u32 = 1;
@@ -76,11 +76,13 @@ pub struct Sidecar {
 pub enum SidecarError {
     /// Reading or writing it failed.
     Io(io::Error),
+    /// It is not a regular file, or not readable as one.
+    File(SmallFileError),
     /// It is far larger than its dump could need.
     TooLarge { bytes: u64, limit_bytes: u64 },
     /// It is not the JSON described in the module documentation.
     Parse(serde_json::Error),
-    /// It was written by a newer glint.
+    /// It was written by a newer glint (or claims the version 0, which none wrote).
     Version(u32),
     /// The frames are not YUYV.
     Format(String),
@@ -120,11 +122,16 @@ impl fmt::Display for SidecarError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             SidecarError::Io(e) => write!(f, "{e}"),
+            SidecarError::File(e) => write!(f, "{e}"),
             SidecarError::TooLarge { bytes, limit_bytes } => write!(
                 f,
                 "{bytes} bytes is too large for the sidecar of this dump (at most {limit_bytes})"
             ),
             SidecarError::Parse(e) => write!(f, "not a glint sidecar: {e}"),
+            SidecarError::Version(0) => write!(
+                f,
+                "sidecar version 0 does not exist (this glint reads version {SIDECAR_VERSION})"
+            ),
             SidecarError::Version(v) => write!(
                 f,
                 "sidecar version {v} is newer than this glint reads ({SIDECAR_VERSION})"
@@ -181,15 +188,9 @@ impl fmt::Display for SidecarError {
     }
 }
 
-impl std::error::Error for SidecarError {
-    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
-        match self {
-            SidecarError::Io(e) => Some(e),
-            SidecarError::Parse(e) => Some(e),
-            _ => None,
-        }
-    }
-}
+// The messages include their cause's text, so no cause is given as a source as well: an
+// error chain printed whole (`{:#}`) would repeat it.
+impl std::error::Error for SidecarError {}
 
 impl Sidecar {
     /// The sidecar of unpadded YUYV frames of `size` that a camera laid out `driver_stride_bytes`
@@ -234,16 +235,20 @@ impl Sidecar {
 
     /// Reads and checks the sidecar at `path` for a dump of `dump_bytes` bytes of `size`
     /// frames. Errors say what disagrees; `Io` with `NotFound` means there is no sidecar.
+    /// The sidecar must be a regular file (a FIFO or a device is refused without waiting).
     pub fn load_for(path: &Path, size: FrameSize, dump_bytes: u64) -> Result<Self, SidecarError> {
-        let file = File::open(path).map_err(SidecarError::Io)?;
-        let bytes = file.metadata().map_err(SidecarError::Io)?.len();
         let frames_in_dump = dump_bytes / size.frame_bytes().max(1) as u64;
         let limit_bytes = MAX_SIDECAR_HEADER_BYTES
             .saturating_add(frames_in_dump.saturating_mul(MAX_SIDECAR_BYTES_PER_FRAME));
-        if bytes > limit_bytes {
-            return Err(SidecarError::TooLarge { bytes, limit_bytes });
-        }
-        let sidecar = Self::read(io::BufReader::new(file.take(limit_bytes)))?;
+        let bytes = small_file::read_bytes(path, limit_bytes).map_err(|e| match e {
+            SmallFileError::Open(e) => SidecarError::Io(e),
+            SmallFileError::TooLarge { bytes, .. } => SidecarError::TooLarge {
+                bytes: bytes.unwrap_or(limit_bytes.saturating_add(1)),
+                limit_bytes,
+            },
+            e => SidecarError::File(e),
+        })?;
+        let sidecar = Self::read(&bytes[..])?;
         sidecar.check_against(size, dump_bytes)?;
         Ok(sidecar)
     }
@@ -361,8 +366,14 @@ impl<R: Read> ReplaySource<R> {
     /// Replays `reader`, a dump of `size` frames, with `sidecar`'s timing. The sidecar is
     /// assumed checked ([`Sidecar::load_for`]).
     pub fn new(reader: R, size: FrameSize, sidecar: Sidecar) -> Self {
+        Self::from_dump(DumpSource::new(reader, size, UNUSED_NOMINAL_FPS), sidecar)
+    }
+
+    /// [`ReplaySource::new`] over a dump source already opened (with
+    /// [`DumpSource::try_new`], say); its nominal frame rate is not used.
+    pub fn from_dump(dump: DumpSource<R>, sidecar: Sidecar) -> Self {
         ReplaySource {
-            dump: DumpSource::new(reader, size, UNUSED_NOMINAL_FPS),
+            dump,
             frames: sidecar.frames,
             previous_seq: None,
         }
@@ -461,7 +472,12 @@ mod tests {
         assert!(matches!(odd.validate(), Err(SidecarError::Size(_))));
         let mut future = sidecar(vec![]);
         future.version = SIDECAR_VERSION + 1;
-        assert!(matches!(future.validate(), Err(SidecarError::Version(_))));
+        let e = future.validate().unwrap_err();
+        assert!(e.to_string().contains("is newer"), "{e}");
+        future.version = 0;
+        let e = future.validate().unwrap_err();
+        assert!(matches!(e, SidecarError::Version(0)));
+        assert!(!e.to_string().contains("newer"), "{e}");
         let mut mjpeg = sidecar(vec![]);
         mjpeg.format = "MJPG".into();
         assert!(matches!(mjpeg.validate(), Err(SidecarError::Format(_))));

@@ -65,14 +65,9 @@ impl fmt::Display for SerialError {
     }
 }
 
-impl std::error::Error for SerialError {
-    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
-        match self {
-            SerialError::Open { source, .. } => Some(source),
-            SerialError::Thread(e) => Some(e),
-        }
-    }
-}
+// The messages include the OS's text, so it is not also given as a source: an error chain
+// printed whole (`{:#}`) would say it twice ("Not a typewriter: Not a typewriter").
+impl std::error::Error for SerialError {}
 
 /// What the link did over a run. Once the sink has finished, every frame posted (`updates` +
 /// `heartbeats`) is counted in exactly one of `sent`, `superseded`, `timed_out` and

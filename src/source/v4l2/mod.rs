@@ -195,15 +195,10 @@ impl fmt::Display for V4l2Error {
     }
 }
 
-impl std::error::Error for V4l2Error {
-    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
-        match self {
-            V4l2Error::Open { source, .. } | V4l2Error::Io { source, .. } => Some(source),
-            V4l2Error::Negotiation { source, .. } => Some(source),
-            _ => None,
-        }
-    }
-}
+// The messages include their cause's text, so no cause is given as a source as well: an
+// error chain printed whole (`{:#}`) would say it twice ("No such file or directory: No such
+// file or directory").
+impl std::error::Error for V4l2Error {}
 
 /// The driver's account of one dequeued frame, before it is placed on the session's timeline.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

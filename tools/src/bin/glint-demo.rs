@@ -28,7 +28,7 @@ const MS_PER_S: f64 = 1e3;
 /// Run glint on a built-in synthetic scene and show how close it comes to the truth.
 #[derive(Parser, Debug)]
 #[command(version, about)]
-struct Args {
+pub(crate) struct Args {
     /// Preset scene (see `glint-scene --list`).
     #[arg(long, default_value = DEFAULT_SCENE)]
     scene: String,

@@ -17,7 +17,7 @@ use glint_tools::plot::{render, Track, Units, MAX_SIDE_PX, MIN_SIDE_PX};
 /// Plot a glint track: trajectory (floor units when calibrated, else pixels) and speed.
 #[derive(Parser, Debug)]
 #[command(version, about)]
-struct Args {
+pub(crate) struct Args {
     /// A JSON-lines track from `glint track`, or `-` for standard input.
     #[arg(long, value_name = "PATH|-")]
     input: String,

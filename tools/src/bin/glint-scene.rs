@@ -16,7 +16,7 @@ use glint_tools::scene::{write_truth_csv, Scene, Truth, Visibility};
 /// Render a synthetic glint scene with ground truth.
 #[derive(Parser, Debug)]
 #[command(version, about)]
-struct Args {
+pub(crate) struct Args {
     /// List the presets and exit.
     #[arg(long)]
     list: bool,
