@@ -691,6 +691,9 @@ fn a_real_uart_in_a_vm_delivers_every_frame_sent() {
                 assert_eq!(h.protocol_version, PROTOCOL_VERSION);
                 heartbeats += 1;
             }
+            // Each update's age follows it; the LED is never asked for here.
+            Ok(Message::Age(a)) => assert_eq!(Some(a.seq), positions.last().map(|p| p.seq)),
+            Ok(Message::Led(r)) => panic!("over the UART: an unasked LED request {r:?}"),
             Err(e) => panic!("over the UART: {e}"),
         }
     }

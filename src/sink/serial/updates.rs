@@ -216,6 +216,7 @@ mod tests {
             sequence: index,
             dropped: 0,
             timestamp_us,
+            monotonic_us: timestamp_us,
         }
     }
 
