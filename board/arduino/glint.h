@@ -2,7 +2,7 @@
  * glint.h: decoder for glint's serial position packets, for Arduino-class robots.
  *
  * Single header, C99 (also compiles as C++ for Arduino sketches), no malloc, no floating point
- * needed, about 110 bytes of RAM per decoder. The wire format is board/protocol/SPEC.md
+ * needed, about 130 bytes of RAM per decoder and message. The wire format is board/protocol/SPEC.md
  * (protocol version 2): COBS frames ending in 0x00, each holding a message id, a postcard body
  * and a CRC-16/CCITT-FALSE.
  *
