@@ -794,3 +794,95 @@ fn a_real_uart_in_a_vm_delivers_every_frame_sent() {
         .count();
     assert!(lost > 0, "lost updates crossed the UART too");
 }
+
+/// The median of `values`.
+fn median(mut values: Vec<f64>) -> f64 {
+    values.sort_by(f64::total_cmp);
+    values.get(values.len() / 2).copied().unwrap_or(f64::NAN)
+}
+
+#[test]
+fn predict_arrival_moves_found_positions_on_by_their_age_and_says_so() {
+    let frames = Frames::new("figure-eight");
+    let (master, _slave, name) = pty();
+    let robot = Robot::listen(master);
+    let mut args = scene_args(&frames.scene);
+    args.extend(["--predict".to_string(), "arrival".to_string()]);
+    let mut glint = Glint::start("-", &args, Path::new(&name));
+    let mut updates = Vec::new();
+    let mut heartbeats = Vec::new();
+    let count = frames.count() / 2;
+    for i in 0..count {
+        glint.send(frames.frame(i));
+        updates.push(robot.next_update(&mut heartbeats, i));
+    }
+    let done = glint.finish();
+    assert!(done.status.success(), "glint failed:\n{}", done.log);
+    assert_eq!(done.reports.len(), count);
+    let px = f64::from(QUANTA_PER_PX);
+    let trajectory = &frames.scene.config().trajectory;
+    let mut predicted = 0;
+    let mut closer = 0;
+    // Per predicted update: its error against the truth on arrival, and what its inputs'
+    // errors (position at capture, velocity over the age, both against the truth) allow.
+    let (mut sent_errors, mut input_errors) = (Vec::new(), Vec::new());
+    let (mut json_errors, mut json_input_errors) = (Vec::new(), Vec::new());
+    for ((p, age), r) in updates.iter().zip(&done.reports) {
+        let frame = r["frame"].as_u64().unwrap();
+        let velocity = r["vx"].as_f64().zip(r["vy"].as_f64());
+        if r["found"] != true || velocity.is_none() {
+            assert!(!age.predicted, "frame {frame}: nothing to predict from");
+            assert!(r.get("predicted").is_none(), "frame {frame}");
+            continue;
+        }
+        let (vx, vy) = velocity.unwrap();
+        // Frames after the first of a track have their bend measured too; all are predicted.
+        assert!(
+            age.predicted,
+            "frame {frame}: a found, moving LED is predicted"
+        );
+        predicted += 1;
+        // Against the renderer's truth at the arrival: the end of the exposure plus the age.
+        let ahead_s = f64::from(age.age_us) * 1e-6;
+        let at = trajectory
+            .motion(r["t"].as_f64().unwrap() + ahead_s)
+            .position_px;
+        let sent = (f64::from(p.x) / px, f64::from(p.y) / px);
+        let miss = |(x, y): (f64, f64)| (x - at.x).hypot(y - at.y);
+        let measured = (r["x"].as_f64().unwrap(), r["y"].as_f64().unwrap());
+        closer += usize::from(miss(sent) < miss(measured));
+        let t_s = r["t"].as_f64().unwrap();
+        let truth = trajectory.motion(t_s);
+        let position_error =
+            (measured.0 - truth.position_px.x).hypot(measured.1 - truth.position_px.y);
+        let velocity_error = (vx - truth.velocity_px_s.x).hypot(vy - truth.velocity_px_s.y);
+        sent_errors.push(miss(sent));
+        input_errors.push(position_error + velocity_error * ahead_s + 0.5 / px);
+        // The JSON line's own prediction, to the moment it was written, is flagged there.
+        let j = &r["predicted"];
+        let ahead_ms = j["ahead_ms"].as_f64().expect("ahead_ms");
+        let at = trajectory
+            .motion(r["t"].as_f64().unwrap() + ahead_ms * 1e-3)
+            .position_px;
+        let printed = (j["x"].as_f64().unwrap(), j["y"].as_f64().unwrap());
+        json_errors.push((printed.0 - at.x).hypot(printed.1 - at.y));
+        json_input_errors.push(position_error + velocity_error * ahead_ms * 1e-3);
+    }
+    let (sent, inputs) = (median(sent_errors), median(input_errors));
+    eprintln!("sent {sent:.2} px from the truth on arrival (median), inputs allow {inputs:.2} px");
+    assert!(
+        sent <= inputs,
+        "sent {sent:.2} px, its inputs allow {inputs:.2} px"
+    );
+    let (json, json_inputs) = (median(json_errors), median(json_input_errors));
+    assert!(
+        json <= json_inputs + JSON_POSITION_RESOLUTION_PX,
+        "JSON prediction {json:.2} px, its inputs allow {json_inputs:.2} px"
+    );
+    assert!(predicted > count / 2, "{predicted} of {count} predicted");
+    // Moving on by the age brings nearly every update closer to where the LED is on arrival.
+    assert!(
+        closer * 10 >= predicted * 9,
+        "{closer} of {predicted} closer"
+    );
+}

@@ -17,7 +17,7 @@ use clap::Args;
 
 use glint::geometry::CalibrationFile;
 use glint::monitor::{self, Monitor};
-use glint::sink::{BestEffort, JsonLinesSink, PreviewSink, Tee};
+use glint::sink::{BestEffort, PreviewSink, Tee};
 use glint::source::stoppable::Stoppable;
 
 use super::signals;
@@ -74,7 +74,8 @@ pub fn run(args: RunArgs) -> Result<ExitCode> {
     let stop = Arc::new(AtomicBool::new(false));
     signals::stop_on_signals(&stop)?;
     let mut source = Stoppable::new(source, stop);
-    let jsonl = jsonl.map(|out| BestEffort::new("jsonl", JsonLinesSink::new(out, true)));
+    let jsonl =
+        jsonl.map(|out| BestEffort::new("jsonl", track::jsonl_sink(out, true, &args.settings)));
     let preview = args
         .preview
         .map(|addr| start_preview(addr, &args.settings))

@@ -33,7 +33,7 @@ use glint_protocol::{encode, LedRequest, Message};
 pub use link::{
     line_time, BITS_PER_BYTE, DRAIN_LIMIT, REOPEN_BACKOFF_MAX, REOPEN_BACKOFF_MIN, WRITE_TIMEOUT,
 };
-pub use stamp::{Motion, SentLed};
+pub use stamp::SentLed;
 pub use updates::{Located, Updates, HEARTBEAT_INTERVAL_US};
 
 use super::Sink;
@@ -42,7 +42,9 @@ use crate::source::clock::monotonic_now_us;
 use crate::source::FrameMeta;
 use link::{Counters, Link};
 use mailbox::{Mailbox, Post, SLOT_BYTES};
-use stamp::{PendingLed, PendingUpdate};
+use stamp::{PendingLed, PendingUpdate, Prediction};
+
+use super::predict::Predictor;
 
 /// The line rate when none is given: fast enough for a 24-byte update per frame at 240 fps,
 /// and supported by every USB-serial adapter and microcontroller UART.
@@ -150,6 +152,8 @@ pub struct SerialSink {
     next_led_request: u8,
     /// The frame clock's origin on the monotonic clock, from the latest frame.
     frame_clock_origin_us: Option<i64>,
+    /// With `--predict arrival`: the motion each update is moved on by, at write time.
+    predictor: Option<Predictor>,
     clamp_warned: bool,
 }
 
@@ -183,8 +187,16 @@ impl SerialSink {
             posted_led_requests: 0,
             next_led_request: 0,
             frame_clock_origin_us: None,
+            predictor: None,
             clamp_warned: false,
         })
+    }
+
+    /// Sends every found position extrapolated to its arrival (`--predict arrival`): moved on
+    /// by the age it is sent with, flagged as predicted in its age frame.
+    pub fn predicting(mut self) -> Self {
+        self.predictor = Some(Predictor::new());
+        self
     }
 
     /// Posts the frame's position update (found with `located`, lost without) and, when due,
@@ -205,9 +217,19 @@ impl SerialSink {
         }
         self.frame_clock_origin_us = Some(frame_clock_origin_us(meta));
         self.posted_updates += 1;
+        let prediction = self.predictor.as_mut().and_then(|predictor| {
+            // A lost frame observes no velocity, which ends the bend being measured.
+            let velocity = located.and_then(|l| l.velocity_per_s.zip(l.velocity_method));
+            let units = quantised.position.units;
+            let motion = predictor.observe(meta.timestamp_us, units, velocity)?;
+            Some(Prediction {
+                from: located?.position,
+                motion,
+            })
+        });
         self.mailbox.post(Post::Update(PendingUpdate {
             measured: quantised.position,
-            prediction: None,
+            prediction,
             captured_monotonic_us: meta.monotonic_us,
         }));
     }

@@ -16,6 +16,7 @@ use glint_protocol::{
 };
 
 use super::link::line_time;
+use crate::sink::predict::Motion;
 
 /// Rounds of stamping an update: the age's varint length and the predicted position's varint
 /// lengths change the line time, which changes the age. Two rounds settle it in practice (a
@@ -24,26 +25,6 @@ const STAMP_ROUNDS: usize = 3;
 
 /// Microseconds per second.
 const US_PER_S: f32 = 1e6;
-
-/// How the light moves, for extrapolating a position to its arrival.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Motion {
-    /// Velocity in units (px or mm) per second.
-    pub velocity_per_s: (f32, f32),
-    /// Acceleration in units per second², where the path bends; zero on a straight line.
-    pub acceleration_per_s2: (f32, f32),
-}
-
-impl Motion {
-    /// Where a light at `(x, y)` is `ahead_s` seconds later.
-    pub fn extrapolate(&self, (x, y): (f32, f32), ahead_s: f32) -> (f32, f32) {
-        let half_t2 = 0.5 * ahead_s * ahead_s;
-        (
-            x + self.velocity_per_s.0 * ahead_s + self.acceleration_per_s2.0 * half_t2,
-            y + self.velocity_per_s.1 * ahead_s + self.acceleration_per_s2.1 * half_t2,
-        )
-    }
-}
 
 /// A measured position (in units, before quantisation) and how to move it on.
 #[derive(Debug, Clone, Copy, PartialEq)]
