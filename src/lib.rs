@@ -23,6 +23,7 @@
 pub mod detect;
 pub mod frame;
 pub mod geometry;
+pub mod latency;
 pub mod monitor;
 pub mod options;
 pub mod pipeline;

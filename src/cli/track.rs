@@ -89,7 +89,7 @@ pub struct TrackSettings {
 
     /// Line rate of --serial, 8N1.
     #[arg(long, default_value_t = serial::DEFAULT_BAUD, value_parser = clap::value_parser!(u32).range(50..=4_000_000))]
-    baud: u32,
+    pub baud: u32,
 }
 
 /// What positions go out: as measured, or extrapolated to their arrival.
