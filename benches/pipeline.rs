@@ -54,6 +54,7 @@ fn stages(c: &mut Criterion) {
             sequence: 0,
             dropped: 0,
             timestamp_us: 0,
+            monotonic_us: 0,
         };
         group.bench_with_input(BenchmarkId::new("pipeline", name), &frame, |b, frame| {
             b.iter(|| pipeline.process(black_box(frame), meta))
@@ -81,6 +82,7 @@ fn cluttered(c: &mut Criterion) {
         sequence: 0,
         dropped: 0,
         timestamp_us: 0,
+        monotonic_us: 0,
     };
     c.bench_function("detect/640x480/pipeline/cluttered", |b| {
         b.iter(|| pipeline.process(black_box(&frame), meta))

@@ -64,6 +64,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     sequence: k as u64,
                     dropped: 0,
                     timestamp_us: (k as f64 * 1e6 / scene.fps()) as u64,
+                    monotonic_us: 0,
                 };
                 found += usize::from(pipeline.process(black_box(&frame), meta).position.is_some());
             }

@@ -27,6 +27,7 @@ pub mod budget;
 pub mod detect;
 pub mod frame;
 pub mod geometry;
+pub mod latency;
 pub mod monitor;
 pub mod options;
 pub mod pipeline;

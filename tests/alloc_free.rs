@@ -41,7 +41,9 @@ fn replay_allocates_nothing_per_frame() {
     // Start-up allocations happen here, outside the count.
     let mut source = DumpSource::new(Cursor::new(&bytes), size, 30.0);
     let mut pipeline = Pipeline::new(size, PipelineConfig::default()).unwrap();
-    let mut sink = JsonLinesSink::new(BufWriter::with_capacity(64 * 1024, io::sink()), false);
+    // With `--predict arrival`, so the prediction the lines carry is counted too.
+    let mut sink =
+        JsonLinesSink::new(BufWriter::with_capacity(64 * 1024, io::sink()), false).predicting();
     let mut summary = None;
     let allocations = allocations_during(|| {
         let (s, result) = pipeline::run(&mut source, &mut pipeline, &mut sink);
@@ -207,7 +209,10 @@ fn serial_sink_allocates_nothing_per_frame() {
 
     let mut source = DumpSource::new(Cursor::new(&bytes), size, scene.fps());
     let mut pipeline = Pipeline::new(size, PipelineConfig::default()).unwrap();
-    let mut sink = SerialSink::open(&name, 115_200).expect("open the pty");
+    // With `--predict arrival`: the bend is measured on the capture thread too.
+    let mut sink = SerialSink::open(&name, 115_200)
+        .expect("open the pty")
+        .predicting();
     let allocations = allocations_during(|| {
         pipeline::run(&mut source, &mut pipeline, &mut sink)
             .1

@@ -7,6 +7,7 @@ mod camera;
 #[cfg(feature = "v4l2")]
 mod devices;
 mod input;
+mod latency;
 mod logger;
 mod memory;
 #[cfg(feature = "v4l2")]
@@ -51,6 +52,9 @@ enum Command {
     /// lines, with the settings in a file (`--config`), a periodic status in the log, and a
     /// clean stop on SIGTERM.
     Run(run::RunArgs),
+    /// Measure the whole loop's latency: ask the robot over --serial to switch its LED off at
+    /// random moments, and time the first frame in which it is gone.
+    Latency(latency::LatencyArgs),
     /// Calibrate screen to floor from ArUco markers at known floor positions in a dump.
     Calibrate(calibrate::CalibrateArgs),
     /// List the V4L2 cameras with their formats, sizes, frame intervals and controls.
@@ -110,6 +114,7 @@ pub fn main() -> ExitCode {
     let result = match cli.command {
         Command::Track(args) => track::run(args),
         Command::Run(args) => run::run(args),
+        Command::Latency(args) => latency::run(args),
         Command::Calibrate(args) => calibrate::run(args),
         #[cfg(feature = "v4l2")]
         Command::Devices => devices::run(),

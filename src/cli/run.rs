@@ -16,7 +16,7 @@ use clap::Args;
 use glint::budget::{self, MemoryPlan};
 use glint::geometry::CalibrationFile;
 use glint::monitor::{self, Monitor};
-use glint::sink::{BestEffort, JsonLinesSink, PreviewSink, Tee};
+use glint::sink::{BestEffort, PreviewSink, Tee};
 use glint::small_file;
 
 use super::logger;
@@ -71,7 +71,8 @@ pub fn run(args: RunArgs) -> Result<ExitCode> {
     } = track::open(&args.settings, &memory_plan(&args))?;
     // Unlike `glint track`, every run reports its status, whatever the source.
     let mut monitor = Monitor::new(args.settings.input.monitor_config());
-    let jsonl = jsonl.map(|out| BestEffort::new("jsonl", JsonLinesSink::new(out, true)));
+    let jsonl =
+        jsonl.map(|out| BestEffort::new("jsonl", track::jsonl_sink(out, true, &args.settings)));
     let preview = args
         .preview
         .map(|addr| start_preview(addr, &args.settings))

@@ -93,13 +93,28 @@ pub struct TrackSettings {
     #[arg(long, overrides_with = "serial")]
     no_serial: bool,
 
+    /// `arrival`: send positions extrapolated to the moment each update reaches the robot (and
+    /// print them, as `predicted`, in JSON lines): velocity from the streak, bend from the turn
+    /// of the velocity between frames. Flagged as predicted in the update's age frame.
+    #[arg(long, value_enum, default_value_t = Predict::None)]
+    pub predict: Predict,
+
     /// Line rate of --serial, 8N1: 50 to 4000000 baud.
     #[arg(long, default_value_t = serial::DEFAULT_BAUD, allow_negative_numbers = true,
           value_parser = clap::value_parser!(u32).range(50..=4_000_000))]
-    baud: u32,
+    pub baud: u32,
 
     #[command(flatten)]
     pub memory: memory::MemoryArgs,
+}
+
+/// What positions go out: as measured, or extrapolated to their arrival.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum Predict {
+    /// As measured at the end of the exposure.
+    None,
+    /// Moved on to the moment the update reaches its reader.
+    Arrival,
 }
 
 #[derive(Debug, Clone, Copy, ValueEnum)]
@@ -216,7 +231,11 @@ pub fn open(settings: &TrackSettings, plan: &MemoryPlan) -> Result<Opened> {
         .serial
         .as_deref()
         .map(|port| SerialSink::open(port, settings.baud))
-        .transpose()?;
+        .transpose()?
+        .map(|sink| match settings.predict {
+            Predict::Arrival => sink.predicting(),
+            Predict::None => sink,
+        });
     Ok(Opened {
         source: Stoppable::new(source, stop),
         live,
@@ -239,7 +258,7 @@ pub fn run(args: TrackArgs) -> Result<ExitCode> {
         Format::Jsonl => monitor::run(
             &mut source,
             &mut pipeline,
-            &mut Tee::new(JsonLinesSink::new(stdout, live), serial),
+            &mut Tee::new(jsonl_sink(stdout, live, &args.settings), serial),
             &mut monitor,
         ),
         Format::Csv => monitor::run(
@@ -251,6 +270,15 @@ pub fn run(args: TrackArgs) -> Result<ExitCode> {
     };
     input::report(&monitor);
     conclude(&summary, result)
+}
+
+/// The JSON lines sink, predicting when `--predict arrival` asks.
+pub fn jsonl_sink<W: io::Write>(out: W, live: bool, settings: &TrackSettings) -> JsonLinesSink<W> {
+    let sink = JsonLinesSink::new(out, live);
+    match settings.predict {
+        Predict::Arrival => sink.predicting(),
+        Predict::None => sink,
+    }
 }
 
 /// Reports the end of a run and turns its outcome into an exit code.

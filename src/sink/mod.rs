@@ -8,6 +8,7 @@
 mod best_effort;
 mod csv;
 mod jsonl;
+pub mod predict;
 pub mod preview;
 pub mod serial;
 mod tee;

@@ -8,6 +8,7 @@
 use core::fmt;
 use std::io::{self, Read};
 
+use super::clock::monotonic_now_us;
 use super::{FrameMeta, FrameSource};
 use crate::frame::{Frame, FrameError, FrameSize};
 
@@ -148,6 +149,7 @@ impl<R: Read> FrameSource for DumpSource<R> {
             sequence: index,
             dropped: 0,
             timestamp_us: (index as f64 * self.frame_period_us).round() as u64,
+            monotonic_us: monotonic_now_us(),
         };
         let frame = Frame::new_checked(&self.buffer, self.size, self.size.row_bytes())
             .map_err(DumpError::Frame)?;

@@ -117,6 +117,7 @@ mod tests {
             sequence,
             dropped: 0,
             timestamp_us,
+            monotonic_us: timestamp_us,
         }
     }
 

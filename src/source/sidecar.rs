@@ -404,6 +404,7 @@ impl<R: Read> FrameSource for ReplaySource<R> {
             sequence: timing.seq,
             dropped,
             timestamp_us: timing.t_us,
+            monotonic_us: meta.monotonic_us,
         };
         Ok(Some((frame, meta)))
     }

@@ -114,6 +114,7 @@ fn run(args: Args) -> Result<()> {
             sequence: index as u64,
             dropped: 0,
             timestamp_us: (index as f64 * US_PER_S / scene.fps()).round() as u64,
+            monotonic_us: glint::source::clock::monotonic_now_us(),
         };
         let started = Instant::now();
         let report = pipeline.process(&frame, meta);

@@ -38,6 +38,7 @@ fn scene_track(name: &str, frames: usize) -> String {
                 sequence: index as u64,
                 dropped: 0,
                 timestamp_us: (index as f64 * 1e6 / scene.fps()).round() as u64,
+                monotonic_us: 0,
             };
             sink.write(&pipeline.process(&frame, meta)).unwrap();
         }
