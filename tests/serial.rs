@@ -823,7 +823,8 @@ fn predict_arrival_moves_found_positions_on_by_their_age_and_says_so() {
     let mut predicted = 0;
     let mut closer = 0;
     // Per predicted update: its error against the truth on arrival, and what its inputs'
-    // errors (position at capture, velocity over the age, both against the truth) allow.
+    // errors (position at capture, velocity over the age, both against the truth, and the
+    // path's bend over the age) allow.
     let (mut sent_errors, mut input_errors) = (Vec::new(), Vec::new());
     let (mut json_errors, mut json_input_errors) = (Vec::new(), Vec::new());
     for ((p, age), r) in updates.iter().zip(&done.reports) {
@@ -855,8 +856,16 @@ fn predict_arrival_moves_found_positions_on_by_their_age_and_says_so() {
         let position_error =
             (measured.0 - truth.position_px.x).hypot(measured.1 - truth.position_px.y);
         let velocity_error = (vx - truth.velocity_px_s.x).hypot(vy - truth.velocity_px_s.y);
+        // The path's bend over the look-ahead, which the prediction estimates from the turn of
+        // the measured velocity: half the true acceleration times the look-ahead squared.
+        let bend_px = |ahead_s: f64| {
+            let (before, after) = (trajectory.motion(t_s - 1e-3), trajectory.motion(t_s + 1e-3));
+            let ax = (after.velocity_px_s.x - before.velocity_px_s.x) / 2e-3;
+            let ay = (after.velocity_px_s.y - before.velocity_px_s.y) / 2e-3;
+            0.5 * ax.hypot(ay) * ahead_s * ahead_s
+        };
         sent_errors.push(miss(sent));
-        input_errors.push(position_error + velocity_error * ahead_s + 0.5 / px);
+        input_errors.push(position_error + velocity_error * ahead_s + bend_px(ahead_s) + 0.5 / px);
         // The JSON line's own prediction, to the moment it was written, is flagged there.
         let j = &r["predicted"];
         let ahead_ms = j["ahead_ms"].as_f64().expect("ahead_ms");
@@ -865,7 +874,8 @@ fn predict_arrival_moves_found_positions_on_by_their_age_and_says_so() {
             .position_px;
         let printed = (j["x"].as_f64().unwrap(), j["y"].as_f64().unwrap());
         json_errors.push((printed.0 - at.x).hypot(printed.1 - at.y));
-        json_input_errors.push(position_error + velocity_error * ahead_ms * 1e-3);
+        json_input_errors
+            .push(position_error + velocity_error * ahead_ms * 1e-3 + bend_px(ahead_ms * 1e-3));
     }
     let (sent, inputs) = (median(sent_errors), median(input_errors));
     eprintln!("sent {sent:.2} px from the truth on arrival (median), inputs allow {inputs:.2} px");
