@@ -5,10 +5,12 @@
 pub mod aruco;
 pub mod calibration;
 pub mod calibration_file;
+pub mod camera;
 pub mod floor;
 pub mod homography;
 
 pub use calibration::{calibrate, Calibration, CalibrationError, MarkerPlacement};
 pub use calibration_file::{CalibrationFile, CalibrationFileError};
+pub use camera::{CameraError, CameraModel, Lens, Pose};
 pub use floor::{FloorEstimate, FloorFix, FloorStage, FloorUnit};
 pub use homography::{FloorMapping, Homography, HomographyError, Point};
