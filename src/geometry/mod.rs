@@ -6,11 +6,13 @@ pub mod aruco;
 pub mod calibration;
 pub mod calibration_file;
 pub mod camera;
+pub mod camera_fit;
 pub mod floor;
 pub mod homography;
 
 pub use calibration::{calibrate, Calibration, CalibrationError, MarkerPlacement};
 pub use calibration_file::{CalibrationFile, CalibrationFileError};
 pub use camera::{CameraError, CameraModel, Lens, Pose};
+pub use camera_fit::{fit_camera, CameraFit, CameraFitError, LensChoice};
 pub use floor::{FloorEstimate, FloorFix, FloorStage, FloorUnit};
 pub use homography::{FloorMapping, Homography, HomographyError, Point};
