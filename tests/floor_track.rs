@@ -51,7 +51,7 @@ fn calibrate(scene: &MarkerScene, dir: &Path, markers: &[&str]) -> PathBuf {
     let mut cmd = glint();
     cmd.args(["calibrate", "--input"])
         .arg(&dump)
-        .args(["--size", "640x480", "--out"])
+        .args(["--size", "640x480", "--lens", "ideal", "--out"])
         .arg(&out);
     for m in markers {
         cmd.args(["--marker", m]);
@@ -309,10 +309,8 @@ fn bad_calibration_files_are_refused_with_one_line() {
             .collect()
     };
     assert_refused(&run(&without("height_px")), "missing field `height_px`");
-    assert_refused(
-        &run(&without("floor_to_screen")),
-        "missing field `floor_to_screen`",
-    );
+    assert_refused(&run(&without("fx")), "missing field `fx`");
+    assert_refused(&run(&without("rms_px")), "missing field `rms_px`");
     assert_refused(&run("this is not toml"), "line 1");
     assert_refused(
         &run(&good.replace("width_px = 640", "width_px = 320")),
@@ -322,25 +320,36 @@ fn bad_calibration_files_are_refused_with_one_line() {
         &run(&good.replace("units = \"cm\"", "units = \"parsecs\"")),
         "parsecs",
     );
-
-    // A degenerate matrix: the third row a copy of the first.
-    let line = good
-        .lines()
-        .find(|l| l.starts_with("floor_to_screen"))
-        .unwrap();
-    let rows: Vec<&str> = line.split("], [").collect();
-    let first = rows[0].trim_start_matches("floor_to_screen = [[");
-    let degenerate = format!("floor_to_screen = [[{first}], [{first}], [{first}]]");
     assert_refused(
-        &run(&good.replace(line, &degenerate)),
-        "homography.floor_to_screen: the homography is singular",
+        &run(&good.replace("units = \"cm\"", "units = \"mm\"")),
+        "units must be \"cm\"",
     );
-    // A finite, invertible, wrong number.
-    let edited = good.replace(line, &line.replacen('1', "2", 1));
-    assert_ne!(edited, good);
-    assert_refused(&run(&edited), "not inverses of each other");
+    assert_refused(
+        &run(&good.replace("version = 2", "version = 3")),
+        "version 3 is not one this glint reads",
+    );
+
+    // A rotation that is not one: its first row doubled.
+    let line = good.lines().find(|l| l.starts_with("rotation")).unwrap();
+    let rows: Vec<&str> = line.split("], [").collect();
+    let first = rows[0].trim_start_matches("rotation = [[");
+    let doubled: Vec<String> = first
+        .split(", ")
+        .map(|v| format!("{:?}", 2.0 * v.parse::<f64>().unwrap()))
+        .collect();
+    let edited = good.replace(line, &line.replacen(first, &doubled.join(", "), 1));
+    assert_refused(
+        &run(&edited),
+        "[pose]: the rotation matrix is not a rotation",
+    );
+    // A finite, plausible, wrong number.
+    let fx = good.lines().find(|l| l.starts_with("fx")).unwrap();
+    let edited = good.replace(fx, "fx = 480.0");
+    assert_refused(&run(&edited), "were the numbers edited?");
     assert_refused(
         &run(&good.replace("[[marker]]", "[[unused]]")),
-        "no [[marker]] entries",
+        "unknown field `unused`",
     );
+    let marker_at = good.find("[[marker]]").unwrap();
+    assert_refused(&run(&good[..marker_at]), "no [[marker]] entries");
 }

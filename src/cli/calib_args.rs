@@ -20,6 +20,12 @@ pub struct FloorArgs {
     #[arg(long, value_name = "FILE")]
     pub calib: Option<PathBuf>,
 
+    /// With --calib: the LED's height above the floor, in cm (0 to 1000). Floor positions and
+    /// velocities are then those of the point on the floor under the LED. Needs a calibration
+    /// with the camera's pose (written by this glint).
+    #[arg(long, value_name = "CM", requires = "calib", value_parser = parse_height_cm)]
+    pub led_height_cm: Option<f64>,
+
     /// With `--detector aruco`: the id of the marker the robot carries.
     #[arg(long, value_name = "ID")]
     marker: Option<u16>,
@@ -28,6 +34,18 @@ pub struct FloorArgs {
     /// APRILTAG_36h11) [default: DICT_6X6_250].
     #[arg(long, value_name = "NAME")]
     dict: Option<Dictionary>,
+}
+
+/// Highest LED accepted, cm: a tracker's camera is a few metres up at most.
+const MAX_LED_HEIGHT_CM: f64 = 1000.0;
+
+fn parse_height_cm(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(h) if (0.0..=MAX_LED_HEIGHT_CM).contains(&h) => Ok(h),
+        _ => Err(format!(
+            "{s:?} is not a height between 0 and {MAX_LED_HEIGHT_CM} cm"
+        )),
+    }
 }
 
 /// The pipeline for these options: an LED pipeline with `config`, or a marker pipeline when
@@ -48,10 +66,23 @@ pub fn build_pipeline(
         (false, None) if args.dict.is_some() => bail!("--dict goes with --detector aruco"),
         (false, None) => Pipeline::new(size, config)?,
     };
-    match &args.calib {
-        Some(path) => Ok(pipeline.with_floor(load_calibration(path, size)?.floor)),
-        None => Ok(pipeline),
+    let Some(path) = &args.calib else {
+        return Ok(pipeline);
+    };
+    let mut floor = load_calibration(path, size)?.floor;
+    if let Some(height_cm) = args.led_height_cm {
+        let camera_cm = floor.camera().map(|c| c.pose.height());
+        if let Some(camera_cm) = camera_cm.filter(|&c| height_cm >= c) {
+            bail!(
+                "--led-height-cm {height_cm}: the LED must be below the camera, which is \
+                 {camera_cm:.1} cm up"
+            );
+        }
+        floor = floor
+            .with_led_height(height_cm)
+            .with_context(|| format!("--led-height-cm with calibration {}", path.display()))?;
     }
+    Ok(pipeline.with_floor(floor))
 }
 
 /// Reads and checks a calibration file for frames of `size`.
@@ -60,8 +91,13 @@ fn load_calibration(path: &Path, size: FrameSize) -> Result<CalibrationFile> {
         .with_context(|| format!("cannot read calibration {}", path.display()))?;
     let calibration = CalibrationFile::parse(&text, size)
         .with_context(|| format!("calibration {}", path.display()))?;
+    let model = match calibration.floor.camera() {
+        Some(c) if c.lens.is_ideal() => format!("ideal lens, camera {:.1} cm up", c.pose.height()),
+        Some(c) => format!("fitted lens, camera {:.1} cm up", c.pose.height()),
+        None => "homography of an older calibration: ideal lens, LED on the floor".to_owned(),
+    };
     log::info!(
-        "floor coordinates in {} from {} (corner residuals up to {:.3} px)",
+        "floor coordinates in {} from {} ({model}; corner residuals up to {:.3} px)",
         calibration.floor.unit(),
         path.display(),
         calibration.max_residual_px

@@ -2,23 +2,37 @@
 //!
 //! A wrong mapping is worse than none: every floor position and speed would be silently off. So
 //! the file is checked from end to end before tracking starts, and each problem is refused with
-//! one line naming it:
-//! - it parses as TOML and has every field (`width_px`, `height_px`, `units`,
-//!   `[homography] floor_to_screen, screen_to_floor`, and at least one `[[marker]]`);
-//! - it was made for the frame size being tracked (a homography holds for one image size);
-//! - both matrices are finite, non-singular, and inverses of each other;
-//! - each marker's recorded corners are inside the frame and its recorded residuals are what
-//!   the matrix really gives for them (an edited or mistyped number shows up here);
-//! - the marker corners lie on one side of the floor's horizon, which also tells the mapping
-//!   which side of the horizon the floor is.
+//! one line naming it.
+//!
+//! **Version 2** (`version = 2`, what this glint writes: a lens, a pose and the marker map).
+//! Every field is required: `width_px`, `height_px`, `units`, `frames`, `unseen`, `[lens]`
+//! (`fx fy cx cy k1 k2 p1 p2 k3`), `[pose]` (`rotation`, `translation_cm`, `height_cm`),
+//! `[residuals]` (`corners`, `rms_px`, `max_px`), and at least one `[[marker]]` (`id`,
+//! `size_cm`, `origin_cm`, `corners_px`, `residuals_px`); `dictionary`, `source` and
+//! `frames_seen` are for people and optional. Checked: the frame size; `units` is `cm`, as
+//! every floor key says (`_cm`); the lens is finite, sane and does not fold over inside the
+//! picture; the rotation is a rotation and the camera above the floor, at the height recorded;
+//! every corner is inside the frame and its recorded residual is what the lens and pose give;
+//! the `[residuals]` summary agrees with the markers'.
+//!
+//! **Version 1** (no `version` key: files written by earlier glint, still read, as an ideal lens
+//! and an LED on the floor). Required: `width_px`, `height_px`, `units`, `[homography]
+//! floor_to_screen, screen_to_floor`, and at least one `[[marker]]` as above. Optional, because
+//! earlier files may lack them, but checked when present: `frames`, and the `[residuals]`
+//! section (`corners`, `rms_px`, `max_px`). Checked: the frame size; `units` is `cm`; both
+//! matrices are finite, non-singular, and inverses of each other; each marker's corners are
+//! inside the frame and its residuals are what the matrix gives; the corners lie on one side of
+//! the floor's horizon, which also tells the mapping which side of the horizon is floor.
 
 use core::fmt;
 
-use nalgebra::Matrix3;
+use nalgebra::{Matrix3, Vector3};
 use serde::Deserialize;
 
 use super::aruco::Dictionary;
 use super::calibration::MarkerPlacement;
+use super::calibration_record::CALIBRATION_VERSION;
+use super::camera::{CameraError, CameraModel, Lens, Pose};
 use super::floor::{FloorStage, FloorUnit};
 use super::homography::{FloorMapping, Homography, HomographyError, Point};
 use crate::frame::{FrameSize, SizeError};
@@ -28,33 +42,83 @@ use crate::frame::{FrameSize, SizeError};
 const INVERSE_TOLERANCE: f64 = 1e-9;
 /// A recorded corner residual may differ from the recomputed one by this much (pixels).
 const RESIDUAL_TOLERANCE_PX: f64 = 0.01;
+/// The recorded camera height may differ from the pose's by this much (cm; it is written with
+/// all the digits of an `f64`).
+const HEIGHT_TOLERANCE_CM: f64 = 1e-6;
 
-/// The file's layout; every field here must be present.
+/// The file's layout, both versions; which optional parts each version needs is checked in
+/// [`CalibrationFile::parse`].
 #[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
 struct FileLayout {
+    version: Option<i64>,
     width_px: u32,
     height_px: u32,
     units: String,
     dictionary: Option<String>,
-    homography: MatricesLayout,
+    frames: Option<u64>,
+    unseen: Option<Vec<u16>>,
+    homography: Option<MatricesLayout>,
+    lens: Option<LensLayout>,
+    pose: Option<PoseLayout>,
+    residuals: Option<ResidualsLayout>,
     #[serde(default)]
     marker: Vec<MarkerLayout>,
 }
 
 #[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct LensLayout {
+    /// Where the lens came from, for people.
+    #[serde(rename = "source")]
+    _source: Option<String>,
+    fx: f64,
+    fy: f64,
+    cx: f64,
+    cy: f64,
+    k1: f64,
+    k2: f64,
+    p1: f64,
+    p2: f64,
+    k3: f64,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PoseLayout {
+    rotation: [[f64; 3]; 3],
+    translation_cm: [f64; 3],
+    height_cm: f64,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ResidualsLayout {
+    corners: usize,
+    rms_px: f64,
+    max_px: f64,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
 struct MatricesLayout {
     floor_to_screen: [[f64; 3]; 3],
     screen_to_floor: [[f64; 3]; 3],
 }
 
 #[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
 struct MarkerLayout {
     id: u16,
     size_cm: f64,
     origin_cm: [f64; 2],
+    frames_seen: Option<u32>,
     corners_px: [[f64; 2]; 4],
     residuals_px: [f64; 4],
 }
+
+/// The floor unit every floor key of the file carries (`size_cm`, `origin_cm`, ...).
+const FILE_UNIT: FloorUnit = FloorUnit::Cm;
 
 /// Which of the two matrices.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -88,6 +152,26 @@ pub enum CalibrationFileError {
     OtherFrameSize { file: FrameSize, frames: FrameSize },
     /// `units` is not a known unit.
     UnknownUnits(String),
+    /// `units` names another unit than the file's numbers are in.
+    UnitsDisagree(FloorUnit),
+    /// The version is not one this glint reads.
+    Version(i64),
+    /// A field the file's version requires is missing.
+    Missing(&'static str),
+    /// The lens cannot be used.
+    Lens(CameraError),
+    /// The pose is not a pose (not a rotation, or the camera not above the floor).
+    Pose(CameraError),
+    /// `[pose] height_cm` is not the height the rotation and translation give.
+    HeightMismatch { recorded_cm: f64, actual_cm: f64 },
+    /// A marker is said to be seen in more frames than were read.
+    FramesSeen { id: u16, seen: u32, frames: u64 },
+    /// A `[residuals]` number is not what the markers give.
+    SummaryMismatch {
+        field: &'static str,
+        recorded: f64,
+        actual: f64,
+    },
     /// `dictionary` is not a known dictionary.
     UnknownDictionary(String),
     /// A matrix entry is NaN or infinite.
@@ -132,6 +216,40 @@ impl fmt::Display for CalibrationFileError {
             CalibrationFileError::UnknownUnits(u) => {
                 write!(f, "units {u:?}: must be one of mm, cm, m, in")
             }
+            CalibrationFileError::UnitsDisagree(u) => write!(
+                f,
+                "units = \"{u}\", but the file's floor numbers are in cm (size_cm, origin_cm, \
+                 translation_cm): units must be \"cm\""
+            ),
+            CalibrationFileError::Version(v) => write!(
+                f,
+                "version {v} is not one this glint reads (1 or {CALIBRATION_VERSION}; a newer \
+                 glint may have written it)"
+            ),
+            CalibrationFileError::Missing(field) => write!(f, "missing field `{field}`"),
+            CalibrationFileError::Lens(e) => write!(f, "[lens]: {e}"),
+            CalibrationFileError::FramesSeen { id, seen, frames } => write!(
+                f,
+                "marker {id}: frames_seen = {seen}, but only {frames} frames were read"
+            ),
+            CalibrationFileError::Pose(e) => write!(f, "[pose]: {e}"),
+            CalibrationFileError::HeightMismatch {
+                recorded_cm,
+                actual_cm,
+            } => write!(
+                f,
+                "[pose] height_cm is {recorded_cm} but the rotation and translation put the \
+                 camera {actual_cm:.3} cm up (were the numbers edited?)"
+            ),
+            CalibrationFileError::SummaryMismatch {
+                field,
+                recorded,
+                actual,
+            } => write!(
+                f,
+                "[residuals] {field} is {recorded} but the markers give {actual:.4} (were the \
+                 numbers edited?)"
+            ),
             CalibrationFileError::UnknownDictionary(d) => write!(f, "dictionary {d:?} is unknown"),
             CalibrationFileError::NonFinite(m) => write!(f, "{m} has a NaN or infinite entry"),
             CalibrationFileError::Degenerate(m, e) => write!(f, "{m}: {e}"),
@@ -159,7 +277,7 @@ impl fmt::Display for CalibrationFileError {
                 actual_px,
             } => write!(
                 f,
-                "marker {id}: corner {corner} is {actual_px:.3} px from where the homography \
+                "marker {id}: corner {corner} is {actual_px:.3} px from where the calibration \
                  puts it, but the file records {recorded_px:.3} px (were the numbers edited?)"
             ),
             CalibrationFileError::Mapping(e) => write!(f, "the marker corners: {e}"),
@@ -172,6 +290,8 @@ impl core::error::Error for CalibrationFileError {}
 /// A validated calibration.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CalibrationFile {
+    /// The file's version (1: a homography only; 2: lens and pose).
+    pub version: u32,
     /// The frame size it was made for (equal to the frames it was checked against).
     pub size: FrameSize,
     /// The dictionary its markers were found with, when recorded.
@@ -197,6 +317,11 @@ impl CalibrationFile {
     /// Parses and checks `text` (the file's contents) for frames of `frames`.
     pub fn parse(text: &str, frames: FrameSize) -> Result<Self, CalibrationFileError> {
         let layout: FileLayout = toml::from_str(text).map_err(|e| syntax_error(text, &e))?;
+        let version = match layout.version {
+            None | Some(1) => 1,
+            Some(v) if v == i64::from(CALIBRATION_VERSION) => CALIBRATION_VERSION,
+            Some(v) => return Err(CalibrationFileError::Version(v)),
+        };
         let size = FrameSize::new(layout.width_px, layout.height_px)
             .map_err(CalibrationFileError::BadFrameSize)?;
         if size != frames {
@@ -206,6 +331,9 @@ impl CalibrationFile {
             .units
             .parse()
             .map_err(|_| CalibrationFileError::UnknownUnits(layout.units.clone()))?;
+        if unit != FILE_UNIT {
+            return Err(CalibrationFileError::UnitsDisagree(unit));
+        }
         let dictionary = match &layout.dictionary {
             Some(name) => Some(
                 name.parse::<Dictionary>()
@@ -213,40 +341,162 @@ impl CalibrationFile {
             ),
             None => None,
         };
-        let to_screen = homography(
-            &layout.homography.floor_to_screen,
-            MatrixName::FloorToScreen,
-        )?;
-        let to_floor = homography(
-            &layout.homography.screen_to_floor,
-            MatrixName::ScreenToFloor,
-        )?;
-        if !inverses(to_screen.matrix(), to_floor.matrix()) {
-            return Err(CalibrationFileError::MatricesDisagree);
+        if version >= 2 {
+            for (present, field) in [
+                (layout.frames.is_some(), "frames"),
+                (layout.unseen.is_some(), "unseen"),
+                (layout.lens.is_some(), "lens"),
+                (layout.pose.is_some(), "pose"),
+                (layout.residuals.is_some(), "residuals"),
+            ] {
+                if !present {
+                    return Err(CalibrationFileError::Missing(field));
+                }
+            }
         }
         if layout.marker.is_empty() {
             return Err(CalibrationFileError::NoMarkers);
         }
-        let mut corners = Vec::with_capacity(4 * layout.marker.len());
-        let mut max_residual_px: f64 = 0.0;
-        for m in &layout.marker {
-            check_marker(m, &to_screen, size)?;
-            corners.extend(m.corners_px.iter().map(|&[x, y]| Point::new(x, y)));
-            max_residual_px = m
-                .residuals_px
-                .iter()
-                .fold(max_residual_px, |a, &r| a.max(r));
+        let floor = match (&layout.lens, &layout.pose, &layout.homography) {
+            (Some(lens), Some(pose), _) if version >= 2 => {
+                let camera = camera_model(lens, pose, size)?;
+                for m in &layout.marker {
+                    check_marker(m, size, |f| camera.project(f, 0.0).ok())?;
+                }
+                FloorStage::from_camera(camera, unit)
+            }
+            (_, _, Some(matrices)) if version == 1 => {
+                homography_stage(matrices, &layout, size, unit)?
+            }
+            _ => {
+                return Err(CalibrationFileError::Missing(if version == 1 {
+                    "homography"
+                } else {
+                    "lens"
+                }))
+            }
+        };
+        if let Some(frames) = layout.frames {
+            for m in &layout.marker {
+                if let Some(seen) = m.frames_seen.filter(|&s| u64::from(s) > frames) {
+                    return Err(CalibrationFileError::FramesSeen {
+                        id: m.id,
+                        seen,
+                        frames,
+                    });
+                }
+            }
         }
-        let mapping = FloorMapping::from_floor_to_screen(to_screen, &corners)
-            .map_err(CalibrationFileError::Mapping)?;
-        let floor = FloorStage::new(mapping, unit).map_err(CalibrationFileError::Mapping)?;
+        if let Some(summary) = &layout.residuals {
+            check_summary(summary, &layout.marker)?;
+        }
+        let max_residual_px = layout
+            .marker
+            .iter()
+            .flat_map(|m| m.residuals_px)
+            .fold(0.0f64, f64::max);
         Ok(CalibrationFile {
+            version,
             size,
             dictionary,
             floor,
             max_residual_px,
         })
     }
+}
+
+/// The floor stage of a version-1 file: its two matrices, checked against each other and the
+/// markers.
+fn homography_stage(
+    matrices: &MatricesLayout,
+    layout: &FileLayout,
+    size: FrameSize,
+    unit: FloorUnit,
+) -> Result<FloorStage, CalibrationFileError> {
+    let to_screen = homography(&matrices.floor_to_screen, MatrixName::FloorToScreen)?;
+    let to_floor = homography(&matrices.screen_to_floor, MatrixName::ScreenToFloor)?;
+    if !inverses(to_screen.matrix(), to_floor.matrix()) {
+        return Err(CalibrationFileError::MatricesDisagree);
+    }
+    let mut corners = Vec::with_capacity(4 * layout.marker.len());
+    for m in &layout.marker {
+        check_marker(m, size, |f| to_screen.apply(f).ok())?;
+        corners.extend(m.corners_px.iter().map(|&[x, y]| Point::new(x, y)));
+    }
+    let mapping = FloorMapping::from_floor_to_screen(to_screen, &corners)
+        .map_err(CalibrationFileError::Mapping)?;
+    FloorStage::new(mapping, unit).map_err(CalibrationFileError::Mapping)
+}
+
+/// The lens and pose of a version-2 file, checked.
+fn camera_model(
+    lens: &LensLayout,
+    pose: &PoseLayout,
+    size: FrameSize,
+) -> Result<CameraModel, CalibrationFileError> {
+    let lens = Lens {
+        fx: lens.fx,
+        fy: lens.fy,
+        cx: lens.cx,
+        cy: lens.cy,
+        k1: lens.k1,
+        k2: lens.k2,
+        p1: lens.p1,
+        p2: lens.p2,
+        k3: lens.k3,
+    };
+    lens.check(size).map_err(CalibrationFileError::Lens)?;
+    let r = Matrix3::from_fn(|r, c| pose.rotation[r][c]);
+    let [tx, ty, tz] = pose.translation_cm;
+    let pose_model = Pose::new(r, Vector3::new(tx, ty, tz)).map_err(CalibrationFileError::Pose)?;
+    let actual_cm = pose_model.height();
+    if actual_cm.is_nan() || actual_cm <= 0.0 {
+        return Err(CalibrationFileError::Pose(CameraError::BehindCamera));
+    }
+    let height_agrees = (pose.height_cm - actual_cm).abs() <= HEIGHT_TOLERANCE_CM;
+    if !height_agrees {
+        return Err(CalibrationFileError::HeightMismatch {
+            recorded_cm: pose.height_cm,
+            actual_cm,
+        });
+    }
+    Ok(CameraModel {
+        lens,
+        pose: pose_model,
+    })
+}
+
+/// Checks the `[residuals]` summary against the markers' own residuals.
+fn check_summary(
+    summary: &ResidualsLayout,
+    markers: &[MarkerLayout],
+) -> Result<(), CalibrationFileError> {
+    let all: Vec<f64> = markers.iter().flat_map(|m| m.residuals_px).collect();
+    let corners = all.len();
+    if summary.corners != corners {
+        return Err(CalibrationFileError::SummaryMismatch {
+            field: "corners",
+            recorded: summary.corners as f64,
+            actual: corners as f64,
+        });
+    }
+    let rms = (all.iter().map(|r| r * r).sum::<f64>() / corners.max(1) as f64).sqrt();
+    let max = all.iter().copied().fold(0.0f64, f64::max);
+    for (field, recorded, actual) in [
+        ("rms_px", summary.rms_px, rms),
+        ("max_px", summary.max_px, max),
+    ] {
+        // Written so that NaN is refused too.
+        let agrees = (recorded - actual).abs() <= RESIDUAL_TOLERANCE_PX;
+        if !agrees {
+            return Err(CalibrationFileError::SummaryMismatch {
+                field,
+                recorded,
+                actual,
+            });
+        }
+    }
+    Ok(())
 }
 
 /// Names the line and, when that line assigns a key, the key of a TOML error: the parser's
@@ -300,11 +550,11 @@ fn inverses(a: &Matrix3<f64>, b: &Matrix3<f64>) -> bool {
     (product / scale - Matrix3::identity()).amax() <= INVERSE_TOLERANCE
 }
 
-/// Checks one marker entry against the frame and the floor→screen matrix.
+/// Checks one marker entry against the frame and the calibration's floor→screen mapping.
 fn check_marker(
     m: &MarkerLayout,
-    to_screen: &Homography,
     size: FrameSize,
+    to_screen: impl Fn(&Point) -> Option<Point>,
 ) -> Result<(), CalibrationFileError> {
     let placement = MarkerPlacement {
         id: m.id,
@@ -326,8 +576,7 @@ fn check_marker(
         if !((0.0..=max_x).contains(&x) && (0.0..=max_y).contains(&y)) {
             return Err(CalibrationFileError::CornerOutsideFrame { id: m.id, corner });
         }
-        let actual_px = to_screen
-            .apply(&floor)
+        let actual_px = to_screen(&floor)
             .map(|p| (p - Point::new(x, y)).norm())
             .unwrap_or(f64::INFINITY);
         // Written so that a NaN residual is refused too.
@@ -424,7 +673,7 @@ mod tests {
         let truth = Homography::from_matrix(floor_to_screen()).unwrap();
         let floor = Point::new(35.0, -12.0);
         let screen = truth.apply(&floor).unwrap();
-        let back = c.floor.mapping().screen_to_floor(&screen).unwrap();
+        let back = c.floor.mapping().unwrap().screen_to_floor(&screen).unwrap();
         assert!((back - floor).norm() < 1e-9, "{back:?}");
     }
 
@@ -547,5 +796,217 @@ mod tests {
             parse(&text),
             Err(CalibrationFileError::CornerOutsideFrame { id: 23, corner: 0 })
         ));
+    }
+
+    /// A version-2 file, as `glint calibrate` writes it: the wide lens over two markers.
+    fn good_v2() -> (String, CameraModel) {
+        use crate::geometry::calibration_record::{CalibrationRecord, RecordedMarker};
+        let forward = Vector3::new(0.0, 1.1f64.cos(), 1.1f64.sin());
+        let right = Vector3::new(-1.0, 0.0, 0.0);
+        let r = Matrix3::from_rows(&[
+            right.transpose(),
+            forward.cross(&right).transpose(),
+            forward.transpose(),
+        ]);
+        let camera = CameraModel {
+            lens: Lens {
+                k1: -0.3,
+                k2: 0.09,
+                p1: 0.001,
+                ..Lens::ideal(460.0, 460.0, 319.5, 239.5)
+            },
+            pose: Pose::new(r, -(r * Vector3::new(10.0, -70.0, -130.0))).unwrap(),
+        };
+        let markers = [(23, 0.0, 0.0), (7, 40.0, 30.0)].map(|(id, x, y)| {
+            let placement = MarkerPlacement {
+                id,
+                size: 20.0,
+                origin: Point::new(x, y),
+            };
+            RecordedMarker {
+                placement,
+                frames_seen: 3,
+                // A little off where the camera puts them: residuals that are not zero.
+                corners_px: placement.corners().map(|c| {
+                    camera.project(&c, 0.0).unwrap() + nalgebra::Vector2::new(0.03, -0.02)
+                }),
+            }
+        });
+        let record = CalibrationRecord {
+            size: frames(),
+            dictionary: Dictionary::Aruco6x6_250,
+            frames: 3,
+            lens_source: "fitted".to_owned(),
+            camera,
+            markers: markers.to_vec(),
+            unseen: vec![5],
+        };
+        (record.to_toml().unwrap(), camera)
+    }
+
+    fn without(text: &str, line_start: &str) -> String {
+        text.lines()
+            .filter(|l| !l.starts_with(line_start))
+            .map(|l| format!("{l}\n"))
+            .collect()
+    }
+
+    #[test]
+    fn a_version_2_file_maps_through_its_lens_and_pose() {
+        let (text, camera) = good_v2();
+        let c = parse(&text).unwrap();
+        assert_eq!(c.version, 2);
+        assert_eq!(c.floor.camera(), Some(&camera));
+        let floor = Point::new(35.0, -12.0);
+        let screen = camera.project(&floor, 0.0).unwrap();
+        let back = c.floor.screen_to_floor(&screen).unwrap();
+        assert!((back - floor).norm() < 1e-9, "{back:?}");
+        assert!(
+            (c.max_residual_px - 0.036).abs() < 1e-3,
+            "{}",
+            c.max_residual_px
+        );
+    }
+
+    #[test]
+    fn a_version_2_file_needs_every_field() {
+        let (text, _) = good_v2();
+        for (line_start, needle) in [
+            ("frames =", "missing field `frames`"),
+            ("unseen", "missing field `unseen`"),
+            ("k1", "missing field `k1`"),
+            ("height_cm", "missing field `height_cm`"),
+            ("rms_px", "missing field `rms_px`"),
+            ("max_px", "missing field `max_px`"),
+            ("corners =", "missing field `corners`"),
+            ("residuals_px", "missing field `residuals_px`"),
+        ] {
+            let err = parse(&without(&text, line_start)).unwrap_err();
+            assert!(err.to_string().contains(needle), "{line_start}: {err}");
+        }
+        let no_section = |name: &str| {
+            let start = text.find(&format!("[{name}]")).unwrap();
+            let end = text[start + 1..]
+                .find("\n[")
+                .map_or(text.len(), |e| start + 1 + e);
+            format!("{}{}", &text[..start], &text[end..])
+        };
+        for name in ["lens", "pose", "residuals"] {
+            assert_eq!(
+                parse(&no_section(name)).unwrap_err(),
+                CalibrationFileError::Missing(match name {
+                    "lens" => "lens",
+                    "pose" => "pose",
+                    _ => "residuals",
+                }),
+                "{name}"
+            );
+        }
+        let typo = text.replacen("k2 =", "k_2 =", 1);
+        assert!(parse(&typo).unwrap_err().to_string().contains("k_2"));
+    }
+
+    #[test]
+    fn edited_numbers_in_a_version_2_file_are_refused() {
+        let (text, camera) = good_v2();
+        let field = |key: &str| {
+            text.lines()
+                .find(|l| l.starts_with(key))
+                .unwrap()
+                .to_owned()
+        };
+        let k1 = field("k1 =");
+        let err = parse(&text.replacen(&k1, "k1 = -0.31", 1)).unwrap_err();
+        assert!(
+            matches!(err, CalibrationFileError::ResidualMismatch { .. }),
+            "{err}"
+        );
+        assert_eq!(
+            parse(&text.replacen(&k1, "k1 = nan", 1)).unwrap_err(),
+            CalibrationFileError::Lens(CameraError::NonFinite)
+        );
+        assert_eq!(
+            parse(&text.replacen(&k1, "k1 = -3000.0", 1)).unwrap_err(),
+            CalibrationFileError::Lens(CameraError::AbsurdCoefficient)
+        );
+        let height = field("height_cm");
+        let err = parse(&text.replacen(&height, "height_cm = 150.0", 1)).unwrap_err();
+        assert!(
+            matches!(err, CalibrationFileError::HeightMismatch { .. }),
+            "{err}"
+        );
+        assert!((camera.pose.height() - 130.0).abs() < 1e-9);
+        let rms = field("rms_px");
+        let err = parse(&text.replacen(&rms, "rms_px = 0.5", 1)).unwrap_err();
+        assert!(err.to_string().contains("[residuals] rms_px"), "{err}");
+        let corners = field("corners =");
+        let err = parse(&text.replacen(&corners, "corners = 12", 1)).unwrap_err();
+        assert!(err.to_string().contains("[residuals] corners"), "{err}");
+        let err = parse(&text.replacen("frames_seen = 3", "frames_seen = 9", 1)).unwrap_err();
+        assert!(
+            matches!(err, CalibrationFileError::FramesSeen { id: 23, .. }),
+            "{err}"
+        );
+        let rotation = field("rotation");
+        let scaled = rotation.replacen("[-1.0,", "[-1.1,", 1);
+        assert_ne!(scaled, rotation);
+        assert_eq!(
+            parse(&text.replacen(&rotation, &scaled, 1)).unwrap_err(),
+            CalibrationFileError::Pose(CameraError::NotARotation)
+        );
+    }
+
+    #[test]
+    fn units_must_agree_with_the_files_numbers() {
+        // Relabelling cm as mm would scale every position silently by ten.
+        let (v2, _) = good_v2();
+        for text in [good_file(), v2] {
+            for units in ["mm", "m", "in"] {
+                let edited = text.replacen("units = \"cm\"", &format!("units = \"{units}\""), 1);
+                let err = parse(&edited).unwrap_err();
+                assert!(
+                    matches!(err, CalibrationFileError::UnitsDisagree(_)),
+                    "{err}"
+                );
+                assert!(err.to_string().contains("must be \"cm\""), "{err}");
+            }
+        }
+    }
+
+    #[test]
+    fn versions_this_glint_does_not_know_are_refused() {
+        let (text, _) = good_v2();
+        for v in [0, 3, -1] {
+            let edited = text.replacen("version = 2", &format!("version = {v}"), 1);
+            assert_eq!(
+                parse(&edited).unwrap_err(),
+                CalibrationFileError::Version(v)
+            );
+        }
+        // A version-1 file may say so.
+        assert!(parse(&format!("version = 1\n{}", good_file())).is_ok());
+    }
+
+    #[test]
+    fn a_version_1_residuals_section_is_optional_but_checked() {
+        let good = good_file();
+        let with = format!(
+            "{}\n[residuals]\ncorners = 4\nrms_px = 0.0\nmax_px = 0.0\n",
+            good.split("[[marker]]").next().unwrap()
+        ) + "[[marker]]"
+            + good.split("[[marker]]").nth(1).unwrap();
+        assert!(parse(&with).is_ok(), "{:?}", parse(&with));
+        let wrong = with.replacen("corners = 4", "corners = 8", 1);
+        assert!(parse(&wrong)
+            .unwrap_err()
+            .to_string()
+            .contains("[residuals] corners"));
+        let wrong = with.replacen("max_px = 0.0", "max_px = 0.2", 1);
+        assert!(parse(&wrong)
+            .unwrap_err()
+            .to_string()
+            .contains("[residuals] max_px"));
+        // Without the section (and without `frames`), the file of an older glint still loads.
+        assert_eq!(parse(&without(&good, "frames")).unwrap().version, 1);
     }
 }

@@ -149,12 +149,16 @@ fn view(lens: Lens, markers: Vec<PlacedMarker>) -> View {
     }
 }
 
+/// A short exposure, as a tracker sets its camera for a bright LED: the tours' streaks are
+/// under a pixel or two.
+const TOUR_EXPOSURE_US: u32 = 2_000;
+
 /// An LED touring the whole picture of the reference camera for five seconds.
 fn tour(name: &str, summary: &str, view: View) -> SceneConfig {
     let mut config = base(
         name,
         summary,
-        8_000,
+        TOUR_EXPOSURE_US,
         150,
         Trajectory::Lissajous {
             centre_px: Point::new(320.0, 240.0),

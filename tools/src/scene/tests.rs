@@ -64,7 +64,7 @@ fn presets_have_stable_names_and_sane_sizes() {
         let scene = Scene::preset(name).unwrap_or_else(|| panic!("preset {name} must build"));
         assert_eq!(scene.name(), name);
         assert!((60..=180).contains(&scene.frame_count()), "{name}");
-        assert!((4_000..=25_000).contains(&scene.exposure_us()), "{name}");
+        assert!((2_000..=25_000).contains(&scene.exposure_us()), "{name}");
         let expected = if name == "hd-720" {
             (1280, 720)
         } else {

@@ -206,9 +206,10 @@ pub struct View {
 
 /// Paper margin around each marker, in cells of that marker (as the marker renderer's).
 const PAPER_MARGIN_CELLS: f64 = 1.5;
-/// Marker ink and paper, in linear sensor units (1.0 = clip).
+/// Marker ink and paper, in linear sensor units (1.0 = clip): the paper well below clip, as
+/// under an exposure set short for the LED (with its glow and noise it must never saturate).
 const MARKER_BLACK: f64 = 0.05;
-const MARKER_WHITE: f64 = 0.85;
+const MARKER_WHITE: f64 = 0.6;
 
 impl View {
     /// Checks the view against the scene's frame size.
