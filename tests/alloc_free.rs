@@ -109,6 +109,32 @@ fn reference_floor() -> glint::geometry::FloorStage {
     FloorStage::new(FloorMapping::fit(&floor, &screen).unwrap(), FloorUnit::Cm).unwrap()
 }
 
+/// The reference camera with a wide-angle lens and the LED 12 cm up: every floor point is an
+/// undistorted ray met with a plane.
+fn lens_floor() -> glint::geometry::FloorStage {
+    use glint::geometry::{CameraModel, FloorStage, FloorUnit, Lens, Pose};
+    use nalgebra::{Matrix3, Vector3};
+    let centre = Vector3::new(10.0, -70.0, -130.0);
+    let forward = (Vector3::new(10.0, -5.0, 0.0) - centre).normalize();
+    let right = forward.cross(&Vector3::new(0.0, 0.0, -1.0)).normalize();
+    let r = Matrix3::from_rows(&[
+        right.transpose(),
+        forward.cross(&right).transpose(),
+        forward.transpose(),
+    ]);
+    let camera = CameraModel {
+        lens: Lens {
+            k1: -0.30,
+            k2: 0.09,
+            ..Lens::ideal(460.0, 460.0, 319.5, 239.5)
+        },
+        pose: Pose::new(r, -(r * centre)).unwrap(),
+    };
+    FloorStage::from_camera(camera, FloorUnit::Cm)
+        .with_led_height(12.0)
+        .unwrap()
+}
+
 #[test]
 fn floor_mapping_and_marker_tracking_allocate_nothing_per_frame() {
     use glint::geometry::aruco::Dictionary;
@@ -127,12 +153,11 @@ fn floor_mapping_and_marker_tracking_allocate_nothing_per_frame() {
         bytes: &[u8],
         size: FrameSize,
         config: PipelineConfig,
+        floor: glint::geometry::FloorStage,
         sink: &mut K,
     ) -> u64 {
         let mut source = DumpSource::new(Cursor::new(bytes), size, 30.0);
-        let mut pipeline = Pipeline::new(size, config)
-            .unwrap()
-            .with_floor(reference_floor());
+        let mut pipeline = Pipeline::new(size, config).unwrap().with_floor(floor);
         allocations_during(|| {
             let (s, result) = pipeline::run(&mut source, &mut pipeline, sink);
             result.unwrap();
@@ -140,10 +165,18 @@ fn floor_mapping_and_marker_tracking_allocate_nothing_per_frame() {
         })
     }
     let out = || BufWriter::with_capacity(64 * 1024, io::sink());
-    let json = replay(&bytes, size, config, &mut JsonLinesSink::new(out(), false));
-    assert_eq!(json, 0, "LED with floor, JSON lines");
-    let csv = replay(&bytes, size, config, &mut CsvSink::new(out(), false));
-    assert_eq!(csv, 0, "LED with floor, CSV");
+    for (name, floor) in [("homography", reference_floor()), ("lens", lens_floor())] {
+        let json = replay(
+            &bytes,
+            size,
+            config,
+            floor,
+            &mut JsonLinesSink::new(out(), false),
+        );
+        assert_eq!(json, 0, "LED with floor ({name}), JSON lines");
+        let csv = replay(&bytes, size, config, floor, &mut CsvSink::new(out(), false));
+        assert_eq!(csv, 0, "LED with floor ({name}), CSV");
+    }
     assert!(count > 100);
 
     // A marker pipeline with the floor stage, on rendered frames of a turning marker.
@@ -159,7 +192,7 @@ fn floor_mapping_and_marker_tracking_allocate_nothing_per_frame() {
         dump.extend(MarkerScene::new(reference_camera(), vec![robot]).render_yuyv());
     }
     let tracker = glint::track::MarkerTracker::new(size, Dictionary::Aruco6x6_250, 7).unwrap();
-    let mut pipeline = Pipeline::marker(tracker).with_floor(reference_floor());
+    let mut pipeline = Pipeline::marker(tracker).with_floor(lens_floor());
     let mut source = DumpSource::new(Cursor::new(&dump), size, 30.0);
     let mut reports: heapless::Vec<glint::pipeline::FrameReport, 8> = heapless::Vec::new();
     let allocations = allocations_during(|| {

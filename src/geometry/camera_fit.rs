@@ -3,11 +3,16 @@
 //! A homography is exact only for an ideal lens; a webcam's barrel distortion bends straight
 //! floor lines by pixels at the picture's edges, and no homography can follow that. Here every
 //! corner of every marker goes into one bundle adjustment: Levenberg–Marquardt over the pose
-//! (rotation vector and translation), the focal length (square pixels), the principal point and
-//! OpenCV's `k1, k2, p1, p2`, minimising the pixel distances between detected corners and the
+//! (rotation vector and translation), the focal length (square pixels) and OpenCV's
+//! `k1, k2, p1, p2`, minimising the pixel distances between detected corners and the
 //! floor corners projected through the model. It starts where Zhang's method puts it: the
 //! homography of the corners gives the focal length (with the principal point at the picture's
 //! centre) and the pose; a pinhole fit of pose and focal length comes first, then the lens.
+//!
+//! The principal point stays at the picture's centre: one view of one plane cannot tell it
+//! from a tilt of the camera (the floor fits either way, but the camera's centre, and with it
+//! every plane above the floor, moves), and a lens whose distortion is off-centre is what the
+//! tangential terms `p1, p2` describe to first order.
 //!
 //! One view of one plane does not always pin a lens down: with every marker near the centre,
 //! nothing tells how the edges bend. So the fit says how well it is determined: the parameters'
@@ -62,7 +67,8 @@ pub const MAX_FIT_POINTS: usize = 4 * super::aruco::MAX_MARKERS;
 /// What the fit may change of the lens.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum LensChoice {
-    /// Fit the focal length, principal point and distortion with the pose.
+    /// Fit the focal length and distortion with the pose (the principal point at the
+    /// picture's centre).
     Fit,
     /// An ideal pinhole with its principal point at the picture's centre: fit the focal
     /// length with the pose.
@@ -199,7 +205,7 @@ fn free_mask(choice: &LensChoice, with_lens: bool) -> [bool; PARAMS] {
         LensChoice::Fit => {
             free[FOCAL] = true;
             if with_lens {
-                for f in free.iter_mut().skip(CX) {
+                for f in free.iter_mut().skip(K1) {
                     *f = true;
                 }
             }

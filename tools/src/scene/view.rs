@@ -358,6 +358,12 @@ impl View {
             .collect()
     }
 
+    /// The floor point (cm) under the LED's plane seen at a picture pixel at `frame`: the truth
+    /// for a position glint reports, whatever its pixel error.
+    pub fn floor_seen_at(&self, output_px: Point, frame: usize) -> Option<FloorPoint> {
+        self.floor_under(self.to_reference(output_px, self.pose_at(frame))?)
+    }
+
     /// Radiance of a reference pixel if a marker or its paper covers what it sees.
     pub(crate) fn marker_radiance(&self, reference_px: Point) -> Option<f64> {
         if self.markers.is_empty() {
