@@ -290,3 +290,85 @@ fn preview_sink_with_a_viewer_allocates_nothing_per_frame() {
     let answer = String::from_utf8_lossy(&body);
     assert!(answer.contains("\"captured\":true"), "{answer}");
 }
+
+/// The re-check of the calibration's markers (detection twice a second, a pose refit after a
+/// knock) allocates nothing per frame either.
+#[test]
+fn the_marker_recheck_and_a_pose_refit_allocate_nothing() {
+    use glint::frame::Frame;
+    use glint::geometry::aruco::Dictionary;
+    use glint::geometry::recheck::MarkerRecheck;
+    use glint::geometry::{CameraModel, FloorStage, FloorUnit, Lens, MarkerPlacement, Pose};
+    use glint::source::FrameMeta;
+    use nalgebra::{Matrix3, Vector3};
+
+    // The knocked scene's true camera before the knock: the mild lens over the reference pose.
+    let config = Scene::preset_config("knocked").unwrap();
+    let view = config.view.clone().unwrap();
+    let knock_frame = view.knock.unwrap().frame;
+    let l = view.lens;
+    let centre = Vector3::new(10.0, -70.0, -130.0);
+    let forward = (Vector3::new(10.0, -5.0, 0.0) - centre).normalize();
+    let right = forward.cross(&Vector3::new(0.0, 0.0, -1.0)).normalize();
+    let r = Matrix3::from_rows(&[
+        right.transpose(),
+        forward.cross(&right).transpose(),
+        forward.transpose(),
+    ]);
+    let camera = CameraModel {
+        lens: Lens {
+            fx: l.fx,
+            fy: l.fy,
+            cx: l.cx,
+            cy: l.cy,
+            k1: l.k1,
+            k2: l.k2,
+            k3: l.k3,
+            p1: l.p1,
+            p2: l.p2,
+        },
+        pose: Pose::new(r, -(r * centre)).unwrap(),
+    };
+    let map: Vec<MarkerPlacement> = view.markers.iter().map(|m| m.placement()).collect();
+    let scene = Scene::new(config).unwrap();
+    let size = FrameSize::new(scene.width_px(), scene.height_px()).unwrap();
+    let floor = FloorStage::from_camera(camera, FloorUnit::Cm);
+    let recheck = MarkerRecheck::new(size, Dictionary::Aruco6x6_250, &map, 0.05);
+    let mut pipeline = Pipeline::new(size, PipelineConfig::default())
+        .unwrap()
+        .with_floor(floor)
+        .with_recheck(recheck);
+    let frames: Vec<(usize, Vec<u8>)> = (knock_frame - 16..knock_frame + 16)
+        .map(|i| {
+            let mut bytes = vec![0u8; scene.frame_len_bytes()];
+            scene.render(i, &mut bytes).unwrap();
+            (i, bytes)
+        })
+        .collect();
+    let mut ages: heapless::Vec<f64, 64> = heapless::Vec::new();
+    let allocations = allocations_during(|| {
+        for (i, bytes) in &frames {
+            let frame = Frame::new_checked(bytes, size, size.row_bytes()).unwrap();
+            let meta = FrameMeta {
+                index: *i as u64,
+                sequence: *i as u64,
+                dropped: 0,
+                timestamp_us: *i as u64 * 33_333,
+            };
+            let report = pipeline.process(&frame, meta);
+            ages.push(report.calib.unwrap().age_s).unwrap();
+        }
+    });
+    assert_eq!(allocations, 0, "marker re-check and pose refit");
+    let refit = pipeline.floor().unwrap().camera().unwrap().pose;
+    assert_ne!(
+        refit, camera.pose,
+        "the knock was seen and the pose refitted"
+    );
+    assert_eq!(
+        pipeline.floor().unwrap().camera().unwrap().lens,
+        camera.lens
+    );
+    // Confirmed at the checks before the knock and refitted at the knock: ages restart.
+    assert!(ages.iter().all(|&a| a < 0.55), "{ages:?}");
+}

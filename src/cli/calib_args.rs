@@ -8,6 +8,7 @@ use clap::Args;
 
 use glint::frame::FrameSize;
 use glint::geometry::aruco::Dictionary;
+use glint::geometry::recheck::MarkerRecheck;
 use glint::geometry::CalibrationFile;
 use glint::pipeline::{Pipeline, PipelineConfig};
 use glint::track::MarkerTracker;
@@ -25,6 +26,12 @@ pub struct FloorArgs {
     /// with the camera's pose (written by this glint).
     #[arg(long, value_name = "CM", requires = "calib", value_parser = parse_height_cm)]
     pub led_height_cm: Option<f64>,
+
+    /// With --calib: do not re-detect the calibration's markers while tracking. By default
+    /// (with a calibration from this glint) they are re-checked twice a second, a knocked
+    /// camera's pose is refitted, and JSON lines say which calibration they used.
+    #[arg(long, requires = "calib")]
+    pub no_recheck: bool,
 
     /// With `--detector aruco`: the id of the marker the robot carries.
     #[arg(long, value_name = "ID")]
@@ -69,7 +76,8 @@ pub fn build_pipeline(
     let Some(path) = &args.calib else {
         return Ok(pipeline);
     };
-    let mut floor = load_calibration(path, size)?.floor;
+    let (calibration, map) = load_calibration(path, size)?;
+    let mut floor = calibration.floor;
     if let Some(height_cm) = args.led_height_cm {
         let camera_cm = floor.camera().map(|c| c.pose.height());
         if let Some(camera_cm) = camera_cm.filter(|&c| height_cm >= c) {
@@ -82,11 +90,24 @@ pub fn build_pipeline(
             .with_led_height(height_cm)
             .with_context(|| format!("--led-height-cm with calibration {}", path.display()))?;
     }
-    Ok(pipeline.with_floor(floor))
+    let pipeline = pipeline.with_floor(floor);
+    match calibration.dictionary {
+        Some(dictionary) if floor.camera().is_some() && !args.no_recheck => Ok(pipeline
+            .with_recheck(MarkerRecheck::new(
+                size,
+                dictionary,
+                &map,
+                calibration.rms_residual_px,
+            ))),
+        _ => Ok(pipeline),
+    }
 }
 
-/// Reads and checks a calibration file for frames of `size`.
-fn load_calibration(path: &Path, size: FrameSize) -> Result<CalibrationFile> {
+/// Reads and checks a calibration file for frames of `size`; also its marker map.
+fn load_calibration(
+    path: &Path,
+    size: FrameSize,
+) -> Result<(CalibrationFile, Vec<glint::geometry::MarkerPlacement>)> {
     let text = std::fs::read_to_string(path)
         .with_context(|| format!("cannot read calibration {}", path.display()))?;
     let calibration = CalibrationFile::parse(&text, size)
@@ -102,5 +123,7 @@ fn load_calibration(path: &Path, size: FrameSize) -> Result<CalibrationFile> {
         path.display(),
         calibration.max_residual_px
     );
-    Ok(calibration)
+    let map = CalibrationFile::marker_map(&text)
+        .with_context(|| format!("calibration {}", path.display()))?;
+    Ok((calibration, map))
 }

@@ -300,6 +300,8 @@ pub struct CalibrationFile {
     pub floor: FloorStage,
     /// Largest recorded corner residual, pixels.
     pub max_residual_px: f64,
+    /// Root-mean-square recorded corner residual, pixels.
+    pub rms_residual_px: f64,
 }
 
 impl CalibrationFile {
@@ -311,6 +313,21 @@ impl CalibrationFile {
             .marker
             .iter()
             .map(|m| m.corners_px.map(|[x, y]| (x as f32, y as f32)))
+            .collect())
+    }
+
+    /// The marker map a calibration was made from; `text` should have passed
+    /// [`CalibrationFile::parse`].
+    pub fn marker_map(text: &str) -> Result<Vec<MarkerPlacement>, CalibrationFileError> {
+        let layout: FileLayout = toml::from_str(text).map_err(|e| syntax_error(text, &e))?;
+        Ok(layout
+            .marker
+            .iter()
+            .map(|m| MarkerPlacement {
+                id: m.id,
+                size: m.size_cm,
+                origin: Point::new(m.origin_cm[0], m.origin_cm[1]),
+            })
             .collect())
     }
 
@@ -395,12 +412,22 @@ impl CalibrationFile {
             .iter()
             .flat_map(|m| m.residuals_px)
             .fold(0.0f64, f64::max);
+        let corners = 4 * layout.marker.len();
+        let rms_residual_px = (layout
+            .marker
+            .iter()
+            .flat_map(|m| m.residuals_px)
+            .map(|r| r * r)
+            .sum::<f64>()
+            / corners as f64)
+            .sqrt();
         Ok(CalibrationFile {
             version,
             size,
             dictionary,
             floor,
             max_residual_px,
+            rms_residual_px,
         })
     }
 }

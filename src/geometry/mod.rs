@@ -11,6 +11,7 @@ pub mod camera_fit;
 pub mod floor;
 pub mod homography;
 pub mod lens_file;
+pub mod recheck;
 
 pub use calibration::{calibrate, Calibration, CalibrationError, MarkerPlacement};
 pub use calibration_file::{CalibrationFile, CalibrationFileError};
