@@ -24,7 +24,8 @@ pub struct FloorArgs {
     /// With --calib: the LED's height above the floor, in cm (0 to 1000). Floor positions and
     /// velocities are then those of the point on the floor under the LED. Needs a calibration
     /// with the camera's pose (written by this glint).
-    #[arg(long, value_name = "CM", requires = "calib", value_parser = parse_height_cm)]
+    #[arg(long, value_name = "CM", requires = "calib", value_parser = parse_height_cm,
+          allow_hyphen_values = true)]
     pub led_height_cm: Option<f64>,
 
     /// With --calib: do not re-detect the calibration's markers while tracking. By default

@@ -34,13 +34,15 @@ struct Args {
     seed: Option<u64>,
     /// Lens distortion `K1,K2,K3,P1,P2` (OpenCV's Brown–Conrady coefficients) for a preset
     /// with a camera view (marker, marker-map, lens-*, led-mast, knocked).
-    #[arg(long, value_name = "K1,K2,K3,P1,P2", value_parser = parse_distortion)]
+    #[arg(long, value_name = "K1,K2,K3,P1,P2", value_parser = parse_distortion,
+          allow_hyphen_values = true)]
     distortion: Option<[f64; 5]>,
     /// Height of the LED above the floor, cm (presets with a camera view).
     #[arg(long, value_name = "CM")]
     led_height_cm: Option<f64>,
     /// Knock the camera at this frame: `FRAME:TILT_DEG` (presets with a camera view).
-    #[arg(long, value_name = "FRAME:TILT_DEG", value_parser = parse_knock)]
+    #[arg(long, value_name = "FRAME:TILT_DEG", value_parser = parse_knock,
+          allow_hyphen_values = true)]
     knock: Option<(usize, f64)>,
 }
 
