@@ -173,8 +173,14 @@ fn run(args: Args) -> Result<()> {
             .iter()
             .map(|m| format!("--marker {m}"))
             .collect();
+        // One marker cannot show how the lens bends the picture: say the lens is ideal.
+        let lens = if view.markers.len() < 2 {
+            " --lens ideal"
+        } else {
+            ""
+        };
         println!(
-            "calibrate with: glint calibrate --input {} --size {}x{} {} --out calib.toml",
+            "calibrate with: glint calibrate --input {} --size {}x{} {}{lens} --out calib.toml",
             dump_path.display(),
             scene.width_px(),
             scene.height_px(),
