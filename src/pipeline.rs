@@ -12,6 +12,7 @@ use crate::detect::blobs::Overflow;
 use crate::detect::threshold::Levels;
 use crate::detect::{Detection, Detector, DetectorConfig};
 use crate::frame::{Frame, FrameSize};
+use crate::geometry::recheck::{CalibStatus, MarkerRecheck};
 use crate::geometry::{FloorFix, FloorStage};
 use crate::sink::Sink;
 use crate::source::{FrameMeta, FrameSource};
@@ -44,6 +45,8 @@ pub struct FrameReport {
     /// Floor position, velocity and heading, when a calibration is loaded and `position` is
     /// known.
     pub floor: Option<FloorFix>,
+    /// Which calibration the floor numbers used, when its markers are re-checked.
+    pub calib: Option<CalibStatus>,
 }
 
 impl FrameReport {
@@ -71,6 +74,8 @@ pub struct Pipeline {
     front: Front,
     /// Screen → floor, when a calibration is loaded.
     floor: Option<FloorStage>,
+    /// The calibration's markers re-checked while tracking.
+    recheck: Option<MarkerRecheck>,
 }
 
 impl Pipeline {
@@ -82,6 +87,7 @@ impl Pipeline {
                 tracker: Tracker::new(config.tracker),
             },
             floor: None,
+            recheck: None,
         })
     }
 
@@ -90,12 +96,20 @@ impl Pipeline {
         Pipeline {
             front: Front::Marker(tracker),
             floor: None,
+            recheck: None,
         }
     }
 
     /// Adds the floor stage: every found frame also gets floor coordinates.
     pub fn with_floor(mut self, floor: FloorStage) -> Self {
         self.floor = Some(floor);
+        self
+    }
+
+    /// Adds the re-check of the calibration's markers (with a floor stage that has a camera
+    /// model): a knocked camera's pose is refitted, and reports say which calibration they use.
+    pub fn with_recheck(mut self, recheck: MarkerRecheck) -> Self {
+        self.recheck = Some(recheck);
         self
     }
 
@@ -129,6 +143,12 @@ impl Pipeline {
                 (no_detection(), found.estimate, found.ambiguous, found.pose)
             }
         };
+        let calib = match (&mut self.recheck, &mut self.floor) {
+            (Some(recheck), Some(stage)) => {
+                Some(recheck.check(frame, meta.index, meta.timestamp_us, stage))
+            }
+            _ => None,
+        };
         let floor = match (&self.floor, &position) {
             (Some(stage), Some(p)) => Some(stage.map(p, marker.as_ref().map(|m| &m.corners_px))),
             _ => None,
@@ -140,6 +160,7 @@ impl Pipeline {
             ambiguous,
             marker,
             floor,
+            calib,
         }
     }
 

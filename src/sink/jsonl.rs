@@ -5,11 +5,14 @@
 //! With a calibration, found frames get `floor_x`, `floor_y` and `floor_unit`, and when the
 //! velocity is known `floor_vx`, `floor_vy`, `floor_speed` (units/s), for a marker
 //! `floor_heading_deg`; a position on or beyond the floor's horizon gets `beyond_horizon: true`
-//! and no floor numbers. Headings are degrees from +x towards +y of their coordinates
-//! ([`crate::track::marker_heading_deg`]). With `--predict arrival`, a found frame with a known
-//! velocity gets `predicted`: `{"x", "y" (px), "ahead_ms"}`, the position extrapolated to the
-//! moment the line is written, `ahead_ms` after the end of the exposure (see
-//! [`super::predict`]). Then the detection's diagnostics.
+//! and no floor numbers. When the calibration's markers are re-checked, every line says which
+//! calibration it used, `"calib":{"age_s":…,"residual_px":…}` (seconds since markers last
+//! confirmed the pose, and their rms residual then), and floor numbers get `floor_stale: true`
+//! once no marker has been seen for a while (the camera may have moved). Headings are degrees
+//! from +x towards +y of their coordinates ([`crate::track::marker_heading_deg`]). With
+//! `--predict arrival`, a found frame with a known velocity gets `predicted`: `{"x", "y" (px),
+//! "ahead_ms"}`, the position extrapolated to the moment the line is written, `ahead_ms` after
+//! the end of the exposure (see [`super::predict`]). Then the detection's diagnostics.
 
 use std::io::{self, Write};
 
@@ -113,6 +116,16 @@ impl<W: Write> Sink for JsonLinesSink<W> {
             }
             Some(FloorFix::BeyondHorizon) => write!(out, ",\"beyond_horizon\":true")?,
             None => {}
+        }
+        if let Some(c) = r.calib {
+            write!(
+                out,
+                ",\"calib\":{{\"age_s\":{:.3},\"residual_px\":{:.3}}}",
+                c.age_s, c.residual_px
+            )?;
+            if c.stale && r.floor.is_some() {
+                write!(out, ",\"floor_stale\":true")?;
+            }
         }
         if let Some((blob, streak)) = d.best.filter(|_| r.position.is_some()) {
             write!(

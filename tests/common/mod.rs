@@ -41,10 +41,14 @@ pub struct Rendered {
 
 /// Renders preset `name` into a dump file.
 pub fn render(name: &str) -> Rendered {
-    let scene = Scene::preset(name).unwrap_or_else(|| panic!("no scene preset {name}"));
+    render_scene(Scene::preset(name).unwrap_or_else(|| panic!("no scene preset {name}")))
+}
+
+/// Renders a scene into a dump file.
+pub fn render_scene(scene: Scene) -> Rendered {
     let (bytes, truths) = scene.render_dump();
     let dir = tempfile::tempdir().expect("temp dir");
-    let dump = dir.path().join(format!("{name}.yuv"));
+    let dump = dir.path().join(format!("{}.yuv", scene.name()));
     std::fs::write(&dump, bytes).expect("write dump");
     Rendered {
         scene,

@@ -6,7 +6,10 @@ use super::floor::Floor;
 use super::occlusion::Occluder;
 use super::optics::{Glare, Led};
 use super::trajectory::{Point, Trajectory};
+use super::view::{Knock, Lens, View};
 use super::SceneConfig;
+use crate::markers::{reference_camera, PlacedMarker};
+use glint::geometry::aruco::Dictionary;
 
 /// Preset names, in the order `glint-scene --list` prints them.
 pub(crate) const NAMES: &[&str] = &[
@@ -20,6 +23,12 @@ pub(crate) const NAMES: &[&str] = &[
     "dim-noisy",
     "studio",
     "hd-720",
+    "marker",
+    "marker-map",
+    "lens-wide",
+    "lens-mild",
+    "led-mast",
+    "knocked",
 ];
 
 const VGA_WIDTH_PX: u32 = 640;
@@ -79,6 +88,7 @@ fn base(
             noise_sigma: NOISE_SIGMA,
             range: Range::Full,
         },
+        view: None,
     }
 }
 
@@ -89,6 +99,91 @@ fn figure_eight(centre_px: Point, amplitude_px: Point, x_freq_hz: f64) -> Trajec
         amplitude_px,
         freq_hz: Point::new(x_freq_hz, 2.0 * x_freq_hz),
         phase_rad: Point::new(0.0, 0.0),
+    }
+}
+
+/// Side of the map's markers, cm.
+const MAP_MARKER_CM: f64 = 18.0;
+/// Top-left corners (cm) of the six markers of the marker map: three near the top of the
+/// reference camera's picture and three near the bottom, spread to its corners, so that a
+/// calibration sees how the lens bends the whole picture.
+const MAP_ORIGINS_CM: [(f64, f64); 6] = [
+    (93.0, 54.0),
+    (1.0, 59.0),
+    (-91.0, 54.0),
+    (65.0, -62.0),
+    (1.0, -65.0),
+    (-64.0, -62.0),
+];
+/// Ids of the map's markers (DICT_6X6_250).
+const MAP_IDS: [u16; 6] = [1, 2, 3, 4, 5, 6];
+
+fn marker_at(id: u16, size_cm: f64, (x, y): (f64, f64)) -> PlacedMarker {
+    PlacedMarker {
+        dictionary: Dictionary::Aruco6x6_250,
+        id,
+        size_cm,
+        origin_cm: glint::geometry::Point::new(x, y),
+        rotation_deg: 0.0,
+    }
+}
+
+/// The six-marker map.
+fn marker_map() -> Vec<PlacedMarker> {
+    MAP_IDS
+        .iter()
+        .zip(MAP_ORIGINS_CM)
+        .map(|(&id, origin)| marker_at(id, MAP_MARKER_CM, origin))
+        .collect()
+}
+
+/// The reference camera (1.3 m up, looking obliquely down) with `lens` and `markers`.
+fn view(lens: Lens, markers: Vec<PlacedMarker>) -> View {
+    let camera = reference_camera();
+    View {
+        camera,
+        lens,
+        led_height_cm: 0.0,
+        knock: None,
+        markers,
+    }
+}
+
+/// A short exposure, as a tracker sets its camera for a bright LED: the tours' streaks are
+/// under a pixel or two.
+const TOUR_EXPOSURE_US: u32 = 2_000;
+
+/// An LED touring the whole picture of the reference camera for five seconds.
+fn tour(name: &str, summary: &str, view: View) -> SceneConfig {
+    let mut config = base(
+        name,
+        summary,
+        TOUR_EXPOSURE_US,
+        150,
+        Trajectory::Lissajous {
+            centre_px: Point::new(320.0, 240.0),
+            amplitude_px: Point::new(300.0, 225.0),
+            freq_hz: Point::new(0.23, 0.31),
+            phase_rad: Point::new(0.4, 0.0),
+        },
+    );
+    config.view = Some(view);
+    config
+}
+
+/// The wide-angle webcam lens of the accuracy targets: strong barrel distortion.
+pub(crate) fn wide_lens() -> Lens {
+    Lens::ideal(&reference_camera()).with_distortion(-0.30, 0.09, 0.0, 0.0, 0.0)
+}
+
+/// A milder lens, its distortion slightly decentred (tangential terms, and the principal
+/// point a few pixels off the picture's centre).
+pub(crate) fn mild_lens() -> Lens {
+    let ideal = Lens::ideal(&reference_camera());
+    Lens {
+        cx: ideal.cx + 6.0,
+        cy: ideal.cy - 4.0,
+        ..ideal.with_distortion(-0.12, 0.0, 0.0, 0.001, -0.001)
     }
 }
 
@@ -258,6 +353,56 @@ pub(crate) fn config(name: &str) -> Option<SceneConfig> {
             config.width_px = 1280;
             config.height_px = 720;
             config.led = led(5.0);
+            config
+        }
+        "marker" => {
+            let ideal = Lens::ideal(&reference_camera());
+            let mut config = tour(
+                name,
+                "one 20 cm marker (DICT_6X6_250 id 23) at the floor origin, camera 1.3 m up, ideal lens; an LED tours the picture",
+                view(ideal, vec![marker_at(23, 20.0, (0.0, 0.0))]),
+            );
+            config.frame_count = 60;
+            config
+        }
+        "marker-map" => tour(
+            name,
+            "six 18 cm markers (DICT_6X6_250 ids 1-6) spread over the picture, ideal lens; an LED tours the picture",
+            view(Lens::ideal(&reference_camera()), marker_map()),
+        ),
+        "lens-wide" => tour(
+            name,
+            "wide-angle lens (k1 -0.30, k2 0.09) over the six-marker map; an LED tours the whole picture",
+            view(wide_lens(), marker_map()),
+        ),
+        "lens-mild" => tour(
+            name,
+            "milder decentred lens (k1 -0.12, p1 0.001, p2 -0.001, principal point 6,-4 px off centre) over the marker map",
+            view(mild_lens(), marker_map()),
+        ),
+        "led-mast" => {
+            let mut v = view(Lens::ideal(&reference_camera()), marker_map());
+            v.led_height_cm = 12.0;
+            tour(
+                name,
+                "the LED on a 12 cm mast, markers on the floor, camera 1.3 m up (ideal lens)",
+                v,
+            )
+        }
+        "knocked" => {
+            let mut v = view(mild_lens(), marker_map());
+            v.knock = Some(Knock {
+                frame: 60,
+                pan_deg: 0.3,
+                tilt_deg: 0.8,
+                roll_deg: 0.2,
+            });
+            let mut config = tour(
+                name,
+                "the mild lens over the marker map, camera knocked 0.8° down (0.3° pan, 0.2° roll) at 2 s",
+                v,
+            );
+            config.frame_count = 180;
             config
         }
         _ => return None,
