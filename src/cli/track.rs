@@ -13,10 +13,12 @@ use super::{calib_args, input};
 use glint::detect::bgdiff::MAX_BACKGROUND_FRAMES;
 use glint::detect::MaskMethod;
 use glint::frame::FrameSize;
+use glint::geometry::CalibrationFile;
 use glint::monitor::{self, Monitor};
 use glint::options::{parse_fps, LedArgs};
 use glint::pipeline::{self, Pipeline, PipelineConfig, RunSummary};
-use glint::sink::{serial, CsvSink, JsonLinesSink, SerialSink, Tee};
+use glint::sink::mavlink::{self, Identity, ToLocal};
+use glint::sink::{serial, CsvSink, JsonLinesSink, MavlinkSink, SerialSink, Tee};
 use glint::source::dump::DumpSource;
 use glint::source::FrameSource;
 use glint::track::TrackerConfig;
@@ -84,6 +86,35 @@ pub struct TrackSettings {
     /// Line rate of --serial, 8N1.
     #[arg(long, default_value_t = serial::DEFAULT_BAUD, value_parser = clap::value_parser!(u32).range(50..=4_000_000))]
     baud: u32,
+
+    /// Send MAVLink 2 to an autopilot on --serial instead of glint's packets:
+    /// VISION_POSITION_ESTIMATE (and VISION_SPEED_ESTIMATE) in metres, north = floor +x turned
+    /// by --mavlink-yaw-offset-deg, and a HEARTBEAT every second. Needs --calib.
+    #[arg(long, requires = "serial")]
+    pub mavlink: bool,
+
+    /// With --mavlink: the compass bearing of floor +x, in degrees clockwise from north.
+    #[arg(long, default_value_t = 0.0, value_name = "DEG", allow_negative_numbers = true,
+          value_parser = parse_yaw_offset_deg)]
+    mavlink_yaw_offset_deg: f64,
+
+    /// With --mavlink: the vehicle's MAVLink system id (ArduPilot's SYSID_THISMAV).
+    #[arg(long, default_value_t = mavlink::DEFAULT_SYSTEM_ID, value_name = "ID",
+          value_parser = clap::value_parser!(u8).range(1..))]
+    mavlink_system_id: u8,
+}
+
+/// The serial link: glint's own packets, or MAVLink with `--mavlink` (never both).
+pub type SerialLink = Tee<Option<SerialSink>, Option<MavlinkSink>>;
+
+/// A finite bearing within ±360°.
+fn parse_yaw_offset_deg(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(deg) if deg.is_finite() && deg.abs() <= 360.0 => Ok(deg),
+        _ => Err(format!(
+            "{text:?} is not a bearing in degrees from -360 to 360"
+        )),
+    }
 }
 
 #[derive(Debug, Clone, Copy, ValueEnum)]
@@ -126,7 +157,7 @@ pub struct Opened {
     pub live: bool,
     pub monitor: Monitor,
     pub pipeline: Pipeline,
-    pub serial: Option<SerialSink>,
+    pub serial: SerialLink,
 }
 
 /// Opens the input, builds the pipeline (learning a separate background when asked) and opens
@@ -150,11 +181,7 @@ pub fn open(settings: &TrackSettings) -> Result<Opened> {
         }
         learn_background(&mut pipeline, path, settings)?;
     }
-    let serial = settings
-        .serial
-        .as_deref()
-        .map(|port| SerialSink::open(port, settings.baud))
-        .transpose()?;
+    let serial = open_serial(settings, &pipeline)?;
     Ok(Opened {
         source,
         live,
@@ -162,6 +189,35 @@ pub fn open(settings: &TrackSettings) -> Result<Opened> {
         pipeline,
         serial,
     })
+}
+
+/// Opens `--serial` with glint's packets, or with MAVLink under `--mavlink`.
+fn open_serial(settings: &TrackSettings, pipeline: &Pipeline) -> Result<SerialLink> {
+    let Some(port) = settings.serial.as_deref() else {
+        return Ok(Tee::new(None, None));
+    };
+    if !settings.mavlink {
+        return Ok(Tee::new(Some(SerialSink::open(port, settings.baud)?), None));
+    }
+    let (Some(path), Some(floor)) = (settings.floor.calib.as_deref(), pipeline.floor()) else {
+        bail!("--mavlink needs --calib: an autopilot takes positions in metres on the floor");
+    };
+    // Read again for its residual (the pipeline keeps only the mapping); checked already.
+    let calibration = std::fs::read_to_string(path)
+        .map_err(anyhow::Error::from)
+        .and_then(|text| Ok(CalibrationFile::parse(&text, settings.size)?))
+        .with_context(|| format!("calibration {}", path.display()))?;
+    let local = ToLocal::new(
+        *floor,
+        settings.mavlink_yaw_offset_deg,
+        calibration.max_residual_px,
+    );
+    let identity = Identity {
+        system_id: settings.mavlink_system_id,
+        component_id: mavlink::VISION_COMPONENT_ID,
+    };
+    let sink = MavlinkSink::open(port, settings.baud, identity, local)?;
+    Ok(Tee::new(None, Some(sink)))
 }
 
 pub fn run(args: TrackArgs) -> Result<ExitCode> {

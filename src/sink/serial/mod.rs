@@ -29,6 +29,8 @@ pub use link::{
     line_time, BITS_PER_BYTE, DRAIN_LIMIT, REOPEN_BACKOFF_MAX, REOPEN_BACKOFF_MIN, WRITE_TIMEOUT,
 };
 pub use updates::{Located, Updates, HEARTBEAT_INTERVAL_US};
+// The MAVLink sink (`super::mavlink`) opens its port the same way.
+pub use link::open_port;
 
 use super::Sink;
 use crate::pipeline::FrameReport;
