@@ -38,6 +38,8 @@ const HEARTBEAT_STATE: u64 = 4;
 /// The JSON prints floor positions with 3 decimals (cm), and MAVLink carries f32 metres.
 const POSITION_TOLERANCE_M: f64 = 1e-4;
 const VELOCITY_TOLERANCE_M_S: f64 = 1e-3;
+/// The variance of an angle uniform over the circle, π²/3 rad², given to unmeasured angles.
+const UNMEASURED_ANGLE_VARIANCE_RAD2: f64 = std::f64::consts::PI * std::f64::consts::PI / 3.0;
 
 /// The venv's python, or a failure that says how to make it.
 fn python() -> PathBuf {
@@ -258,14 +260,25 @@ fn pymavlink_decodes_every_message_with_the_reported_positions() {
         let cov = fields["covariance"].as_array().expect("covariance sent");
         assert_eq!(cov.len(), 21);
         let variance = f(&cov[0]);
-        // A σ between 0.1 mm and 1 cm: a fraction of a pixel at about 0.4 cm per pixel.
+        // A σ between 0.1 mm and 1 cm: a fraction of a pixel at a few mm per pixel (about 1 mm here).
         assert!((1e-8..1e-4).contains(&variance), "variance {variance} m²");
-        assert_eq!(f(&cov[6]), variance, "same on y");
-        assert_eq!(f(&cov[1]), 0.0);
-        let unknown = [2, 3, 4, 5].into_iter().chain(7..21);
+        // The diagonal: x, y, z the same; roll, pitch, yaw a whole circle (π²/3); 0 elsewhere.
+        let diagonal = [0, 6, 11, 15, 18, 20];
+        for (state, &i) in diagonal.iter().enumerate() {
+            let expected = if state < 3 {
+                variance
+            } else {
+                UNMEASURED_ANGLE_VARIANCE_RAD2
+            };
+            assert!(
+                (f(&cov[i]) - expected).abs() <= 1e-6 * expected,
+                "entry {i}: {cov:?}"
+            );
+        }
+        let off_diagonal = (0..21).filter(|i| !diagonal.contains(i));
         assert!(
-            unknown.into_iter().all(|i| cov[i].is_null()),
-            "NaN where not measured: {cov:?}"
+            off_diagonal.into_iter().all(|i| f(&cov[i]) == 0.0),
+            "{cov:?}"
         );
     }
     let speeds: Vec<_> = of_type("VISION_SPEED_ESTIMATE").collect();

@@ -15,9 +15,13 @@
 //! glint has no per-frame fit uncertainty yet; the position's standard deviation is the
 //! calibration's largest corner residual combined with a pixel's quantisation (1/√12 px),
 //! mapped to the floor through the homography at the robot's position (the larger of the two
-//! screen axes' floor lengths). Roll, pitch, yaw and height are not measured: their entries are
-//! NaN (unknown). The velocity's uncertainty is unknown altogether: its covariance starts with
-//! NaN, as MAVLink asks.
+//! screen axes' floor lengths). The height is the floor's, as well known as the position: the
+//! same variance. Roll, pitch and yaw are not measured: each gets the variance of an angle
+//! uniform over the circle, π²/3 rad². Every entry is finite on purpose: MAVLink marks only a
+//! wholly unknown matrix (NaN first), and a consumer that combines entries (ArduPilot folds the
+//! x, y, z variances into one position error, and roll, pitch, yaw into one angle error) would
+//! turn one NaN into a NaN error. The velocity's uncertainty is unknown altogether: its
+//! covariance starts with NaN, as MAVLink asks.
 
 use mavlink::dialects::common::{VISION_POSITION_ESTIMATE_DATA, VISION_SPEED_ESTIMATE_DATA};
 
@@ -26,6 +30,12 @@ use crate::geometry::{FloorStage, Point};
 
 /// Variance of a position quantised to whole pixels (uniform over one pixel): 1/12 px².
 const QUANTISATION_VARIANCE_PX2: f64 = 1.0 / 12.0;
+
+/// Variance of an angle that could be anywhere on the circle (uniform over ±π): π²/3 rad².
+const UNMEASURED_ANGLE_VARIANCE_RAD2: f32 = core::f32::consts::PI * core::f32::consts::PI / 3.0;
+
+/// States of the pose that are positions (x, y, z); the rest are angles.
+const POSITION_STATES: usize = 3;
 
 /// Entries of the pose covariance's upper triangle (6 states: x, y, z, roll, pitch, yaw).
 const POSE_COVARIANCE_LEN: usize = 21;
@@ -129,21 +139,24 @@ impl ToLocal {
     }
 }
 
-/// The pose covariance's upper triangle, row by row: `variance_m2` on the x and y diagonal,
-/// 0 between x and y (the two screen axes are taken as independent), NaN wherever a state is not
-/// measured. Without a variance, all NaN ("unknown", MAVLink's NaN first element).
+/// The pose covariance's upper triangle, row by row: `variance_m2` on the x, y and z diagonal,
+/// [`UNMEASURED_ANGLE_VARIANCE_RAD2`] on the roll, pitch and yaw diagonal, 0 off the diagonal
+/// (the states are taken as independent). Without a variance, all NaN (MAVLink's "unknown").
 pub fn pose_covariance(variance_m2: Option<f32>) -> [f32; POSE_COVARIANCE_LEN] {
-    let mut covariance = [f32::NAN; POSE_COVARIANCE_LEN];
     let Some(variance_m2) = variance_m2 else {
-        return covariance;
+        return [f32::NAN; POSE_COVARIANCE_LEN];
     };
-    let measured = |state: usize| state < 2;
+    let mut covariance = [0.0; POSE_COVARIANCE_LEN];
     let mut entry = covariance.iter_mut();
     for row in 0..POSE_STATES {
         for column in row..POSE_STATES {
             if let Some(e) = entry.next() {
-                if measured(row) && measured(column) {
-                    *e = if row == column { variance_m2 } else { 0.0 };
+                if row == column {
+                    *e = if row < POSITION_STATES {
+                        variance_m2
+                    } else {
+                        UNMEASURED_ANGLE_VARIANCE_RAD2
+                    };
                 }
             }
         }
@@ -202,14 +215,21 @@ mod tests {
     }
 
     #[test]
-    fn covariance_has_the_variance_on_x_and_y_and_nan_for_unmeasured_states() {
+    fn covariance_has_the_variance_on_positions_and_a_whole_circle_on_angles() {
         let c = pose_covariance(Some(4.0));
-        // Row x: xx, xy, xz, x-roll, x-pitch, x-yaw; row y starts at 6; z at 11.
-        assert_eq!(c[0], 4.0);
-        assert_eq!(c[1], 0.0);
-        assert_eq!(c[6], 4.0);
-        assert!(c[2..6].iter().chain(&c[7..]).all(|v| v.is_nan()), "{c:?}");
-        assert!(pose_covariance(None)[0].is_nan());
+        // The diagonal of the 6×6 upper triangle, row by row: x 0, y 6, z 11, roll 15,
+        // pitch 18, yaw 20.
+        let diagonal = [0, 6, 11, 15, 18, 20];
+        for (state, &i) in diagonal.iter().enumerate() {
+            let expected = if state < 3 { 4.0 } else { 3.289_868 };
+            assert!((c[i] - expected).abs() < 1e-6, "entry {i}: {}", c[i]);
+        }
+        let off: Vec<f32> = (0..21)
+            .filter(|i| !diagonal.contains(i))
+            .map(|i| c[i])
+            .collect();
+        assert!(off.iter().all(|&v| v == 0.0), "{c:?}");
+        assert!(pose_covariance(None).iter().all(|v| v.is_nan()));
     }
 
     #[test]
