@@ -1,6 +1,6 @@
 //! The per-frame path allocates nothing: a counting global allocator watches a whole replay
 //! (dump source → detection → JSON lines sink, CSV sink, serial sink on a pty) of rendered
-//! scenes after start-up.
+//! scenes after start-up, and the MAVLink sink on a pty.
 
 mod common;
 
@@ -405,4 +405,62 @@ fn the_marker_recheck_and_a_pose_refit_allocate_nothing() {
     );
     // Confirmed at the checks before the knock and refitted at the knock: ages restart.
     assert!(ages.iter().all(|&a| a < 0.55), "{ages:?}");
+}
+
+/// The MAVLink sink's per-frame call (messages built on the stack, posted to the writer
+/// thread, which frames and writes them and sends the heartbeats) allocates nothing on the
+/// capture thread.
+#[test]
+fn mavlink_sink_allocates_nothing_per_frame() {
+    use glint::sink::mavlink::{Identity, MavlinkSink, ToLocal};
+    use serialport::SerialPort;
+    use std::io::Read;
+    use std::sync::atomic::{AtomicBool, Ordering};
+    use std::sync::Arc;
+
+    let (size, bytes, count) = frames();
+    let (mut master, slave) = serialport::TTYPort::pair().expect("pty pair");
+    let name = slave.name().expect("slave name");
+    let stop = Arc::new(AtomicBool::new(false));
+    let reader = {
+        let stop = Arc::clone(&stop);
+        std::thread::spawn(move || {
+            let mut buf = [0u8; 1024];
+            let mut received = 0;
+            while !stop.load(Ordering::Relaxed) {
+                received += master.read(&mut buf).unwrap_or(0);
+            }
+            received
+        })
+    };
+
+    let floor = reference_floor();
+    let identity = Identity {
+        system_id: 1,
+        component_id: glint::sink::mavlink::VISION_COMPONENT_ID,
+    };
+    let mut sink = MavlinkSink::open(&name, 115_200, identity, ToLocal::new(floor, 30.0, 0.1))
+        .expect("open the pty");
+    let mut source = DumpSource::new(Cursor::new(&bytes), size, 30.0);
+    let mut pipeline = Pipeline::new(size, PipelineConfig::default())
+        .unwrap()
+        .with_floor(floor);
+    let allocations = allocations_during(|| {
+        pipeline::run(&mut source, &mut pipeline, &mut sink)
+            .1
+            .unwrap();
+    });
+    glint::sink::Sink::finish(&mut sink).unwrap();
+    stop.store(true, Ordering::Relaxed);
+    let received = reader.join().unwrap();
+    let stats = sink.stats();
+    assert!(
+        stats.positions as usize > count / 2 && stats.speeds > 0,
+        "{stats:?}"
+    );
+    assert!(
+        stats.sent > 0 && received > 0,
+        "{stats:?}, {received} bytes"
+    );
+    assert_eq!(allocations, 0, "allocations during {count} frames");
 }

@@ -39,6 +39,7 @@
 #   chromium         headless browser screenshot of `glint run --preview`'s page (tests/preview.rs)
 #   systemd, python3 systemd-analyze/systemd-sysusers and tomllib for the deployment files' check
 #                    (board/raspberry-pi/check.sh)
+#   python3-venv     the venv of pymavlink, which decodes `--mavlink` output (tools/setup-python.sh)
 #   apt              apt-get download of the kernel package the V4L2 VM boots (tests/vm/prepare.sh)
 #
 # The VM runs host-built (glibc) test programs: tests/vm/prepare.sh copies the C libraries they
@@ -48,7 +49,7 @@ set -eu
 BUILD_PACKAGES="gcc libc6-dev linux-libc-dev libclang-dev"
 TEST_PACKAGES="qemu-system-x86 busybox-static v4l-utils cpio kmod xz-utils binutils socat g++
     gcc-aarch64-linux-gnu gcc-arm-linux-gnueabihf libc6-dev-arm64-cross libc6-dev-armhf-cross
-    linux-libc-dev-arm64-cross linux-libc-dev-armhf-cross qemu-user chromium systemd python3 apt"
+    linux-libc-dev-arm64-cross linux-libc-dev-armhf-cross qemu-user chromium systemd python3 python3-venv apt"
 
 here=$(cd "$(dirname "$0")" && pwd)
 

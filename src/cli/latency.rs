@@ -59,6 +59,10 @@ pub fn run(args: LatencyArgs) -> Result<ExitCode> {
         serial,
         ..
     } = track::open(&args.settings, &args.settings.memory_plan())?;
+    let (serial, mavlink) = serial.into_parts();
+    if mavlink.is_some() {
+        bail!("glint latency asks the robot in glint's own protocol: drop --mavlink");
+    }
     let mut serial = serial.with_context(|| format!("no serial link on {port}"))?;
     let off_us = args.off_ms * 1_000;
     let mut test = LatencyTest::new(LatencyConfig {

@@ -15,10 +15,13 @@ use glint::budget::{self, MemoryPlan};
 use glint::detect::bgdiff::MAX_BACKGROUND_FRAMES;
 use glint::detect::MaskMethod;
 use glint::frame::FrameSize;
+use glint::geometry::CalibrationFile;
 use glint::monitor::{self, Monitor};
 use glint::options::{parse_fps, LedArgs};
 use glint::pipeline::{self, Pipeline, PipelineConfig, RunSummary};
-use glint::sink::{serial, CsvSink, JsonLinesSink, SerialSink, Tee};
+use glint::sink::mavlink::{self, Identity, ToLocal};
+use glint::sink::{serial, CsvSink, JsonLinesSink, MavlinkSink, SerialSink, Tee};
+use glint::small_file;
 use glint::source::dump::DumpSource;
 use glint::source::interruptible::Interruptible;
 use glint::source::stoppable::Stoppable;
@@ -104,6 +107,22 @@ pub struct TrackSettings {
           value_parser = clap::value_parser!(u32).range(50..=4_000_000))]
     pub baud: u32,
 
+    /// Send MAVLink 2 to an autopilot on --serial instead of glint's packets:
+    /// VISION_POSITION_ESTIMATE (and VISION_SPEED_ESTIMATE) in metres, north = floor +x turned
+    /// by --mavlink-yaw-offset-deg, and a HEARTBEAT every second. Needs --calib.
+    #[arg(long, requires = "serial")]
+    pub mavlink: bool,
+
+    /// With --mavlink: the compass bearing of floor +x, in degrees clockwise from north.
+    #[arg(long, default_value_t = 0.0, value_name = "DEG", allow_negative_numbers = true,
+          value_parser = parse_yaw_offset_deg)]
+    mavlink_yaw_offset_deg: f64,
+
+    /// With --mavlink: the vehicle's MAVLink system id (ArduPilot's SYSID_THISMAV).
+    #[arg(long, default_value_t = mavlink::DEFAULT_SYSTEM_ID, value_name = "ID",
+          value_parser = clap::value_parser!(u8).range(1..))]
+    mavlink_system_id: u8,
+
     #[command(flatten)]
     pub memory: memory::MemoryArgs,
 }
@@ -115,6 +134,19 @@ pub enum Predict {
     None,
     /// Moved on to the moment the update reaches its reader.
     Arrival,
+}
+
+/// The serial link: glint's own packets, or MAVLink with `--mavlink` (never both).
+pub type SerialLink = Tee<Option<SerialSink>, Option<MavlinkSink>>;
+
+/// A finite bearing within ±360°.
+fn parse_yaw_offset_deg(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(deg) if deg.is_finite() && deg.abs() <= 360.0 => Ok(deg),
+        _ => Err(format!(
+            "{text:?} is not a bearing in degrees from -360 to 360"
+        )),
+    }
 }
 
 #[derive(Debug, Clone, Copy, ValueEnum)]
@@ -199,7 +231,7 @@ pub struct Opened {
     pub live: bool,
     pub monitor: Monitor,
     pub pipeline: Pipeline,
-    pub serial: Option<SerialSink>,
+    pub serial: SerialLink,
 }
 
 /// Checks that `plan` (these settings' memory, and whatever the caller adds) fits the limit,
@@ -227,15 +259,7 @@ pub fn open(settings: &TrackSettings, plan: &MemoryPlan) -> Result<Opened> {
         }
         learn_background(&mut pipeline, path, settings, &stop)?;
     }
-    let serial = settings
-        .serial
-        .as_deref()
-        .map(|port| SerialSink::open(port, settings.baud))
-        .transpose()?
-        .map(|sink| match settings.predict {
-            Predict::Arrival => sink.predicting(),
-            Predict::None => sink,
-        });
+    let serial = open_serial(settings, &pipeline)?;
     Ok(Opened {
         source: Stoppable::new(source, stop),
         live,
@@ -243,6 +267,40 @@ pub fn open(settings: &TrackSettings, plan: &MemoryPlan) -> Result<Opened> {
         pipeline,
         serial,
     })
+}
+
+/// Opens `--serial` with glint's packets, or with MAVLink under `--mavlink`.
+fn open_serial(settings: &TrackSettings, pipeline: &Pipeline) -> Result<SerialLink> {
+    let Some(port) = settings.serial.as_deref() else {
+        return Ok(Tee::new(None, None));
+    };
+    if !settings.mavlink {
+        let sink = SerialSink::open(port, settings.baud)?;
+        let sink = match settings.predict {
+            Predict::Arrival => sink.predicting(),
+            Predict::None => sink,
+        };
+        return Ok(Tee::new(Some(sink), None));
+    }
+    let (Some(path), Some(floor)) = (settings.floor.calib.as_deref(), pipeline.floor()) else {
+        bail!("--mavlink needs --calib: an autopilot takes positions in metres on the floor");
+    };
+    // Read again for its residual (the pipeline keeps only the mapping); checked already.
+    let calibration = small_file::read_text(path, small_file::MAX_SETTINGS_BYTES)
+        .map_err(anyhow::Error::from)
+        .and_then(|text| Ok(CalibrationFile::parse(&text, settings.size)?))
+        .with_context(|| format!("calibration {}", path.display()))?;
+    let local = ToLocal::new(
+        *floor,
+        settings.mavlink_yaw_offset_deg,
+        calibration.max_residual_px,
+    );
+    let identity = Identity {
+        system_id: settings.mavlink_system_id,
+        component_id: mavlink::VISION_COMPONENT_ID,
+    };
+    let sink = MavlinkSink::open(port, settings.baud, identity, local)?;
+    Ok(Tee::new(None, Some(sink)))
 }
 
 pub fn run(args: TrackArgs) -> Result<ExitCode> {

@@ -35,6 +35,8 @@ pub use link::{
 };
 pub use stamp::SentLed;
 pub use updates::{Located, Updates, HEARTBEAT_INTERVAL_US};
+// The MAVLink sink (`super::mavlink`) opens its port the same way.
+pub use link::open_port;
 
 use super::Sink;
 use crate::pipeline::FrameReport;
