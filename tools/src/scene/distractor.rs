@@ -189,3 +189,53 @@ pub(crate) fn add_swept_disk(patch: &mut Patch, positions: &[Point], offset_px: 
         patch.add_disk(centre, led.radius_px, weight);
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use crate::scene::{Scene, StaticLight};
+
+    fn luma(scene: &Scene, frame: usize, x: usize, y: usize) -> u8 {
+        let mut out = vec![0u8; scene.frame_len_bytes()];
+        scene.render(frame, &mut out).unwrap();
+        out[2 * (y * scene.width_px() as usize + x)]
+    }
+
+    #[test]
+    fn the_hot_pixel_the_window_and_the_bar_are_where_they_are_said_to_be() {
+        let hot = Scene::preset("hot-pixel").unwrap();
+        // 247 plus the sensor's noise; its neighbours are floor.
+        assert!(luma(&hot, 0, 450, 120).abs_diff(247) <= 10);
+        assert!(luma(&hot, 0, 451, 120) < 150);
+        let window = Scene::preset("window").unwrap();
+        assert_eq!(luma(&window, 0, 500, 80), 255, "inside the window");
+        assert!(luma(&window, 0, 440, 80) < 200, "left of the window");
+        let rest = Scene::preset("rest-glare").unwrap();
+        let Some(StaticLight::Ellipse { centre_px, .. }) = rest.config().static_lights.get(1)
+        else {
+            panic!("the bar is the second light");
+        };
+        let (x, y) = (centre_px.x as usize, centre_px.y as usize);
+        assert_eq!(luma(&rest, 0, x, y), 255, "the bar's centre clips");
+        // Along its long axis (0.5 rad) 10 px out it still clips; across it, 10 px out, not.
+        let along = (x + 9, y + 5);
+        let across = (x - 5, y + 9);
+        assert_eq!(luma(&rest, 0, along.0, along.1), 255);
+        assert!(luma(&rest, 0, across.0, across.1) < 200);
+    }
+
+    #[test]
+    fn companions_ride_at_their_offsets() {
+        let scene = Scene::preset("three-leds").unwrap();
+        let truth = scene.truth(0);
+        let (x, y) = (truth.x_px.unwrap(), truth.y_px.unwrap());
+        for c in &scene.config().companions {
+            let (cx, cy) = (x + c.offset_px.x, y + c.offset_px.y);
+            assert_eq!(
+                luma(&scene, 0, cx.round() as usize, cy.round() as usize),
+                255
+            );
+        }
+        let between = (x + 20.0, y - 20.0);
+        assert!(luma(&scene, 0, between.0 as usize, between.1 as usize) < 200);
+    }
+}
