@@ -12,7 +12,7 @@ use std::time::Duration;
 use anyhow::{bail, Context, Result};
 use clap::Args;
 
-use glint::frame::{Frame, FrameSize};
+use glint::frame::{Frame, FrameSize, PixelFormat};
 use glint::monitor::{Counts, Monitor, MonitorConfig};
 use glint::source::dump::{DumpError, DumpSource};
 use glint::source::sidecar::{ReplayError, ReplaySource, Sidecar, SidecarError};
@@ -52,6 +52,11 @@ pub struct InputArgs {
     #[arg(long, requires = "input")]
     no_sidecar: bool,
 
+    /// Pixel format of the frames: yuyv, uyvy or grey (8-bit luma, as mono cameras such as
+    /// the OV9281 send). Default: the sidecar's format for a recorded dump, else yuyv.
+    #[arg(long, value_name = "yuyv|uyvy|grey")]
+    format_in: Option<PixelFormat>,
+
     #[cfg(feature = "v4l2")]
     #[command(flatten)]
     camera: CameraArgs,
@@ -75,6 +80,12 @@ impl InputArgs {
         return self.camera.exposure_us();
         #[cfg(not(feature = "v4l2"))]
         return None;
+    }
+
+    /// The pixel format given with `--format-in`, or YUYV: the format of dumps without a
+    /// sidecar, of standard input, of cameras, and of a background dump.
+    pub fn pixel_format(&self) -> PixelFormat {
+        self.format_in.unwrap_or_default()
     }
 
     /// The dump file given with `--input` (not standard input).
@@ -163,7 +174,8 @@ pub struct Input {
 pub fn open(args: &InputArgs, size: FrameSize, fps: Option<f64>) -> Result<Input> {
     #[cfg(feature = "v4l2")]
     if let Some(device) = &args.source.device {
-        let source = camera::open(device, size, camera::whole_fps(fps)?, &args.camera)?;
+        let fps = camera::whole_fps(fps)?;
+        let source = camera::open(device, size, fps, args.pixel_format(), &args.camera)?;
         return Ok(Input {
             source: InputSource::Camera(Box::new(source)),
             live: true,
@@ -185,7 +197,12 @@ pub fn open(args: &InputArgs, size: FrameSize, fps: Option<f64>) -> Result<Input
     if input == "-" {
         let stdin: Box<dyn Read> = Box::new(io::stdin().lock());
         return Ok(Input {
-            source: InputSource::Dump(DumpSource::new(stdin, size, fps_or_default)),
+            source: InputSource::Dump(DumpSource::with_format(
+                stdin,
+                size,
+                fps_or_default,
+                args.pixel_format(),
+            )),
             live: true,
             monitor,
         });
@@ -205,12 +222,24 @@ pub fn open(args: &InputArgs, size: FrameSize, fps: Option<f64>) -> Result<Input
     };
     let source = match sidecar {
         Some(sidecar) => {
+            let recorded = sidecar.pixel_format()?;
+            if let Some(given) = args.format_in.filter(|&f| f != recorded) {
+                bail!(
+                    "the sidecar of {input} says the frames are {recorded}, but --format-in is \
+                     {given} (--no-sidecar replays the dump without it)"
+                );
+            }
             if fps.is_some() {
                 log::warn!("--fps is ignored: the sidecar's frame times are used");
             }
             InputSource::Replay(ReplaySource::new(reader, size, sidecar))
         }
-        None => InputSource::Dump(DumpSource::new(reader, size, fps_or_default)),
+        None => InputSource::Dump(DumpSource::with_format(
+            reader,
+            size,
+            fps_or_default,
+            args.pixel_format(),
+        )),
     };
     Ok(Input {
         source,

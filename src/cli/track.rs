@@ -215,7 +215,7 @@ fn learn_background(pipeline: &mut Pipeline, path: &Path, args: &TrackSettings) 
     let file =
         File::open(path).with_context(|| format!("cannot open background {}", path.display()))?;
     let fps = args.fps.unwrap_or(input::DEFAULT_DUMP_FPS);
-    let mut source = DumpSource::new(file, args.size, fps);
+    let mut source = DumpSource::with_format(file, args.size, fps, args.input.pixel_format());
     let mut learned = 0;
     while learned < args.background_frames {
         match source.next_frame() {

@@ -9,7 +9,7 @@ use core::fmt;
 use std::io::{self, Read};
 
 use super::{FrameMeta, FrameSource};
-use crate::frame::{Frame, FrameError, FrameSize};
+use crate::frame::{Frame, FrameError, FrameSize, PixelFormat};
 
 /// Microseconds per second.
 const US_PER_S: f64 = 1e6;
@@ -55,18 +55,25 @@ pub struct DumpSource<R> {
     reader: R,
     buffer: Vec<u8>,
     size: FrameSize,
+    format: PixelFormat,
     frame_period_us: f64,
     next_index: u64,
     finished: bool,
 }
 
 impl<R: Read> DumpSource<R> {
-    /// A source of `size` frames at `fps` frames per second (for timestamps only).
+    /// A source of `size` YUYV frames at `fps` frames per second (for timestamps only).
     pub fn new(reader: R, size: FrameSize, fps: f64) -> Self {
+        Self::with_format(reader, size, fps, PixelFormat::Yuyv)
+    }
+
+    /// A source of unpadded `size` frames of `format` at `fps` frames per second.
+    pub fn with_format(reader: R, size: FrameSize, fps: f64, format: PixelFormat) -> Self {
         DumpSource {
             reader,
-            buffer: vec![0; size.frame_bytes()],
+            buffer: vec![0; size.frame_bytes_as(format)],
             size,
+            format,
             frame_period_us: US_PER_S / fps,
             next_index: 0,
             finished: false,
@@ -119,7 +126,8 @@ impl<R: Read> FrameSource for DumpSource<R> {
             dropped: 0,
             timestamp_us: (index as f64 * self.frame_period_us).round() as u64,
         };
-        let frame = Frame::new_checked(&self.buffer, self.size, self.size.row_bytes())
+        let stride_bytes = self.size.row_bytes_as(self.format);
+        let frame = Frame::new_checked_as(&self.buffer, self.size, stride_bytes, self.format)
             .map_err(DumpError::Frame)?;
         Ok(Some((frame, meta)))
     }

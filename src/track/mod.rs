@@ -213,14 +213,22 @@ impl Tracker {
             if let Some((index, _)) = nearest {
                 return Choice::Blob(index);
             }
-            // A track whose motion is known predicts well: what lies outside its gate is
-            // something else (another LED of the same robot, a reflection).
+            // A track whose motion is known predicts well: of several things outside its
+            // gate none is taken (another LED of the same robot, a reflection), while the one
+            // thing in view is the LED back from behind an obstacle, or turned sharply.
             let has_velocity = self
                 .history
                 .recent()
                 .is_some_and(|s| s.estimate.velocity_px_s.is_some());
+            let mut possible = candidates
+                .clone()
+                .filter(|(_, b)| known(b) != Known::Cleared);
+            let lone = match (possible.next(), possible.next()) {
+                (Some((index, blob)), None) if known(&blob) == Known::Fresh => Some(index),
+                _ => None,
+            };
             if has_velocity {
-                return Choice::Nothing;
+                return lone.map_or(Choice::Nothing, Choice::Blob);
             }
         }
         // What may be the LED: everything but what stood still while the LED was elsewhere.
@@ -452,8 +460,8 @@ mod tests {
             Choice::Blob(1)
         );
         t.update(2 * FRAME_US, Some(&streak((190.0, 100.0), None)));
-        // The tracked LED is hidden for a frame: its neighbour 70 px off is not taken.
-        let hidden = [(0, led(130.0, 100.0, 30))];
+        // The tracked LED is hidden for a frame: neither of two others 70 px off is taken.
+        let hidden = [(0, led(130.0, 100.0, 30)), (2, led(260.0, 100.0, 20))];
         assert_eq!(
             t.choose(hidden.into_iter(), 3, 3 * FRAME_US),
             Choice::Nothing

@@ -1,4 +1,5 @@
-//! The saturation threshold: luma bytes of a YUYV frame to a bit-packed mask, in place.
+//! The saturation threshold: luma bytes of a frame (YUYV, UYVY or GREY) to a bit-packed mask,
+//! in place.
 //!
 //! A saturated LED is the brightest thing in a short-exposure frame, but "saturated" is not a
 //! fixed number: full-range cameras clip at Y = 255, studio-range ones (most UVC webcams) near
@@ -61,10 +62,11 @@ pub const AUTO_FIRST_PASS_LUMA: u8 = MIN_CLIP_LUMA - AUTO_MARGIN_LUMA;
 /// Writes one bit per pixel into `mask`, set where luma ≥ `threshold_luma`, and returns how
 /// many pixels were set. `mask` must have the frame's dimensions.
 pub fn threshold_into(frame: &Frame<'_>, threshold_luma: u8, mask: &mut BitImage) -> usize {
+    let format = frame.format();
     frame
         .rows()
         .enumerate()
-        .map(|(y, row)| kernels::row_threshold(row, threshold_luma, mask.row_mut(y)))
+        .map(|(y, row)| kernels::row_threshold(format, row, threshold_luma, mask.row_mut(y)))
         .sum()
 }
 
@@ -106,10 +108,12 @@ pub fn apply(frame: &Frame<'_>, threshold: Threshold, mask: &mut BitImage) -> (L
 /// count of set pixels; when the top is below [`MIN_CLIP_LUMA`] nothing can be saturated and
 /// the mask is cleared (count 0).
 pub fn first_cut(frame: &Frame<'_>, mask: &mut BitImage) -> (u8, usize) {
+    let format = frame.format();
     let mut top_luma = 0;
     let mut count = 0;
     for (y, row) in frame.rows().enumerate() {
-        let (n, top) = kernels::row_threshold_max(row, AUTO_FIRST_PASS_LUMA, mask.row_mut(y));
+        let words = mask.row_mut(y);
+        let (n, top) = kernels::row_threshold_max(format, row, AUTO_FIRST_PASS_LUMA, words);
         count += n;
         top_luma = top_luma.max(top);
     }
@@ -126,11 +130,12 @@ pub fn recut_rows(frame: &Frame<'_>, level: u8, mask: &mut BitImage, count: usiz
     if level <= AUTO_FIRST_PASS_LUMA {
         return count;
     }
+    let format = frame.format();
     let mut count = 0;
     for (y, row) in frame.rows().enumerate() {
         let words = mask.row_mut(y);
         if words.iter().any(|&w| w != 0) {
-            count += kernels::row_threshold(row, level, words);
+            count += kernels::row_threshold(format, row, level, words);
         }
     }
     count
