@@ -146,6 +146,22 @@ pub struct Tracker {
     statics: Statics,
     /// Whether the previous frame had the LED: the head needs the position just before.
     previous_found: bool,
+    /// The track was taken as the lone candidate in view and has not moved since: it may be a
+    /// lamp, and yields to the first thing that moves.
+    tentative: bool,
+    /// Where a tentative track was taken.
+    acquired_at_px: (f32, f32),
+}
+
+/// How the chosen blob came to be the LED.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Acquired {
+    /// Followed inside the gate (or nothing chosen).
+    Tracked,
+    /// Taken because it moved.
+    Moving,
+    /// Taken as the only candidate in view.
+    Alone,
 }
 
 impl Tracker {
@@ -184,7 +200,22 @@ impl Tracker {
         frame_index: u64,
         t_us: u64,
     ) -> Choice {
-        let choice = self.pick(candidates.clone(), frame_index, t_us);
+        let (choice, acquired) = self.pick(candidates.clone(), frame_index, t_us);
+        let chosen = candidates
+            .clone()
+            .find(|&(index, _)| choice == Choice::Blob(index))
+            .map(|(_, b)| b.mass_centre_px);
+        match (acquired, chosen) {
+            (Acquired::Alone, Some(at)) => {
+                self.tentative = true;
+                self.acquired_at_px = at;
+            }
+            (Acquired::Moving, _) => self.tentative = false,
+            (Acquired::Tracked, Some(at)) if dist(at, self.acquired_at_px) > statics::DRIFT_PX => {
+                self.tentative = false;
+            }
+            _ => {}
+        }
         let led_elsewhere = matches!(choice, Choice::Blob(_));
         for (index, blob) in candidates {
             if choice != Choice::Blob(index) {
@@ -201,36 +232,8 @@ impl Tracker {
         candidates: impl Iterator<Item = (usize, Blob)> + Clone,
         frame_index: u64,
         t_us: u64,
-    ) -> Choice {
+    ) -> (Choice, Acquired) {
         let known = |b: &Blob| self.statics.known(b.mass_centre_px);
-        if let Some((predicted, gate_px)) = self.prediction(t_us) {
-            let nearest = candidates
-                .clone()
-                .filter(|(_, b)| known(b) == Known::Fresh)
-                .map(|(i, b)| (i, dist(b.mass_centre_px, predicted)))
-                .filter(|&(_, d)| d <= gate_px)
-                .min_by(|a, b| a.1.total_cmp(&b.1));
-            if let Some((index, _)) = nearest {
-                return Choice::Blob(index);
-            }
-            // A track whose motion is known predicts well: of several things outside its
-            // gate none is taken (another LED of the same robot, a reflection), while the one
-            // thing in view is the LED back from behind an obstacle, or turned sharply.
-            let has_velocity = self
-                .history
-                .recent()
-                .is_some_and(|s| s.estimate.velocity_px_s.is_some());
-            let mut possible = candidates
-                .clone()
-                .filter(|(_, b)| known(b) != Known::Cleared);
-            let lone = match (possible.next(), possible.next()) {
-                (Some((index, blob)), None) if known(&blob) == Known::Fresh => Some(index),
-                _ => None,
-            };
-            if has_velocity {
-                return lone.map_or(Choice::Nothing, Choice::Blob);
-            }
-        }
         // What may be the LED: everything but what stood still while the LED was elsewhere.
         let possible = candidates.filter(|(_, b)| known(b) != Known::Cleared);
         let positions = possible.clone().map(|(_, b)| b.mass_centre_px);
@@ -244,15 +247,51 @@ impl Tracker {
         let largest_mover = possible
             .clone()
             .filter(|(_, b)| moved(b))
-            .max_by_key(|(_, b)| b.area_px);
-        if let Some((index, _)) = largest_mover {
-            return Choice::Blob(index);
+            .max_by_key(|(_, b)| b.area_px)
+            .map(|(index, _)| (Choice::Blob(index), Acquired::Moving));
+        let mut all = possible.clone();
+        let lone = match (all.next(), all.next()) {
+            (Some((index, blob)), None) if known(&blob) == Known::Fresh => Some(index),
+            _ => None,
+        };
+        if let Some((predicted, gate_px)) = self.prediction(t_us) {
+            let nearest = possible
+                .clone()
+                .filter(|(_, b)| known(b) == Known::Fresh)
+                .map(|(i, b)| (i, dist(b.mass_centre_px, predicted)))
+                .filter(|&(_, d)| d <= gate_px)
+                .min_by(|a, b| a.1.total_cmp(&b.1));
+            if let Some((index, _)) = nearest {
+                // A track taken alone and never seen to move may be a lamp: the first thing
+                // that moves elsewhere replaces it.
+                let elsewhere = largest_mover.filter(|&(c, _)| c != Choice::Blob(index));
+                if self.tentative {
+                    if let Some(mover) = elsewhere {
+                        return mover;
+                    }
+                }
+                return (Choice::Blob(index), Acquired::Tracked);
+            }
+            // A track whose motion is known predicts well: of several things outside its
+            // gate none is taken (another LED of the same robot, a reflection), while the one
+            // thing in view is the LED back from behind an obstacle, or turned sharply.
+            let has_velocity = self
+                .history
+                .recent()
+                .is_some_and(|s| s.estimate.velocity_px_s.is_some());
+            if has_velocity {
+                return lone.map_or((Choice::Nothing, Acquired::Tracked), |index| {
+                    (Choice::Blob(index), Acquired::Tracked)
+                });
+            }
         }
-        let mut all = possible;
-        match (all.next(), all.next()) {
-            (None, _) => Choice::Nothing,
-            (Some((index, blob)), None) if known(&blob) == Known::Fresh => Choice::Blob(index),
-            _ => Choice::Ambiguous,
+        if let Some(mover) = largest_mover {
+            return mover;
+        }
+        match (lone, possible.clone().next()) {
+            (Some(index), _) => (Choice::Blob(index), Acquired::Alone),
+            (None, None) => (Choice::Nothing, Acquired::Tracked),
+            (None, Some(_)) => (Choice::Ambiguous, Acquired::Tracked),
         }
     }
 
@@ -436,6 +475,55 @@ mod tests {
             t.choose(moved.into_iter(), 5, 5 * FRAME_US),
             Choice::Blob(2)
         );
+    }
+
+    #[test]
+    fn a_lone_lamp_taken_at_the_start_yields_to_the_first_thing_that_moves() {
+        let mut t = Tracker::new(TrackerConfig::default());
+        let lamp = (0, blob_at(100.0, 100.0));
+        assert_eq!(t.choose([lamp].into_iter(), 0, 0), Choice::Blob(0));
+        t.update(0, Some(&streak((100.0, 100.0), None)));
+        assert_eq!(t.choose([lamp].into_iter(), 1, FRAME_US), Choice::Blob(0));
+        t.update(FRAME_US, Some(&streak((100.0, 100.0), None)));
+        // The LED comes into view, then moves: from then on it is the LED, and the lamp,
+        // which stood still since it appeared, is never taken again.
+        let led = |x: f32| (1, blob_at(x, 300.0));
+        assert_eq!(
+            t.choose([lamp, led(400.0)].into_iter(), 2, 2 * FRAME_US),
+            Choice::Blob(0)
+        );
+        t.update(2 * FRAME_US, Some(&streak((100.0, 100.0), None)));
+        assert_eq!(
+            t.choose([lamp, led(410.0)].into_iter(), 3, 3 * FRAME_US),
+            Choice::Blob(1)
+        );
+        t.update(3 * FRAME_US, Some(&streak((410.0, 300.0), None)));
+        for i in 4..10u64 {
+            let x = 410.0 + 10.0 * (i - 3) as f32;
+            assert_eq!(
+                t.choose([lamp, led(x)].into_iter(), i, i * FRAME_US),
+                Choice::Blob(1),
+                "frame {i}"
+            );
+            t.update(i * FRAME_US, Some(&streak((x, 300.0), None)));
+        }
+        // A track that moved since it was taken alone is proven: a mover elsewhere is not
+        // taken instead of it.
+        let mut t = Tracker::new(TrackerConfig::default());
+        for i in 0..4u64 {
+            let x = 100.0 + 5.0 * i as f32;
+            let other = (1, blob_at(300.0 + 10.0 * i as f32, 300.0));
+            let frame: &[(usize, Blob)] = if i < 2 {
+                &[(0, blob_at(x, 100.0))]
+            } else {
+                &[(0, blob_at(x, 100.0)), other]
+            };
+            assert_eq!(
+                t.choose(frame.iter().copied(), i, i * FRAME_US),
+                Choice::Blob(0)
+            );
+            t.update(i * FRAME_US, Some(&streak((x, 100.0), None)));
+        }
     }
 
     #[test]
