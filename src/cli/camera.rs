@@ -115,7 +115,7 @@ pub fn open(
         log::info!(
             "{}: {} {} with rows {} bytes apart, {}, {} mmap buffers",
             path.display(),
-            n.format,
+            String::from_utf8_lossy(&n.format.fourcc()),
             n.size,
             n.stride_bytes,
             n.fps

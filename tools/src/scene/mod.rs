@@ -4,7 +4,8 @@
 //! analytic trajectory. Each frame is rendered physically, in linear units where 1.0 is the
 //! sensor's clip level: the floor's radiance, plus the LED disk (several times the clip level)
 //! integrated over the pixel area AND over the exposure window `[t - exposure, t]`, so fast
-//! motion makes real streaks; static glare; opaque occluders on top; then sensor noise,
+//! motion makes real streaks; further LEDs on the same rigid body; static glare and static
+//! lights of other shapes (bars, windows, hot pixels); opaque occluders on top; then sensor noise,
 //! clipping and 8-bit quantisation to packed YUYV 4:2:2.
 //!
 //! The ground truth ([`Truth`]) is computed from the trajectory's formulas, not from the
