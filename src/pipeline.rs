@@ -131,7 +131,14 @@ impl Pipeline {
                 let mut detection = detector.segment(frame);
                 let choice = tracker.choose(detector.candidates(), meta.index, meta.timestamp_us);
                 detection.best = match choice {
-                    Choice::Blob(index) => detector.analyze(frame, index, detection.levels),
+                    Choice::Blob(index) => {
+                        let best = detector.analyze(frame, index, detection.levels);
+                        // Report the level the LED itself was cut at.
+                        if best.is_some() {
+                            detection.levels = detector.levels_of(frame, index, detection.levels);
+                        }
+                        best
+                    }
                     Choice::Nothing | Choice::Ambiguous => None,
                 };
                 let position =

@@ -20,7 +20,14 @@ static GLOBAL: Counting = Counting;
 fn frames() -> (FrameSize, Vec<u8>, usize) {
     let mut bytes = Vec::new();
     let mut count = 0;
-    for name in ["glare", "fast-line", "circles", "leave-occlude"] {
+    for name in [
+        "glare",
+        "fast-line",
+        "circles",
+        "leave-occlude",
+        "window",
+        "three-leds",
+    ] {
         let scene = Scene::preset(name).unwrap();
         assert_eq!((scene.width_px(), scene.height_px()), (640, 480));
         let (dump, truths) = scene.render_dump();

@@ -81,7 +81,14 @@ fn calibrate(dir: &Path) -> PathBuf {
         .arg(&dump)
         .args(["--size", "640x480", "--out"])
         .arg(&out)
-        .args(["--marker", "23:20", "--marker", "101:20@55,45", "--lens", "ideal"])
+        .args([
+            "--marker",
+            "23:20",
+            "--marker",
+            "101:20@55,45",
+            "--lens",
+            "ideal",
+        ])
         .output()
         .unwrap();
     assert!(

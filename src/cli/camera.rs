@@ -6,7 +6,7 @@ use std::path::Path;
 use anyhow::Result;
 use clap::{Args, ValueEnum};
 
-use glint::frame::FrameSize;
+use glint::frame::{FrameSize, PixelFormat};
 use glint::source::v4l2::{
     CaptureConfig, ControlRequest, NamedControl, PowerLine, ReopeningSource, DEFAULT_BUFFER_COUNT,
 };
@@ -98,7 +98,7 @@ impl CameraArgs {
     }
 }
 
-/// Opens the camera at `path` for YUYV frames of `size` (at `fps` when given), sets the
+/// Opens the camera at `path` for `format` frames of `size` (at `fps` when given), sets the
 /// controls (the report goes to the log), and arranges for Ctrl-C and SIGTERM to end the stream
 /// cleanly. Live runs log at info level at least, so the control report and the periodic
 /// summary show by default.
@@ -106,6 +106,7 @@ pub fn open(
     path: &Path,
     size: FrameSize,
     fps: Option<u32>,
+    format: PixelFormat,
     camera: &CameraArgs,
 ) -> Result<ReopeningSource> {
     if log::max_level() < log::LevelFilter::Info {
@@ -113,12 +114,14 @@ pub fn open(
     }
     let mut config = CaptureConfig::new(path, size, fps);
     config.buffer_count = camera.buffers;
+    config.format = format;
     let source = ReopeningSource::open(config, camera.request())?;
     if let Some(inner) = source.current() {
         let n = inner.negotiated();
         log::info!(
-            "{}: YUYV {} with rows {} bytes apart, {}, {} mmap buffers",
+            "{}: {} {} with rows {} bytes apart, {}, {} mmap buffers",
             path.display(),
+            String::from_utf8_lossy(&n.format.fourcc()),
             n.size,
             n.stride_bytes,
             n.fps

@@ -15,7 +15,7 @@ use std::time::Duration;
 use anyhow::{bail, Context, Result};
 use clap::Args;
 
-use glint::frame::{Frame, FrameSize};
+use glint::frame::{Frame, FrameSize, PixelFormat};
 use glint::monitor::{Counts, Monitor, MonitorConfig};
 use glint::source::dump::{DumpError, DumpSource};
 use glint::source::interruptible::Interruptible;
@@ -56,6 +56,11 @@ pub struct InputArgs {
     #[arg(long, requires = "input")]
     no_sidecar: bool,
 
+    /// Pixel format of the frames: yuyv, uyvy or grey (8-bit luma, as mono cameras such as
+    /// the OV9281 send). Default: the sidecar's format for a recorded dump, else yuyv.
+    #[arg(long, value_name = "yuyv|uyvy|grey")]
+    format_in: Option<PixelFormat>,
+
     #[cfg(feature = "v4l2")]
     #[command(flatten)]
     camera: CameraArgs,
@@ -89,6 +94,12 @@ impl InputArgs {
             return Some(self.camera.buffers());
         }
         None
+    }
+
+    /// The pixel format given with `--format-in`, or YUYV: the format of dumps without a
+    /// sidecar, of standard input, of cameras, and of a background dump.
+    pub fn pixel_format(&self) -> PixelFormat {
+        self.format_in.unwrap_or_default()
     }
 
     /// The dump file given with `--input` (not standard input).
@@ -181,7 +192,8 @@ pub fn open(
 ) -> Result<Input> {
     #[cfg(feature = "v4l2")]
     if let Some(device) = &args.source.device {
-        let source = camera::open(device, size, camera::whole_fps(fps)?, &args.camera)?;
+        let fps = camera::whole_fps(fps)?;
+        let source = camera::open(device, size, fps, args.pixel_format(), &args.camera)?;
         return Ok(Input {
             source: InputSource::Camera(Box::new(source)),
             live: true,
@@ -203,7 +215,12 @@ pub fn open(
     if input == "-" {
         let stdin: Box<dyn Read> = Box::new(Interruptible::new(io::stdin(), Arc::clone(stop)));
         return Ok(Input {
-            source: InputSource::Dump(DumpSource::try_new(stdin, size, fps_or_default)?),
+            source: InputSource::Dump(DumpSource::try_with_format(
+                stdin,
+                size,
+                fps_or_default,
+                args.pixel_format(),
+            )?),
             live: true,
             monitor,
         });
@@ -221,15 +238,27 @@ pub fn open(
     } else {
         find_sidecar(Path::new(input), size, metadata.len())?
     };
-    let dump = DumpSource::try_new(reader, size, fps_or_default)?;
     let source = match sidecar {
         Some(sidecar) => {
+            let recorded = sidecar.pixel_format()?;
+            if let Some(given) = args.format_in.filter(|&f| f != recorded) {
+                bail!(
+                    "the sidecar of {input} says the frames are {recorded}, but --format-in is \
+                     {given} (--no-sidecar replays the dump without it)"
+                );
+            }
             if fps.is_some() {
                 log::warn!("--fps is ignored: the sidecar's frame times are used");
             }
+            let dump = DumpSource::try_with_format(reader, size, fps_or_default, recorded)?;
             InputSource::Replay(ReplaySource::from_dump(dump, sidecar))
         }
-        None => InputSource::Dump(dump),
+        None => InputSource::Dump(DumpSource::try_with_format(
+            reader,
+            size,
+            fps_or_default,
+            args.pixel_format(),
+        )?),
     };
     Ok(Input {
         source,

@@ -12,7 +12,7 @@ use anyhow::{Context, Result};
 use clap::Args;
 
 use glint::budget::{self, MemoryPlan};
-use glint::frame::FrameSize;
+use glint::frame::{FrameSize, PixelFormat};
 use glint::source::record::DumpRecorder;
 use glint::source::sidecar::{FrameTiming, Sidecar};
 use glint::source::v4l2::ReopeningSource;
@@ -54,9 +54,13 @@ pub struct RecordArgs {
           value_parser = clap::value_parser!(u64).range(1..=MAX_RECORD_FRAMES))]
     frames: u64,
 
-    /// The dump to write (unpadded YUYV rows); the sidecar goes beside it as FILE.json.
+    /// The dump to write (unpadded rows); the sidecar goes beside it as FILE.json.
     #[arg(long, value_name = "FILE.yuv")]
     out: PathBuf,
+
+    /// Pixel format to ask the camera for: yuyv, uyvy or grey. The sidecar records it.
+    #[arg(long, value_name = "yuyv|uyvy|grey", default_value_t = PixelFormat::Yuyv)]
+    format_in: PixelFormat,
 
     #[command(flatten)]
     camera: CameraArgs,
@@ -86,11 +90,18 @@ pub fn run(args: RecordArgs) -> Result<ExitCode> {
             .saturating_mul(std::mem::size_of::<FrameTiming>() as u64),
     );
     args.memory.check(&plan)?;
-    let mut source = camera::open(&args.device, args.size, args.fps, &args.camera)?;
+    let mut source = camera::open(
+        &args.device,
+        args.size,
+        args.fps,
+        args.format_in,
+        &args.camera,
+    )?;
     let negotiated = source.current().map(|s| *s.negotiated());
     let file =
         File::create(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
-    let writer = BufWriter::with_capacity(args.size.frame_bytes() * WRITE_BUFFER_FRAMES, file);
+    let frame_bytes = args.size.frame_bytes_as(args.format_in);
+    let writer = BufWriter::with_capacity(frame_bytes * WRITE_BUFFER_FRAMES, file);
     let mut recorder = DumpRecorder::new(writer, args.size, frames)?;
 
     // Whatever stops the capture, the frames recorded so far are kept with their sidecar.
@@ -101,9 +112,10 @@ pub fn run(args: RecordArgs) -> Result<ExitCode> {
         .with_context(|| format!("cannot write {}", args.out.display()))?;
     let mut sidecar = Sidecar::new(
         args.size,
-        negotiated.map_or(args.size.row_bytes(), |n| n.stride_bytes),
+        negotiated.map_or(args.size.row_bytes_as(args.format_in), |n| n.stride_bytes),
         timings,
-    );
+    )
+    .with_format(args.format_in);
     sidecar.fps = negotiated.and_then(|n| n.fps);
     sidecar.device = Some(args.device.display().to_string());
     let sidecar_path = Sidecar::path_for(&args.out);

@@ -371,7 +371,8 @@ fn learn_background(
     let file = input::open_without_waiting(path).context("background")?;
     let reader = Interruptible::new(file, Arc::clone(stop));
     let fps = args.fps.unwrap_or(input::DEFAULT_DUMP_FPS);
-    let mut source = DumpSource::try_new(reader, args.size, fps)?;
+    let mut source =
+        DumpSource::try_with_format(reader, args.size, fps, args.input.pixel_format())?;
     let mut learned = 0;
     while learned < args.background_frames {
         match source.next_frame() {

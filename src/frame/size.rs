@@ -3,6 +3,8 @@
 use core::fmt;
 use core::str::FromStr;
 
+use super::PixelFormat;
+
 /// The largest side accepted, far above any webcam, so that sizes times strides never overflow
 /// (what a size costs in memory is checked against `--max-memory-mb` separately).
 pub const MAX_SIDE_PX: u32 = 16_384;
@@ -77,12 +79,22 @@ impl FrameSize {
 
     /// Bytes of one unpadded YUYV row.
     pub fn row_bytes(&self) -> usize {
-        self.width() * super::YUYV_BYTES_PER_PIXEL
+        self.row_bytes_as(PixelFormat::Yuyv)
     }
 
     /// Bytes of one unpadded YUYV frame, as raw dumps store it.
     pub fn frame_bytes(&self) -> usize {
-        self.row_bytes() * self.height()
+        self.frame_bytes_as(PixelFormat::Yuyv)
+    }
+
+    /// Bytes of one unpadded row of `format`.
+    pub fn row_bytes_as(&self, format: PixelFormat) -> usize {
+        self.width() * format.bytes_per_pixel()
+    }
+
+    /// Bytes of one unpadded frame of `format`, as raw dumps store it.
+    pub fn frame_bytes_as(&self, format: PixelFormat) -> usize {
+        self.row_bytes_as(format) * self.height()
     }
 }
 

@@ -10,7 +10,7 @@ use std::io::{self, Read};
 
 use super::clock::monotonic_now_us;
 use super::{FrameMeta, FrameSource};
-use crate::frame::{Frame, FrameError, FrameSize};
+use crate::frame::{Frame, FrameError, FrameSize, PixelFormat};
 
 /// Microseconds per second.
 const US_PER_S: f64 = 1e6;
@@ -65,36 +65,61 @@ pub struct DumpSource<R> {
     reader: R,
     buffer: Vec<u8>,
     size: FrameSize,
+    format: PixelFormat,
     frame_period_us: f64,
     next_index: u64,
     finished: bool,
 }
 
 impl<R: Read> DumpSource<R> {
-    /// A source of `size` frames at `fps` frames per second (for timestamps only). Aborts
+    /// A source of `size` YUYV frames at `fps` frames per second (for timestamps only). Aborts
     /// like `vec!` if the frame buffer does not fit in memory; [`DumpSource::try_new`] says so
     /// instead.
     pub fn new(reader: R, size: FrameSize, fps: f64) -> Self {
-        Self::with_buffer(reader, size, fps, vec![0; size.frame_bytes()])
+        Self::with_format(reader, size, fps, PixelFormat::Yuyv)
+    }
+
+    /// A source of unpadded `size` frames of `format` at `fps` frames per second.
+    pub fn with_format(reader: R, size: FrameSize, fps: f64, format: PixelFormat) -> Self {
+        let buffer = vec![0; size.frame_bytes_as(format)];
+        Self::with_buffer(reader, size, fps, format, buffer)
     }
 
     /// [`DumpSource::new`], with an error instead of an abort when the frame buffer, whose
     /// size comes from the command line, does not fit in memory.
     pub fn try_new(reader: R, size: FrameSize, fps: f64) -> Result<Self, DumpError> {
-        let frame_bytes = size.frame_bytes();
+        Self::try_with_format(reader, size, fps, PixelFormat::Yuyv)
+    }
+
+    /// [`DumpSource::with_format`], with an error instead of an abort when the frame buffer
+    /// does not fit in memory.
+    pub fn try_with_format(
+        reader: R,
+        size: FrameSize,
+        fps: f64,
+        format: PixelFormat,
+    ) -> Result<Self, DumpError> {
+        let frame_bytes = size.frame_bytes_as(format);
         let mut buffer = Vec::new();
         buffer
             .try_reserve_exact(frame_bytes)
             .map_err(|_| DumpError::Memory { frame_bytes })?;
         buffer.resize(frame_bytes, 0);
-        Ok(Self::with_buffer(reader, size, fps, buffer))
+        Ok(Self::with_buffer(reader, size, fps, format, buffer))
     }
 
-    fn with_buffer(reader: R, size: FrameSize, fps: f64, buffer: Vec<u8>) -> Self {
+    fn with_buffer(
+        reader: R,
+        size: FrameSize,
+        fps: f64,
+        format: PixelFormat,
+        buffer: Vec<u8>,
+    ) -> Self {
         DumpSource {
             reader,
             buffer,
             size,
+            format,
             frame_period_us: US_PER_S / fps,
             next_index: 0,
             finished: false,
@@ -151,7 +176,8 @@ impl<R: Read> FrameSource for DumpSource<R> {
             timestamp_us: (index as f64 * self.frame_period_us).round() as u64,
             monotonic_us: monotonic_now_us(),
         };
-        let frame = Frame::new_checked(&self.buffer, self.size, self.size.row_bytes())
+        let stride_bytes = self.size.row_bytes_as(self.format);
+        let frame = Frame::new_checked_as(&self.buffer, self.size, stride_bytes, self.format)
             .map_err(DumpError::Frame)?;
         Ok(Some((frame, meta)))
     }

@@ -7,7 +7,8 @@
 //!  "fps":30.0,"device":"/dev/video0","frames":[{"seq":0,"t_us":0},{"seq":2,"t_us":66671}]}
 //! ```
 //!
-//! `stride` is the dump's own row stride, always `2 × width` (rows are written unpadded);
+//! `format` is the V4L2 code of the pixels (`YUYV`, `UYVY` or `GREY`); `stride` is the dump's
+//! own row stride, always `width × bytes per pixel` (rows are written unpadded);
 //! `driver_stride` is what the camera used. `seq` is the capture's 64-bit sequence number (gaps
 //! are dropped frames) and `t_us` the driver timestamp in microseconds since the first frame.
 //! [`ReplaySource`] replays a dump with its sidecar's timing. A sidecar is checked before use:
@@ -21,14 +22,14 @@ use serde::{Deserialize, Serialize};
 
 use super::dump::{DumpError, DumpSource};
 use super::{FrameMeta, FrameSource};
-use crate::frame::{Frame, FrameSize, SizeError};
+use crate::frame::{Frame, FrameSize, PixelFormat, SizeError};
 use crate::small_file::{self, SmallFileError};
 
 /// The sidecar layout written by this version of glint.
 pub const SIDECAR_VERSION: u32 = 1;
 /// Appended to the dump's file name.
 pub const SIDECAR_SUFFIX: &str = ".json";
-/// The only pixel format glint records.
+/// The pixel format of dumps recorded before the sidecar named others.
 pub const FORMAT_YUYV: &str = "YUYV";
 /// Bytes a sidecar may spend per frame (a frame's entry is about 30), and on its header: a
 /// sidecar larger than that for its dump is refused before it is read into memory.
@@ -137,7 +138,7 @@ impl fmt::Display for SidecarError {
                 "sidecar version {v} is newer than this glint reads ({SIDECAR_VERSION})"
             ),
             SidecarError::Format(format) => {
-                write!(f, "frames are {format:?}, but glint reads {FORMAT_YUYV} only")
+                write!(f, "frames are {format:?}, but glint reads YUYV, UYVY and GREY only")
             }
             SidecarError::Size(e) => write!(f, "{e}"),
             SidecarError::Stride {
@@ -209,6 +210,25 @@ impl Sidecar {
         }
     }
 
+    /// The same sidecar for frames of `format` (unpadded rows of that format).
+    pub fn with_format(mut self, format: PixelFormat) -> Self {
+        self.format = String::from_utf8_lossy(&format.fourcc()).into_owned();
+        self.stride_bytes = self
+            .size()
+            .map_or(self.stride_bytes, |s| s.row_bytes_as(format));
+        self
+    }
+
+    /// The pixel format it states (its V4L2 four-character code).
+    pub fn pixel_format(&self) -> Result<PixelFormat, SidecarError> {
+        let fourcc: [u8; 4] = self
+            .format
+            .as_bytes()
+            .try_into()
+            .map_err(|_| SidecarError::Format(self.format.clone()))?;
+        PixelFormat::from_fourcc(fourcc).ok_or_else(|| SidecarError::Format(self.format.clone()))
+    }
+
     /// Where the sidecar of `dump` lives: the dump's name with [`SIDECAR_SUFFIX`] appended.
     pub fn path_for(dump: &Path) -> PathBuf {
         let mut name = dump.as_os_str().to_os_string();
@@ -237,7 +257,8 @@ impl Sidecar {
     /// frames. Errors say what disagrees; `Io` with `NotFound` means there is no sidecar.
     /// The sidecar must be a regular file (a FIFO or a device is refused without waiting).
     pub fn load_for(path: &Path, size: FrameSize, dump_bytes: u64) -> Result<Self, SidecarError> {
-        let frames_in_dump = dump_bytes / size.frame_bytes().max(1) as u64;
+        // The smallest frame (GREY) bounds the frame count for every format.
+        let frames_in_dump = dump_bytes / size.frame_bytes_as(PixelFormat::Grey).max(1) as u64;
         let limit_bytes = MAX_SIDECAR_HEADER_BYTES
             .saturating_add(frames_in_dump.saturating_mul(MAX_SIDECAR_BYTES_PER_FRAME));
         let bytes = small_file::read_bytes(path, limit_bytes).map_err(|e| match e {
@@ -273,14 +294,12 @@ impl Sidecar {
         if self.version > SIDECAR_VERSION || self.version == 0 {
             return Err(SidecarError::Version(self.version));
         }
-        if self.format != FORMAT_YUYV {
-            return Err(SidecarError::Format(self.format.clone()));
-        }
+        let format = self.pixel_format()?;
         let size = self.size()?;
-        if self.stride_bytes != size.row_bytes() {
+        if self.stride_bytes != size.row_bytes_as(format) {
             return Err(SidecarError::Stride {
                 stride_bytes: self.stride_bytes,
-                row_bytes: size.row_bytes(),
+                row_bytes: size.row_bytes_as(format),
             });
         }
         for (i, pair) in self.frames.windows(2).enumerate() {
@@ -315,7 +334,7 @@ impl Sidecar {
                 given: size,
             });
         }
-        let frame_bytes = size.frame_bytes();
+        let frame_bytes = size.frame_bytes_as(self.pixel_format()?);
         let expected = (self.frames.len() as u64).checked_mul(frame_bytes as u64);
         if expected != Some(dump_bytes) {
             return Err(SidecarError::FrameCount {
@@ -363,14 +382,16 @@ pub struct ReplaySource<R> {
 }
 
 impl<R: Read> ReplaySource<R> {
-    /// Replays `reader`, a dump of `size` frames, with `sidecar`'s timing. The sidecar is
-    /// assumed checked ([`Sidecar::load_for`]).
+    /// Replays `reader`, a dump of `size` frames in the sidecar's pixel format, with
+    /// `sidecar`'s timing. The sidecar is assumed checked ([`Sidecar::load_for`]).
     pub fn new(reader: R, size: FrameSize, sidecar: Sidecar) -> Self {
-        Self::from_dump(DumpSource::new(reader, size, UNUSED_NOMINAL_FPS), sidecar)
+        let format = sidecar.pixel_format().unwrap_or_default();
+        let dump = DumpSource::with_format(reader, size, UNUSED_NOMINAL_FPS, format);
+        Self::from_dump(dump, sidecar)
     }
 
-    /// [`ReplaySource::new`] over a dump source already opened (with
-    /// [`DumpSource::try_new`], say); its nominal frame rate is not used.
+    /// [`ReplaySource::new`] over a dump source already opened in the sidecar's pixel format
+    /// (with [`DumpSource::try_with_format`], say); its nominal frame rate is not used.
     pub fn from_dump(dump: DumpSource<R>, sidecar: Sidecar) -> Self {
         ReplaySource {
             dump,

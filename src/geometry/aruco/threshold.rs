@@ -91,15 +91,18 @@ impl Thresholder {
         };
         let r = radius_px.min(MAX_RADIUS_PX);
         let offset = u32::from(offset);
+        let step = frame.luma_step();
         let luma_row = |y: usize| {
             frame
-                .row(roi.y_px + y)
-                .and_then(|row| row.get(2 * roi.x_px..2 * (roi.x_px + w)))
+                .luma_row(roi.y_px + y)
+                .and_then(|row| {
+                    row.get(step * roi.x_px..(step * (roi.x_px + w) + 1).saturating_sub(step))
+                })
                 .unwrap_or(&[])
         };
         columns.fill(0);
         for y in 0..r.min(h) {
-            for (c, l) in columns.iter_mut().zip(luma_row(y).iter().step_by(2)) {
+            for (c, l) in columns.iter_mut().zip(luma_row(y).iter().step_by(step)) {
                 *c += u32::from(*l);
             }
         }
@@ -107,14 +110,14 @@ impl Thresholder {
             // Window rows are [y − r, y + r], cut at the region: add the row entering it and
             // drop the one that left.
             if y + r < h {
-                for (c, l) in columns.iter_mut().zip(luma_row(y + r).iter().step_by(2)) {
+                for (c, l) in columns.iter_mut().zip(luma_row(y + r).iter().step_by(step)) {
                     *c += u32::from(*l);
                 }
             }
             if y > r {
                 for (c, l) in columns
                     .iter_mut()
-                    .zip(luma_row(y - r - 1).iter().step_by(2))
+                    .zip(luma_row(y - r - 1).iter().step_by(step))
                 {
                     *c -= u32::from(*l);
                 }
@@ -125,7 +128,7 @@ impl Thresholder {
             for x in 0..w {
                 prefix[x + 1] = prefix[x] + columns[x];
             }
-            for (d, l) in luma.iter_mut().zip(luma_row(y).iter().step_by(2)) {
+            for (d, l) in luma.iter_mut().zip(luma_row(y).iter().step_by(step)) {
                 *d = *l;
             }
             let out = &mut mask[y * w..(y + 1) * w];

@@ -92,12 +92,13 @@ impl Snapshot {
         }
     }
 
-    /// Copies the frame's luma (the even bytes of each YUYV row) and the report. A frame of
+    /// Copies the frame's luma (whatever its pixel format) and the report. A frame of
     /// another size fills what overlaps.
     fn fill(&mut self, frame: &Frame<'_>, report: &FrameReport, track: &Deque<Px, TRACK_POINTS>) {
         let width = self.seen.size.width();
-        for (dst, row) in self.luma.chunks_exact_mut(width).zip(frame.rows()) {
-            for (d, y) in dst.iter_mut().zip(row.iter().step_by(2)) {
+        let step = frame.luma_step();
+        for (dst, row) in self.luma.chunks_exact_mut(width).zip(frame.luma_rows()) {
+            for (d, y) in dst.iter_mut().zip(row.iter().step_by(step)) {
                 *d = *y;
             }
         }

@@ -4,7 +4,8 @@
 //! analytic trajectory. Each frame is rendered physically, in linear units where 1.0 is the
 //! sensor's clip level: the floor's radiance, plus the LED disk (several times the clip level)
 //! integrated over the pixel area AND over the exposure window `[t - exposure, t]`, so fast
-//! motion makes real streaks; static glare; opaque occluders on top; then sensor noise,
+//! motion makes real streaks; further LEDs on the same rigid body; static glare and static
+//! lights of other shapes (bars, windows, hot pixels); opaque occluders on top; then sensor noise,
 //! clipping and 8-bit quantisation to packed YUYV 4:2:2.
 //!
 //! The ground truth ([`Truth`]) is computed from the trajectory's formulas, not from the
@@ -14,6 +15,7 @@
 //! This module does not use glint: glint's own tests render their scenes with it.
 
 mod camera;
+mod distractor;
 mod floor;
 mod occlusion;
 mod optics;
@@ -26,6 +28,7 @@ mod view;
 use std::fmt;
 
 pub use camera::{Camera, Range};
+pub use distractor::{Companion, StaticLight};
 pub use floor::Floor;
 pub use occlusion::Occluder;
 pub use optics::{Glare, Led};
@@ -78,6 +81,10 @@ pub struct SceneConfig {
     pub led: Led,
     /// Static saturated spots.
     pub glare: Vec<Glare>,
+    /// Static lights of other shapes (bars, windows, hot pixels).
+    pub static_lights: Vec<StaticLight>,
+    /// Further LEDs on the tracked LED's rigid body.
+    pub companions: Vec<Companion>,
     /// Opaque rectangles drawn over everything, the LED included.
     pub occluders: Vec<Occluder>,
     /// The floor's texture.
@@ -214,7 +221,7 @@ impl Scene {
     }
 }
 
-/// Adds the glare spots and paints the occluders over a static radiance map.
+/// Adds the glare spots and static lights, and paints the occluders over a static radiance map.
 fn add_glare_and_occluders(config: &SceneConfig, static_radiance: &mut [f32], width: usize) {
     let height = static_radiance.len() / width.max(1);
     for glare in &config.glare {
@@ -227,6 +234,9 @@ fn add_glare_and_occluders(config: &SceneConfig, static_radiance: &mut [f32], wi
         );
         patch.add_disk(glare.centre_px, glare.radius_px, glare.peak);
         add_patch(static_radiance, width, &patch);
+    }
+    for light in &config.static_lights {
+        light.add_to(static_radiance, width);
     }
     for occluder in &config.occluders {
         for (y, row) in static_radiance.chunks_exact_mut(width).enumerate() {
@@ -456,15 +466,46 @@ impl Scene {
         Ok(self.truth(frame))
     }
 
+    /// The light of each companion LED during frame `frame`'s exposure.
+    fn companion_radiance(&self, frame: usize) -> impl Iterator<Item = Patch> + '_ {
+        let exposure = self.exposure(frame);
+        let trajectory = &self.config.trajectory;
+        let streak_px =
+            trajectory.path_length_px(exposure.end_s - exposure.duration_s, exposure.end_s);
+        let steps = Exposure::steps_for(streak_px, MAX_DISK_STEP_PX);
+        let positions: Vec<Point> = exposure
+            .sample_times(steps)
+            .map(|t| trajectory.motion(t).position_px)
+            .collect();
+        let (width, height) = (
+            self.config.width_px as usize,
+            self.config.height_px as usize,
+        );
+        self.config.companions.iter().map(move |c| {
+            let (min, max) = bounds(&positions);
+            let shift = |p: Point| Point::new(p.x + c.offset_px.x, p.y + c.offset_px.y);
+            let mut patch =
+                Patch::around(shift(min), shift(max), c.led.radius_px + 1.0, width, height);
+            if !patch.values.is_empty() {
+                distractor::add_swept_disk(&mut patch, &positions, c.offset_px, &c.led);
+            }
+            patch
+        })
+    }
+
     /// Renders into a buffer of the right length (shorter buffers get whole rows only).
     fn render_into(&self, frame: usize, out: &mut [u8]) {
         let width = self.config.width_px as usize;
         if let Some(view) = &self.config.view {
             return self.render_view_into(view, frame, out);
         }
-        let mut patch = self.led_radiance(frame);
-        for occluder in &self.config.occluders {
-            hide(&mut patch, occluder);
+        let mut patches: Vec<Patch> = core::iter::once(self.led_radiance(frame))
+            .chain(self.companion_radiance(frame))
+            .collect();
+        for patch in &mut patches {
+            for occluder in &self.config.occluders {
+                hide(patch, occluder);
+            }
         }
         let mut rng = (self.config.camera.noise_sigma > 0.0)
             .then(|| SplitMix64::new(mix64(self.config.seed ^ mix64(frame as u64 ^ NOISE_SALT))));
@@ -475,10 +516,12 @@ impl Scene {
             .enumerate()
         {
             row.copy_from_slice(static_row);
-            if let Some(led_row) = patch_row(&patch, y) {
-                if let Some(dst) = row.get_mut(patch.left..patch.left + led_row.len()) {
-                    for (d, s) in dst.iter_mut().zip(led_row) {
-                        *d += s;
+            for patch in &patches {
+                if let Some(led_row) = patch_row(patch, y) {
+                    if let Some(dst) = row.get_mut(patch.left..patch.left + led_row.len()) {
+                        for (d, s) in dst.iter_mut().zip(led_row) {
+                            *d += s;
+                        }
                     }
                 }
             }
@@ -678,6 +721,18 @@ fn validate(c: &SceneConfig) -> Result<(), SceneError> {
         return Err(invalid(
             "glare",
             "centres must be finite, radii positive, peaks not negative",
+        ));
+    }
+    if !c.static_lights.iter().all(StaticLight::is_valid) {
+        return Err(invalid(
+            "static_lights",
+            "sizes must be positive and finite, radiances not negative",
+        ));
+    }
+    if !c.companions.iter().all(Companion::is_valid) {
+        return Err(invalid(
+            "companions",
+            "offsets finite, radii positive, peaks not negative, no glow",
         ));
     }
     let occluders_ok = c.occluders.iter().all(|o| {

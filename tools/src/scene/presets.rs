@@ -2,6 +2,7 @@
 //! and README figures depend on them. All are 640×480 at 30 fps unless said otherwise.
 
 use super::camera::{Camera, Range};
+use super::distractor::{Companion, StaticLight};
 use super::floor::Floor;
 use super::occlusion::Occluder;
 use super::optics::{Glare, Led};
@@ -29,6 +30,10 @@ pub(crate) const NAMES: &[&str] = &[
     "lens-mild",
     "led-mast",
     "knocked",
+    "rest-glare",
+    "hot-pixel",
+    "window",
+    "three-leds",
 ];
 
 const VGA_WIDTH_PX: u32 = 640;
@@ -48,6 +53,33 @@ const FLOOR_CONTRAST: f64 = 0.18;
 const FLOOR_TILE_PX: u32 = 64;
 /// About 2.5 luma levels of read noise.
 const NOISE_SIGMA: f64 = 0.01;
+
+/// A floor with little texture, so that an unclipped LED's top level is known to a few levels.
+const UNCLIPPED_FLOOR_CONTRAST: f64 = 0.02;
+/// LED radiance over the floor that brings its top to about 237 of 255: visible, not clipped.
+const UNCLIPPED_LED_PEAK: f64 = 0.55;
+/// A hot pixel that reads 247.
+const HOT_PIXEL_RADIANCE: f64 = 247.0 / 255.0;
+
+/// An LED the camera does not clip: no glow, radiance `peak` above the floor.
+fn unclipped_led(peak: f64) -> Led {
+    Led {
+        radius_px: LED_RADIUS_PX,
+        peak,
+        glow_peak: 0.0,
+        glow_radius_px: 0.0,
+    }
+}
+
+/// Another LED on the same body, without glow.
+fn companion_led(peak: f64) -> Led {
+    Led {
+        radius_px: LED_RADIUS_PX,
+        peak,
+        glow_peak: 0.0,
+        glow_radius_px: 0.0,
+    }
+}
 
 fn led(radius_px: f64) -> Led {
     Led {
@@ -78,6 +110,8 @@ fn base(
         trajectory,
         led: led(LED_RADIUS_PX),
         glare: Vec::new(),
+        static_lights: Vec::new(),
+        companions: Vec::new(),
         occluders: Vec::new(),
         floor: Floor {
             mean: FLOOR_MEAN,
@@ -403,6 +437,118 @@ pub(crate) fn config(name: &str) -> Option<SceneConfig> {
                 v,
             );
             config.frame_count = 180;
+            config
+        }
+        "rest-glare" => {
+            // The robot stands still for the first second, among static lights of several
+            // shapes: a small round spot, an elongated bar and a square lamp, all clipped.
+            let mut config = base(
+                name,
+                "LED at rest for 1 s, then round a rectangle, among a small glare disk, a glare bar and a square lamp",
+                8_000,
+                150,
+                Trajectory::StopGo {
+                    waypoints_px: vec![
+                        Point::new(200.0, 300.0),
+                        Point::new(420.0, 300.0),
+                        Point::new(420.0, 180.0),
+                    ],
+                    move_s: 0.8,
+                    hold_s: 1.0,
+                    start_s: 1.0,
+                },
+            );
+            config.static_lights = vec![
+                StaticLight::Ellipse {
+                    centre_px: Point::new(110.0, 90.0),
+                    radii_px: Point::new(3.0, 3.0),
+                    angle_rad: 0.0,
+                    peak: 3.0,
+                },
+                StaticLight::Ellipse {
+                    centre_px: Point::new(520.0, 400.0),
+                    radii_px: Point::new(14.0, 2.5),
+                    angle_rad: 0.5,
+                    peak: 3.0,
+                },
+                StaticLight::Rect {
+                    left_px: 540.0,
+                    top_px: 60.0,
+                    width_px: 9.0,
+                    height_px: 9.0,
+                    peak: 2.0,
+                },
+            ];
+            config
+        }
+        "hot-pixel" => {
+            // An LED that the camera does not clip (top near 237) creeping round a small
+            // circle, and one hot pixel that reads 247 all the time.
+            let mut config = base(
+                name,
+                "unclipped LED (top about 237) creeping on a 6 px circle at 5 px/s, and a hot pixel at 247",
+                8_000,
+                150,
+                Trajectory::Circle {
+                    centre_px: Point::new(300.0, 220.0),
+                    radius_px: 6.0,
+                    rev_per_s: 0.13,
+                    phase_rad: 0.0,
+                },
+            );
+            config.floor.contrast = UNCLIPPED_FLOOR_CONTRAST;
+            config.led = unclipped_led(UNCLIPPED_LED_PEAK);
+            config.static_lights = vec![StaticLight::Pixel {
+                x_px: 450,
+                y_px: 120,
+                radiance: HOT_PIXEL_RADIANCE,
+            }];
+            config
+        }
+        "window" => {
+            // A window that clips, and beside it an LED that does not (top near 237).
+            let mut config = base(
+                name,
+                "unclipped LED (top about 237) on a 3:2 Lissajous beside a large clipped window",
+                8_000,
+                150,
+                Trajectory::Lissajous {
+                    centre_px: Point::new(260.0, 260.0),
+                    amplitude_px: Point::new(150.0, 120.0),
+                    freq_hz: Point::new(0.3, 0.2),
+                    phase_rad: Point::new(0.0, 0.5),
+                },
+            );
+            config.floor.contrast = UNCLIPPED_FLOOR_CONTRAST;
+            config.led = unclipped_led(UNCLIPPED_LED_PEAK);
+            config.static_lights = vec![StaticLight::Rect {
+                left_px: 450.0,
+                top_px: 40.0,
+                width_px: 120.0,
+                height_px: 90.0,
+                peak: 1.5,
+            }];
+            config
+        }
+        "three-leds" => {
+            // Three LEDs of different brightness on one body, translating on a figure-eight.
+            let mut config = base(
+                name,
+                "three LEDs (20×, 6× and 2× clip) on one rigid body on a 360×220 px figure-eight, 10 ms exposure",
+                10_000,
+                150,
+                figure_eight(Point::new(300.0, 220.0), Point::new(180.0, 110.0), 0.25),
+            );
+            config.companions = vec![
+                Companion {
+                    offset_px: Point::new(70.0, 0.0),
+                    led: companion_led(6.0),
+                },
+                Companion {
+                    offset_px: Point::new(35.0, 60.0),
+                    led: companion_led(2.0),
+                },
+            ];
             config
         }
         _ => return None,
