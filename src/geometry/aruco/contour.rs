@@ -4,7 +4,11 @@
 //! trace has visited. Each trace walks the region's border clockwise (on screen, y down) and
 //! marks the pixels it visits, so each border is followed once. Borders of holes run the other
 //! way round; the caller drops them by the sign of their area. The contour buffer is allocated
-//! once; a border longer than it is abandoned, since no marker the detector accepts is that long.
+//! once; a border longer than it is still walked to its end (so that none of its pixels starts
+//! another trace) but not kept, since no marker the detector accepts is that long.
+//!
+//! The cost is bounded: every step of every trace is taken from a budget, and tracing stops when
+//! it runs out (a frame of speckle or a maze has borders everywhere).
 
 use super::threshold::{DARK, LIGHT};
 
@@ -32,19 +36,33 @@ fn step_index(dx: i32, dy: i32) -> Option<usize> {
     STEPS.iter().position(|&s| s == (dx, dy))
 }
 
+/// How one trace ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Trace {
+    /// Back at its start: the border is in the contour buffer.
+    Closed,
+    /// Longer than the buffer: walked to its end, not kept.
+    TooLong,
+    /// The step budget ran out during the trace.
+    OutOfBudget,
+}
+
 /// Traces every border of the mask, calling `on_contour` with each outer border's pixels
-/// (clockwise on screen) that has between `min_len` and `max_len` pixels.
+/// (clockwise on screen) that has between `min_len` and the contour buffer's capacity of pixels.
+/// Each step of a trace takes one from `steps_left`; returns false if tracing stopped because
+/// the budget ran out (some borders were not traced).
 pub fn trace_borders(
     mask: &mut [u8],
     width: usize,
     height: usize,
     min_len: usize,
     contour: &mut Vec<(i32, i32)>,
+    steps_left: &mut usize,
     mut on_contour: impl FnMut(&[(i32, i32)]),
-) {
+) -> bool {
     let max_len = contour.capacity();
     if mask.len() < width * height {
-        return;
+        return true;
     }
     for y in 0..height {
         let mut x = 0;
@@ -65,14 +83,19 @@ pub fn trace_borders(
                 mask.get(i) == Some(&DARK) && (x == 0 || mask.get(i - 1) == Some(&LIGHT));
             if starts_border {
                 contour.clear();
-                let complete = follow(mask, width, height, (x as i32, y as i32), contour, max_len);
-                if complete && contour.len() >= min_len && signed_area2(contour) > 0 {
-                    on_contour(contour);
+                let start = (x as i32, y as i32);
+                match follow(mask, width, height, start, contour, max_len, steps_left) {
+                    Trace::Closed if contour.len() >= min_len && signed_area2(contour) > 0 => {
+                        on_contour(contour)
+                    }
+                    Trace::OutOfBudget => return false,
+                    _ => {}
                 }
             }
             x += 1;
         }
     }
+    true
 }
 
 /// Whether `(x, y)` is a dark (possibly visited) pixel inside the mask.
@@ -86,8 +109,8 @@ fn is_dark(mask: &[u8], width: usize, height: usize, x: i32, y: i32) -> bool {
             .is_some_and(|&m| m != LIGHT)
 }
 
-/// Follows the border through `start` (whose west neighbour is light), marking it visited.
-/// Returns false if the border is longer than `max_len`.
+/// Follows the border through `start` (whose west neighbour is light), marking it visited, and
+/// keeps its first `max_len` pixels in `contour`.
 fn follow(
     mask: &mut [u8],
     width: usize,
@@ -95,7 +118,8 @@ fn follow(
     start: (i32, i32),
     contour: &mut Vec<(i32, i32)>,
     max_len: usize,
-) -> bool {
+    steps_left: &mut usize,
+) -> Trace {
     let mark = |mask: &mut [u8], (x, y): (i32, i32)| {
         if let Some(m) = mask.get_mut(y as usize * width + x as usize) {
             *m = VISITED;
@@ -107,7 +131,12 @@ fn follow(
     // Direction from `cur` to the light neighbour the search starts after.
     let mut back = WEST;
     let mut first_move: Option<(i32, i32)> = None;
+    let mut len = 1usize;
     loop {
+        if *steps_left == 0 {
+            return Trace::OutOfBudget;
+        }
+        *steps_left -= 1;
         let mut next = None;
         for k in 1..=8 {
             let d = (back + k) % 8;
@@ -122,23 +151,26 @@ fn follow(
             }
         }
         let Some(n) = next else {
-            return true; // an isolated pixel
+            return Trace::Closed; // an isolated pixel
         };
         if cur == start {
             match first_move {
                 None => first_move = Some(n),
                 Some(f) if f == n => {
+                    if len > max_len {
+                        return Trace::TooLong;
+                    }
                     contour.pop(); // `start` was pushed again on arrival
-                    return true;
+                    return Trace::Closed;
                 }
                 Some(_) => {}
             }
         }
-        if contour.len() >= max_len {
-            return false;
-        }
         mark(mask, n);
-        contour.push(n);
+        len += 1;
+        if contour.len() < max_len {
+            contour.push(n);
+        }
         cur = n;
     }
 }
@@ -174,7 +206,10 @@ mod tests {
         let (mut m, w, h) = mask(rows);
         let mut buf = Vec::with_capacity(64);
         let mut out = Vec::new();
-        trace_borders(&mut m, w, h, 1, &mut buf, |c| out.push(c.to_vec()));
+        let mut steps = usize::MAX;
+        assert!(trace_borders(&mut m, w, h, 1, &mut buf, &mut steps, |c| {
+            out.push(c.to_vec())
+        }));
         out
     }
 
@@ -207,11 +242,42 @@ mod tests {
     }
 
     #[test]
-    fn borders_longer_than_the_buffer_are_dropped() {
+    fn borders_longer_than_the_buffer_are_dropped_and_walked_once() {
         let (mut m, w, h) = mask(&["........", ".######.", ".######.", "........"]);
         let mut buf = Vec::with_capacity(8);
         let mut n = 0;
-        trace_borders(&mut m, w, h, 1, &mut buf, |_| n += 1);
+        let mut steps = usize::MAX;
+        assert!(trace_borders(&mut m, w, h, 1, &mut buf, &mut steps, |_| {
+            n += 1
+        }));
         assert_eq!(n, 0);
+        // The whole border (12 pixels) was walked once and marked: no second trace started on it.
+        assert_eq!(usize::MAX - steps, 13);
+        assert_eq!(m.iter().filter(|&&p| p == VISITED).count(), 12);
+    }
+
+    #[test]
+    fn tracing_stops_when_the_step_budget_runs_out() {
+        let rows = ["........", ".##..##.", ".##..##.", "........"];
+        let (mut m, w, h) = mask(&rows);
+        let mut buf = Vec::with_capacity(64);
+        let mut found = 0;
+        let mut steps = 6; // the first square's border takes 5 steps
+        assert!(!trace_borders(
+            &mut m,
+            w,
+            h,
+            1,
+            &mut buf,
+            &mut steps,
+            |_| found += 1
+        ));
+        assert_eq!((found, steps), (1, 0));
+        let (mut m, ..) = mask(&rows);
+        let mut steps = 10;
+        assert!(trace_borders(&mut m, w, h, 1, &mut buf, &mut steps, |_| {
+            found += 1
+        }));
+        assert_eq!(found, 3);
     }
 }
