@@ -113,6 +113,7 @@ pub fn run(args: CalibrateArgs) -> Result<ExitCode> {
     let mut sums = vec![CornerSums::default(); placements.len()];
     let mut seen_ids = BTreeSet::new();
     let mut frames = 0u64;
+    let mut capped_frames = 0u64;
     while let Some((frame, _meta)) = source
         .next_frame()
         .with_context(|| format!("after {frames} whole frames"))?
@@ -138,9 +139,25 @@ pub fn run(args: CalibrateArgs) -> Result<ExitCode> {
                 _ => {}
             }
         }
+        if detector.stats().capped {
+            if capped_frames == 0 {
+                log::warn!(
+                    "frame {}: marker detection hit its cost cap (a cluttered frame); \
+                     part of the frame was not searched",
+                    frames - 1
+                );
+            }
+            capped_frames += 1;
+        }
     }
     if frames == 0 {
         bail!("{} holds no whole frame of {}", args.input, args.size);
+    }
+    if capped_frames > 0 {
+        log::warn!(
+            "marker detection hit its cost cap in {capped_frames} of {frames} frames; \
+             markers there may have been missed"
+        );
     }
     for (p, sum) in placements.iter().zip(&sums) {
         if sum.frames == 0 {

@@ -47,7 +47,15 @@ pub fn fit_quad(border: &[(i32, i32)], limits: &QuadLimits) -> Result<[Point; 4]
     let n = border.len();
     let first = *border.first().ok_or(Rejection::NotQuad)?;
     let pt = |i: usize| {
-        let (x, y) = border.get(i % n).copied().unwrap_or(first);
+        // Indices run at most one lap past the end; a subtraction is cheaper than a division.
+        let i = if i < n {
+            i
+        } else if i < 2 * n {
+            i - n
+        } else {
+            i % n
+        };
+        let (x, y) = border.get(i).copied().unwrap_or(first);
         Point::new(f64::from(x), f64::from(y))
     };
     let m = limits.min_edge_distance_px;

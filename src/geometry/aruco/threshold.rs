@@ -49,13 +49,13 @@ fn classify(luma: u8, sum: u32, area: u32, offset: u32, ratio_pct: u32) -> u8 {
 /// Threshold scratch, allocated once for the largest region (the whole frame).
 #[derive(Debug)]
 pub struct Thresholder {
+    /// The region's luma, `width × height`, gathered once from the YUYV pairs for all passes.
+    plane: Vec<u8>,
     /// Per column, the sum of luma over the window's rows (a running box filter: each row is
     /// added once when the window reaches it and subtracted once when it leaves).
     column_sums: Vec<u32>,
     /// Prefix sums of `column_sums` along the current row, `width + 1` entries.
     prefix: Vec<u32>,
-    /// The current row's luma, gathered from the YUYV pairs.
-    luma: Vec<u8>,
     /// The mask of the current region, `width × height`, row-major: `LIGHT` or `DARK`.
     mask: Vec<u8>,
     width_px: usize,
@@ -66,53 +66,59 @@ impl Thresholder {
     /// Scratch for regions up to `max_width_px × max_height_px`.
     pub fn new(max_width_px: usize, max_height_px: usize) -> Self {
         Thresholder {
+            plane: vec![0; max_width_px * max_height_px],
             column_sums: vec![0; max_width_px],
             prefix: vec![0; max_width_px + 1],
-            luma: vec![0; max_width_px],
             mask: vec![LIGHT; max_width_px * max_height_px],
             width_px: 0,
             height_px: 0,
         }
     }
 
-    /// Thresholds `roi` of `frame` (already clipped to it and no larger than the scratch):
-    /// dark where `luma + offset < window mean` and `luma < ratio_pct % × window mean`
-    /// (`ratio_pct` at most [`NO_RATIO_PCT`]), the window being `2 × radius + 1` pixels square
-    /// (radius at most [`MAX_RADIUS_PX`]), cut at the region's edges.
-    pub fn run(
-        &mut self,
-        frame: &Frame<'_>,
-        roi: Roi,
-        radius_px: usize,
-        offset: u8,
-        ratio_pct: u32,
-    ) {
+    /// Takes the luma of `roi` of `frame` (already clipped to it and no larger than the scratch)
+    /// for the passes that follow.
+    pub fn load(&mut self, frame: &Frame<'_>, roi: Roi) {
         let (w, h) = (roi.width_px, roi.height_px);
-        self.width_px = w;
-        self.height_px = h;
-        let (Some(columns), Some(prefix), Some(luma), Some(mask)) = (
-            self.column_sums.get_mut(..w),
-            self.prefix.get_mut(..w + 1),
-            self.luma.get_mut(..w),
-            self.mask.get_mut(..w * h),
-        ) else {
+        let Some(plane) = self.plane.get_mut(..w * h) else {
             // The caller sizes regions within the scratch; an oversize one yields an empty mask.
             self.width_px = 0;
             self.height_px = 0;
             return;
         };
+        self.width_px = w;
+        self.height_px = h;
+        for (y, out) in plane.chunks_exact_mut(w.max(1)).enumerate() {
+            let row = frame
+                .row(roi.y_px + y)
+                .and_then(|row| row.get(2 * roi.x_px..2 * (roi.x_px + w)))
+                .unwrap_or(&[]);
+            for (d, pair) in out.iter_mut().zip(row.chunks_exact(2)) {
+                *d = pair[0];
+            }
+        }
+    }
+
+    /// Thresholds the loaded region: dark where `luma + offset < window mean` and
+    /// `luma < ratio_pct % × window mean` (`ratio_pct` at most [`NO_RATIO_PCT`]), the window
+    /// being `2 × radius + 1` pixels square (radius at most [`MAX_RADIUS_PX`]), cut at the
+    /// region's edges.
+    pub fn run(&mut self, radius_px: usize, offset: u8, ratio_pct: u32) {
+        let (w, h) = (self.width_px, self.height_px);
+        let (Some(plane), Some(columns), Some(prefix), Some(mask)) = (
+            self.plane.get(..w * h),
+            self.column_sums.get_mut(..w),
+            self.prefix.get_mut(..w + 1),
+            self.mask.get_mut(..w * h),
+        ) else {
+            return;
+        };
         let r = radius_px.min(MAX_RADIUS_PX);
         let offset = u32::from(offset);
         let ratio_pct = ratio_pct.min(NO_RATIO_PCT);
-        let luma_row = |y: usize| {
-            frame
-                .row(roi.y_px + y)
-                .and_then(|row| row.get(2 * roi.x_px..2 * (roi.x_px + w)))
-                .unwrap_or(&[])
-        };
+        let luma_row = |y: usize| plane.get(y * w..(y + 1) * w).unwrap_or(&[]);
         columns.fill(0);
         for y in 0..r.min(h) {
-            for (c, l) in columns.iter_mut().zip(luma_row(y).iter().step_by(2)) {
+            for (c, l) in columns.iter_mut().zip(luma_row(y)) {
                 *c += u32::from(*l);
             }
         }
@@ -120,15 +126,12 @@ impl Thresholder {
             // Window rows are [y − r, y + r], cut at the region: add the row entering it and
             // drop the one that left.
             if y + r < h {
-                for (c, l) in columns.iter_mut().zip(luma_row(y + r).iter().step_by(2)) {
+                for (c, l) in columns.iter_mut().zip(luma_row(y + r)) {
                     *c += u32::from(*l);
                 }
             }
             if y > r {
-                for (c, l) in columns
-                    .iter_mut()
-                    .zip(luma_row(y - r - 1).iter().step_by(2))
-                {
+                for (c, l) in columns.iter_mut().zip(luma_row(y - r - 1)) {
                     *c -= u32::from(*l);
                 }
             }
@@ -138,10 +141,13 @@ impl Thresholder {
             for x in 0..w {
                 prefix[x + 1] = prefix[x] + columns[x];
             }
-            for (d, l) in luma.iter_mut().zip(luma_row(y).iter().step_by(2)) {
-                *d = *l;
+            let luma = luma_row(y);
+            let Some(out) = mask.get_mut(y * w..(y + 1) * w) else {
+                return;
+            };
+            if luma.len() != w {
+                return;
             }
-            let out = &mut mask[y * w..(y + 1) * w];
             // Columns whose window is cut by the region's sides, one by one...
             for x in (0..r.min(w)).chain(w.saturating_sub(r).max(r.min(w))..w) {
                 let (x0, x1) = (x.saturating_sub(r), (x + r + 1).min(w));
@@ -200,7 +206,8 @@ mod tests {
             width_px: w,
             height_px: h,
         };
-        t.run(&frame, roi, 2, 5, MAX_DARK_RATIO_PCT);
+        t.load(&frame, roi);
+        t.run(2, 5, MAX_DARK_RATIO_PCT);
         let (mask, mw, _) = t.mask_mut();
         let picture: Vec<String> = mask
             .chunks(mw)
@@ -245,10 +252,11 @@ mod tests {
             width_px: w,
             height_px: h,
         };
-        t.run(&frame, roi, 3, 7, MAX_DARK_RATIO_PCT);
+        t.load(&frame, roi);
+        t.run(3, 7, MAX_DARK_RATIO_PCT);
         assert!(t.mask_mut().0.iter().all(|&m| m == LIGHT));
         // Without the ratio test, the margin alone marks the shadowed side of the edge.
-        t.run(&frame, roi, 3, 7, NO_RATIO_PCT);
+        t.run(3, 7, NO_RATIO_PCT);
         assert!(t.mask_mut().0.contains(&DARK));
     }
 }
