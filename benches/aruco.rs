@@ -1,8 +1,8 @@
 //! Marker detection plus sub-pixel refinement on a 640×480 frame of a textured floor (tiles,
 //! grout, specks, mottling) with one 20 cm marker about 1.5 m away; whole frame and a region of
 //! interest around the marker, as a periodic re-calibration would use. Then the worst cases
-//! (issue 13): adversarial 640×480 frames (a spiral, speckle, a checkerboard, a field of
-//! squares) whose cost the detector's caps bound.
+//! (issue 13): adversarial 640×480 frames (a spiral, speckle, blotches, a checkerboard, a
+//! field of squares) whose cost the detector's caps bound.
 
 use std::hint::black_box;
 
@@ -59,6 +59,7 @@ fn bench(c: &mut Criterion) {
     let adversarial = [
         ("spiral", aruco_frames::spiral(w, h, 6.0)),
         ("speckle", aruco_frames::speckle(w, h, 9)),
+        ("blotches", aruco_frames::blotches(w, h, 3, 9)),
         ("checkerboard", aruco_frames::checkerboard(w, h, 8)),
         ("squares", aruco_frames::squares(w, h, 10, 16)),
     ];

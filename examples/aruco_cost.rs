@@ -1,5 +1,5 @@
 //! The marker detector's time per 640×480 frame on the adversarial frames of `benches/aruco.rs`
-//! (spiral, speckle, checkerboard, a field of squares) and a textured floor with one marker,
+//! (spiral, speckle, blotches, checkerboard, a field of squares) and a textured floor with one marker,
 //! measured so that a loaded machine still gives a figure: beside the wall-clock median it
 //! reports the CPU time the thread actually ran (Linux's `/proc/thread-self/schedstat`), which
 //! other processes do not inflate (only share caches with). Also prints whether the detector's
@@ -49,6 +49,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         (
             "speckle",
             aruco_frames::to_yuyv(&aruco_frames::speckle(w, h, 9)),
+        ),
+        (
+            "blotches",
+            aruco_frames::to_yuyv(&aruco_frames::blotches(w, h, 3, 9)),
         ),
         (
             "checkerboard",

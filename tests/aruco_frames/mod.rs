@@ -36,6 +36,15 @@ pub fn speckle(width: usize, height: usize, seed: u64) -> Vec<u8> {
         .collect()
 }
 
+/// Speckle in `block_px` squares: blotches that join into a maze of long, winding borders.
+pub fn blotches(width: usize, height: usize, block_px: usize, seed: u64) -> Vec<u8> {
+    let (bw, bh) = (width.div_ceil(block_px), height.div_ceil(block_px));
+    let blocks = speckle(bw, bh, seed);
+    (0..width * height)
+        .map(|i| blocks[(i / width / block_px) * bw + i % width / block_px])
+        .collect()
+}
+
 /// A checkerboard of `cell_px` squares: dark squares touch at their corners.
 pub fn checkerboard(width: usize, height: usize, cell_px: usize) -> Vec<u8> {
     (0..width * height)

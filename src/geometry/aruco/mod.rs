@@ -1,12 +1,18 @@
 //! ArUco / AprilTag marker detection on the luma plane of YUYV frames, with sub-pixel corners.
 //!
 //! Stages, one file each, called in order by [`Detector::detect`]:
-//! 1. [`threshold`]: adaptive threshold of the region of interest into a mask;
+//! 1. [`threshold`]: adaptive threshold of the region of interest into a mask, once for each of
+//!    OpenCV's three window sizes (a marker missed by one window is caught by another);
 //! 2. [`contour`]: outer borders of the mask's dark regions;
 //! 3. [`quad`]: borders with four straight sides become candidates;
-//! 4. [`grid`]: each candidate's cell grid is sampled through its perspective;
+//! 4. [`grid`]: each candidate's cell grid is sampled through its perspective, longest
+//!    candidates first, each outline once;
 //! 5. [`dictionary`]: the bits are decoded in all four rotations, with error correction;
 //! 6. [`refine`]: the corners of decoded markers are refined to sub-pixel by edge-line fits.
+//!
+//! The cost per frame is bounded whatever the frame shows: contour tracing has a step budget
+//! per pass, at most [`MAX_CANDIDATES`] candidates are kept (the longest) and at most
+//! [`MAX_DECODES`] grids are read. When a cap is hit, [`DetectionStats::capped`] says so.
 //!
 //! Corners come as OpenCV gives them: top-left, top-right, bottom-right, bottom-left of the
 //! marker as printed, pixel centres at integer coordinates.
@@ -301,6 +307,13 @@ impl Detector {
                 &mut steps_left,
                 |border| {
                     stats.borders += 1;
+                    // With the heap full, a border no longer than its shortest candidate would
+                    // be dropped even as a quadrilateral: don't fit it.
+                    let shortest = candidates.peek().map_or(0, |c| c.border_px);
+                    if candidates.len() == MAX_CANDIDATES && border.len() <= shortest {
+                        stats.capped = true;
+                        return;
+                    }
                     let quad = match quad::fit_quad(border, &limits) {
                         Ok(q) => q,
                         Err(quad::Rejection::TouchesEdge) => {
