@@ -74,17 +74,23 @@ fn an_ordinary_frame_does_not_hit_the_caps() {
     assert_eq!(ids, [7, 211]);
 }
 
-#[test]
-fn glint_track_reports_a_capped_frame_in_its_json() {
+/// A dump of two frames with marker 98 bottom right: among a thousand squares, then alone.
+fn busy_then_plain_dump(dir: &std::path::Path) -> std::path::PathBuf {
     let mut busy = aruco_frames::squares(W, H, 10, 16);
     aruco_frames::paste_marker(&mut busy, W, Dictionary::Aruco6x6_250, 98, (470, 330), 10);
     let mut plain = vec![200u8; W * H];
     aruco_frames::paste_marker(&mut plain, W, Dictionary::Aruco6x6_250, 98, (470, 330), 10);
-    let dir = tempfile::tempdir().unwrap();
-    let dump = dir.path().join("busy.yuv");
+    let dump = dir.join("busy.yuv");
     let mut bytes = aruco_frames::to_yuyv(&busy);
     bytes.extend(aruco_frames::to_yuyv(&plain));
     std::fs::write(&dump, bytes).unwrap();
+    dump
+}
+
+#[test]
+fn glint_track_reports_a_capped_frame_in_its_json() {
+    let dir = tempfile::tempdir().unwrap();
+    let dump = busy_then_plain_dump(dir.path());
     let out = common::glint()
         .args(["track", "--input"])
         .arg(&dump)
@@ -103,4 +109,23 @@ fn glint_track_reports_a_capped_frame_in_its_json() {
     for line in &lines {
         assert_eq!(line["found"], true, "{line}");
     }
+}
+
+#[test]
+fn glint_calibrate_logs_capped_frames() {
+    let dir = tempfile::tempdir().unwrap();
+    let dump = busy_then_plain_dump(dir.path());
+    let out = common::glint()
+        .args(["calibrate", "--input"])
+        .arg(&dump)
+        .args(["--size", "640x480", "--marker", "98:20", "--out"])
+        .arg(dir.path().join("calib.toml"))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("marker detection hit its cost cap in 1 of 2 frames"),
+        "{stderr}"
+    );
 }

@@ -74,9 +74,9 @@ def render(dictionary, size, markers, paper, ink, background, noise, blur, gradi
 
 
 def barrel(image, k1):
-    """Barrel distortion of the image with radial coefficient k1 (normalised by the half-diagonal's
-    focal length f = width), as cv2.undistort would remove it; returns the image and the map used
-    to move the drawn corners."""
+    """Barrel distortion with radial coefficient k1 (in normalised coordinates, focal length =
+    image width, centre in the middle), as cv2.undistort would remove it; returns the image and a
+    function that moves a drawn point to where the distortion puts it."""
     h, w = image.shape
     f = float(w)
     cam = np.array([[f, 0, (w - 1) / 2], [0, f, (h - 1) / 2], [0, 0, 1]])
