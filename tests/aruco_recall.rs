@@ -183,17 +183,13 @@ fn every_marker_opencv_finds_on_hard_images() {
     assert!(failures.is_empty(), "{failures:#?}");
 }
 
-/// OpenCV's tutorial photo `singlemarkersoriginal.jpg` (from Debian's `opencv-doc`; Apache-2.0 /
-/// BSD-3-Clause, see `tools/opencv/fixtures/recall/LICENSE-photo.txt`), its luma only.
-#[test]
-fn all_six_markers_of_opencvs_tutorial_photo() {
-    let f = fixture!("opencv_photo", 1.0, 1.0);
-    let found = detect(&f);
-    let ids: Vec<u16> = found.iter().map(|m| m.id).collect();
-    assert_eq!(ids, [23, 40, 62, 98, 124, 203]);
+/// How one photo compares with OpenCV: ids glint finds, its corners' distances from OpenCV's
+/// `cornerSubPix` corners, the largest heading difference (degrees), and the distances between
+/// OpenCV's own two refinements (`cornerSubPix` and contour), the scale of "as close as".
+fn photo(f: &Fixture) -> (Vec<u16>, Vec<f64>, f64, Vec<f64>) {
+    let found = detect(f);
     let subpix = corners(f.txt, "subpix");
     let (errors, heading_deg) = corner_errors(&found, &subpix);
-    // How far OpenCV's own two refinements lie from each other: the scale of "as close as".
     let contour = corners(f.txt, "contour");
     let theirs: Vec<f64> = subpix
         .iter()
@@ -201,13 +197,31 @@ fn all_six_markers_of_opencvs_tutorial_photo() {
         .flat_map(|((_, a), (_, b))| (0..4).map(move |k| (a[k] - b[k]).norm()))
         .collect();
     eprintln!(
-        "photo: corners {:.2} mean, {:.2} max px from cornerSubPix (OpenCV's contour refinement: {:.2} mean, {:.2} max); heading {:.2} deg",
+        "{}: {} markers; corners {:.2} mean, {:.2} max px from cornerSubPix (OpenCV's contour \
+         refinement: {:.2} mean, {:.2} max); heading {:.2} deg",
+        f.name,
+        found.len(),
         mean(&errors),
         max(&errors),
         mean(&theirs),
         max(&theirs),
         heading_deg
     );
+    (
+        found.iter().map(|m| m.id).collect(),
+        errors,
+        heading_deg,
+        theirs,
+    )
+}
+
+/// OpenCV's tutorial photo `singlemarkersoriginal.jpg` (from Debian's `opencv-doc`; Apache-2.0 /
+/// BSD-3-Clause, see `tools/opencv/fixtures/recall/LICENSE-photo.txt`), its luma only.
+#[test]
+fn all_six_markers_of_opencvs_tutorial_photo() {
+    let f = fixture!("opencv_photo", 1.0, 1.0);
+    let (ids, errors, heading_deg, _) = photo(&f);
+    assert_eq!(ids, [23, 40, 62, 98, 124, 203]);
     assert_eq!(errors.len(), 24);
     assert!(
         max(&errors) <= f.max_px,
@@ -215,4 +229,27 @@ fn all_six_markers_of_opencvs_tutorial_photo() {
         max(&errors)
     );
     assert!(heading_deg <= 1.0, "heading {heading_deg:.2} deg off");
+}
+
+/// OpenCV's tutorial photo of a ChArUco board `choriginal.jpg` (same source and licence): 17
+/// markers of about 30 px inside a chessboard's white squares, with printed text around.
+#[test]
+fn every_marker_of_opencvs_charuco_photo() {
+    let f = fixture!("opencv_charuco_photo", 1.0, 2.0);
+    let (ids, errors, _, theirs) = photo(&f);
+    let want: Vec<u16> = corners(f.txt, "opencv").iter().map(|(id, _)| *id).collect();
+    assert_eq!(want.len(), 17);
+    assert_eq!(ids.len(), 17);
+    assert!(want.iter().all(|id| ids.contains(id)), "{ids:?}");
+    // Cells of 3 to 4 px leave OpenCV's two refinements up to this far apart too.
+    assert!(
+        max(&theirs) <= f.max_px,
+        "OpenCV's own: {:.2}",
+        max(&theirs)
+    );
+    assert!(
+        max(&errors) <= f.max_px,
+        "corners {:.2} px max",
+        max(&errors)
+    );
 }

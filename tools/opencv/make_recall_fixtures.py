@@ -2,6 +2,7 @@
 """Hard marker images and OpenCV's own detections in them, for glint's recall tests.
 
 Usage: python3 tools/opencv/make_recall_fixtures.py [path/to/singlemarkersoriginal.jpg]
+(choriginal.jpg, the ChArUco photo, is taken from the same folder)
 (needs opencv-contrib-python-headless and numpy; the photo comes from Debian's opencv-doc package:
 `apt-get download opencv-doc && dpkg-deb -x opencv-doc_*.deb x`, then
 x/usr/share/doc/opencv-doc/opencv4/html/singlemarkersoriginal.jpg).
@@ -177,9 +178,12 @@ def main():
     write("barrel", "DICT_6X6_250", image, placed)
 
     if len(sys.argv) > 1:
-        # OpenCV's tutorial photo (Apache-2.0 / BSD-3-Clause, see fixtures/recall/LICENSE-photo.txt).
-        photo = cv2.imread(sys.argv[1], cv2.IMREAD_GRAYSCALE)
-        write("opencv_photo", "DICT_6X6_250", photo, [])
+        # OpenCV's tutorial photos (Apache-2.0 / BSD-3-Clause, see fixtures/recall/LICENSE-photo.txt):
+        # six markers on a sheet, and a ChArUco board (markers inside a chessboard's white squares).
+        html = pathlib.Path(sys.argv[1]).parent
+        for name, file in [("opencv_photo", "singlemarkersoriginal.jpg"), ("opencv_charuco_photo", "choriginal.jpg")]:
+            photo = cv2.imread(str(html / file), cv2.IMREAD_GRAYSCALE)
+            write(name, "DICT_6X6_250", photo, [])
 
 
 if __name__ == "__main__":

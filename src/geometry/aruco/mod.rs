@@ -11,7 +11,7 @@
 //! 6. [`refine`]: the corners of decoded markers are refined to sub-pixel by edge-line fits.
 //!
 //! The cost per frame is bounded whatever the frame shows: contour tracing has a step budget
-//! per pass, at most [`MAX_CANDIDATES`] candidates are kept (the longest) and at most
+//! per frame, at most [`MAX_CANDIDATES`] candidates are kept (the longest) and at most
 //! [`MAX_DECODES`] grids are read. When a cap is hit, [`DetectionStats::capped`] says so.
 //!
 //! Corners come as OpenCV gives them: top-left, top-right, bottom-right, bottom-left of the
@@ -78,9 +78,10 @@ pub struct DetectorConfig {
     pub min_perimeter_rate: f64,
     /// Longest marker border traced, in pixels (bounds the work on huge regions).
     pub max_perimeter_px: usize,
-    /// Most contour-tracing steps per threshold pass (each pixel on a border is about one):
-    /// bounds the time spent on frames with borders everywhere (speckle, mazes). A textured
-    /// floor at 640×480 takes about 30 000 a pass, OpenCV's tutorial photo about 12 000.
+    /// Most contour-tracing steps per frame, over all threshold passes (each pixel on a border
+    /// is about one a pass): bounds the time spent on frames with borders everywhere (speckle,
+    /// mazes). At 640×480 a textured floor takes about 82 000, OpenCV's tutorial photo 36 000
+    /// and its photo of a ChArUco board (a chessboard with text around it) 169 000.
     pub max_trace_steps: usize,
     /// Whether corners are refined to sub-pixel (costs a little time per marker found).
     pub refine: bool,
@@ -99,7 +100,7 @@ impl DetectorConfig {
             threshold_offset: 7,
             min_perimeter_rate: 0.03,
             max_perimeter_px: 4000,
-            max_trace_steps: 50_000,
+            max_trace_steps: 200_000,
             refine: true,
         }
     }
@@ -286,6 +287,7 @@ impl Detector {
             (cfg.min_perimeter_rate * frame_side_px).max(4.0 * quad::MIN_SIDE_PX) as usize;
         let origin = nalgebra::Vector2::new(roi.x_px as f64, roi.y_px as f64);
         self.thresholder.load(frame, roi);
+        let mut steps_left = cfg.max_trace_steps;
         for pass in cfg.threshold_passes {
             self.thresholder
                 .run(pass.radius_px, cfg.threshold_offset, pass.ratio_pct);
@@ -297,7 +299,6 @@ impl Detector {
             };
             let stats = &mut self.stats;
             let candidates = &mut self.candidates;
-            let mut steps_left = cfg.max_trace_steps;
             let complete = contour::trace_borders(
                 mask,
                 w,
@@ -338,9 +339,9 @@ impl Detector {
                 },
             );
             self.stats.capped |= !complete;
-            let steps = cfg.max_trace_steps - steps_left;
-            self.stats.trace_steps = self.stats.trace_steps.saturating_add(steps as u32);
         }
+        let steps = cfg.max_trace_steps - steps_left;
+        self.stats.trace_steps = u32::try_from(steps).unwrap_or(u32::MAX);
         // Longest first: a marker is larger than most of the clutter around it.
         while let Some(c) = self.candidates.pop() {
             let _ = self.ordered.push(c);
