@@ -289,6 +289,11 @@ impl Detector {
         self.thresholder.load(frame, roi);
         let mut steps_left = cfg.max_trace_steps;
         for pass in cfg.threshold_passes {
+            if steps_left == 0 {
+                // The tracing budget is spent: a further pass would find no border.
+                self.stats.capped = true;
+                break;
+            }
             self.thresholder
                 .run(pass.radius_px, cfg.threshold_offset, pass.ratio_pct);
             let (mask, w, h) = self.thresholder.mask_mut();
