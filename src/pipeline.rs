@@ -42,6 +42,9 @@ pub struct FrameReport {
     pub ambiguous: bool,
     /// The tracked marker's corners and heading, when tracking a marker and it was found.
     pub marker: Option<MarkerPose>,
+    /// When tracking a marker: the marker detector hit its cost cap on this frame, so part of
+    /// the frame was not searched.
+    pub markers_capped: bool,
     /// Floor position, velocity and heading, when a calibration is loaded and `position` is
     /// known.
     pub floor: Option<FloorFix>,
@@ -126,7 +129,7 @@ impl Pipeline {
     /// the candidates, analyse that one blob's streak, update the track; marker: detect and
     /// pick the id), then map the result to the floor.
     pub fn process(&mut self, frame: &Frame<'_>, meta: FrameMeta) -> FrameReport {
-        let (detection, position, ambiguous, marker) = match &mut self.front {
+        let (detection, position, ambiguous, marker, markers_capped) = match &mut self.front {
             Front::Led { detector, tracker } => {
                 let mut detection = detector.segment(frame);
                 let choice = tracker.choose(detector.candidates(), meta.index, meta.timestamp_us);
@@ -143,11 +146,24 @@ impl Pipeline {
                 };
                 let position =
                     tracker.update(meta.timestamp_us, detection.best.as_ref().map(|(_, s)| s));
-                (detection, position, choice == Choice::Ambiguous, None)
+                (
+                    detection,
+                    position,
+                    choice == Choice::Ambiguous,
+                    None,
+                    false,
+                )
             }
             Front::Marker(tracker) => {
                 let found = tracker.process(frame, meta.timestamp_us);
-                (no_detection(), found.estimate, found.ambiguous, found.pose)
+                let capped = found.markers_capped;
+                (
+                    no_detection(),
+                    found.estimate,
+                    found.ambiguous,
+                    found.pose,
+                    capped,
+                )
             }
         };
         let calib = match (&mut self.recheck, &mut self.floor) {
@@ -166,6 +182,7 @@ impl Pipeline {
             position,
             ambiguous,
             marker,
+            markers_capped,
             floor,
             calib,
         }

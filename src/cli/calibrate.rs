@@ -217,6 +217,7 @@ pub fn run(args: CalibrateArgs) -> Result<ExitCode> {
     let mut sums = vec![CornerSums::default(); placements.len()];
     let mut seen_ids = BTreeSet::new();
     let mut frames = 0u64;
+    let mut capped_frames = 0u64;
     loop {
         let (frame, _meta) = match source.next_frame() {
             Ok(Some(next)) => next,
@@ -247,6 +248,22 @@ pub fn run(args: CalibrateArgs) -> Result<ExitCode> {
                 _ => {}
             }
         }
+        if detector.stats().capped {
+            if capped_frames == 0 {
+                log::warn!(
+                    "frame {}: marker detection hit its cost cap (a cluttered frame); \
+                     part of the frame was not searched",
+                    frames - 1
+                );
+            }
+            capped_frames += 1;
+        }
+    }
+    if capped_frames > 0 {
+        log::warn!(
+            "marker detection hit its cost cap in {capped_frames} of {frames} frames; \
+             markers there may have been missed"
+        );
     }
     let mut recorded = Vec::new();
     let mut unseen = Vec::new();

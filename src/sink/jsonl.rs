@@ -148,6 +148,9 @@ impl<W: Write> Sink for JsonLinesSink<W> {
         if r.ambiguous {
             write!(out, ",\"ambiguous\":true")?;
         }
+        if r.markers_capped {
+            write!(out, ",\"markers_capped\":true")?;
+        }
         if d.blinded {
             write!(out, ",\"blinded\":true")?;
         }

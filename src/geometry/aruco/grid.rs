@@ -72,6 +72,14 @@ pub fn read_bits(
         }
     }
     let raw = &raw[..cells * cells];
+    // No split of cells this flat can reach the contrast asked for below: stop before sampling
+    // the margin (most candidates in a cluttered frame are flat dark shapes).
+    let (lo, hi) = raw
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(lo, hi), &v| (lo.min(v), hi.max(v)));
+    if hi - lo < MIN_CELL_CONTRAST {
+        return Err(GridRejection::LowContrast);
+    }
     let mut normalised = [0.0f64; MAX_GRID_CELLS * MAX_GRID_CELLS];
     let normalised = &mut normalised[..cells * cells];
     if !normalise_by_margin(raw, cells, &cell_mean, normalised) {
