@@ -4,7 +4,7 @@
 use super::camera::{Camera, Range};
 use super::floor::Floor;
 use super::occlusion::Occluder;
-use super::optics::{Glare, Led};
+use super::optics::{Glare, Led, Spot};
 use super::trajectory::{Point, Trajectory};
 use super::SceneConfig;
 
@@ -43,14 +43,15 @@ const NOISE_SIGMA: f64 = 0.01;
 fn led(radius_px: f64) -> Led {
     Led {
         radius_px,
+        spot: Spot::Disk,
         peak: LED_PEAK,
         glow_peak: LED_GLOW_PEAK,
         glow_radius_px: LED_GLOW_RADIUS_PER_RADIUS * radius_px,
     }
 }
 
-/// The common defaults; each preset overrides what it is about.
-fn base(
+/// The common defaults; each preset (and each sweep point) overrides what it is about.
+pub(crate) fn base(
     name: &str,
     summary: &str,
     exposure_us: u32,
@@ -78,6 +79,7 @@ fn base(
         camera: Camera {
             noise_sigma: NOISE_SIGMA,
             range: Range::Full,
+            gamma: 1.0,
         },
     }
 }
@@ -224,6 +226,7 @@ pub(crate) fn config(name: &str) -> Option<SceneConfig> {
             );
             config.led = Led {
                 radius_px: 2.0,
+                spot: Spot::Disk,
                 peak: 1.6,
                 glow_peak: 0.0,
                 glow_radius_px: 0.0,
