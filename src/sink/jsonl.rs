@@ -6,7 +6,8 @@
 //! velocity is known `floor_vx`, `floor_vy`, `floor_speed` (units/s), for a marker
 //! `floor_heading_deg`; a position on or beyond the floor's horizon gets `beyond_horizon: true`
 //! and no floor numbers. Headings are degrees from +x towards +y of their coordinates
-//! ([`crate::track::marker_heading_deg`]). Then the detection's diagnostics.
+//! ([`crate::track::marker_heading_deg`]). Then the detection's diagnostics, among them, with
+//! `--streak-model fit`, `fit_px`: one standard deviation of the fitted path's ends (px).
 
 use std::io::{self, Write};
 
@@ -89,6 +90,9 @@ impl<W: Write> Sink for JsonLinesSink<W> {
                 ",\"area_px\":{},\"len_px\":{}",
                 blob.area_px, streak.skeleton_length_px
             )?;
+            if let Some(fit_px) = streak.path.and_then(|p| p.fit_px) {
+                write!(out, ",\"fit_px\":{fit_px:.3}")?;
+            }
         }
         write!(
             out,
