@@ -30,8 +30,10 @@ use crate::frame::Frame;
 pub const MAX_FIT_PX: usize = 160;
 /// Of those, pixels taken from the body (between the end caps).
 const BODY_PX: usize = 32;
-/// Levenberg–Marquardt iterations at most.
-pub const MAX_ITERATIONS: usize = 12;
+/// Levenberg–Marquardt iterations at most, in each of the two stages.
+pub const MAX_ITERATIONS: usize = 10;
+/// The most the path's parameters may move in one step.
+const MAX_PATH_STEP_PX: f32 = 2.0;
 /// Straight pieces the arc is drawn with.
 const PIECES: usize = 4;
 /// Pixels farther than this from the rough path, beyond the streak's half thickness, are left
@@ -112,39 +114,23 @@ pub fn fit(frame: &Frame<'_>, rough: &Rough, clip_luma: u8) -> Option<PathFit> {
         TONE0,
         (floor0 / clip).clamp(0.01, 0.95).powf(1.0 / TONE0),
     ]);
-    let mut cost = cost_of(&samples, &p, clip)?;
-    let mut lambda = 1e-2f32;
-    let mut normal = Normal::zeros();
-    for _ in 0..MAX_ITERATIONS {
-        let (jtj, jtr) = normal_equations(&samples, &p, clip)?;
-        normal = jtj;
-        let mut improved = false;
-        for _ in 0..4 {
-            let mut damped = jtj;
-            for i in 0..PARAMS {
-                damped[(i, i)] += lambda * jtj[(i, i)].max(1e-6);
-            }
-            let Some(step) = damped.cholesky().map(|c| c.solve(&jtr)) else {
-                lambda *= 10.0;
-                continue;
-            };
-            let trial = clamp_params(p + step);
-            match cost_of(&samples, &trial, clip) {
-                Some(c) if c < cost => {
-                    let converged = (cost - c) < 1e-4 * cost;
-                    p = trial;
-                    cost = c;
-                    lambda = (lambda * 0.3).max(1e-6);
-                    improved = !converged;
-                    break;
-                }
-                _ => lambda *= 10.0,
-            }
+    // First the core alone (no glow), which has one clear minimum near the start; then
+    // everything, from there. Started together, a wide core and a glow can settle into a
+    // wrong minimum that stretches the path.
+    let mut core_only = [true; PARAMS];
+    core_only[6] = false;
+    core_only[8] = false;
+    p[8] = 0.0;
+    let (p, _) = levenberg_marquardt(&samples, p, clip, &core_only)?;
+    let mut p = p;
+    p[8] = GLOW_RATIO0;
+    let (p, cost, normal) = match levenberg_marquardt(&samples, p, clip, &[true; PARAMS]) {
+        Some((q, _)) => {
+            let cost = cost_of(&samples, &q, clip)?;
+            (q, cost, normal_equations(&samples, &q, clip)?.0)
         }
-        if !improved {
-            break;
-        }
-    }
+        None => return None,
+    };
     let sigma = p[5].exp();
     let ends_px = [(p[0], p[1]), (p[2], p[3])];
     // The skeleton's ends of a fat blob lie up to half its width from the path's.
@@ -182,12 +168,68 @@ fn clamp_params(mut p: Params) -> Params {
     let half_chord = 0.5 * (p[2] - p[0]).hypot(p[3] - p[1]);
     p[4] = p[4].clamp(-half_chord, half_chord);
     p[5] = p[5].clamp(SIGMA_RANGE_PX.0.ln(), SIGMA_RANGE_PX.1.ln());
-    p[6] = p[6].clamp(SIGMA_RANGE_PX.0.ln(), (2.0 * SIGMA_RANGE_PX.1).ln());
+    // The glow is the wider and the dimmer of the two components.
+    p[6] = p[6].clamp(p[5], (2.0 * SIGMA_RANGE_PX.1).ln());
     p[7] = p[7].max(1e-3);
-    p[8] = p[8].max(0.0);
+    p[8] = p[8].clamp(0.0, 1.0);
     p[9] = p[9].clamp(TONE_RANGE.0, TONE_RANGE.1);
     p[10] = p[10].clamp(0.0, 1.0);
     p
+}
+
+/// Levenberg–Marquardt from `p` over the parameters marked `active` (the others stay
+/// put), at most [`MAX_ITERATIONS`] iterations. Returns the parameters and the cost.
+fn levenberg_marquardt(
+    samples: &Samples,
+    mut p: Params,
+    clip: f32,
+    active: &[bool; PARAMS],
+) -> Option<(Params, f32)> {
+    let mut cost = cost_of(samples, &p, clip)?;
+    let mut lambda = 1e-2f32;
+    for _ in 0..MAX_ITERATIONS {
+        let (mut jtj, mut jtr) = normal_equations(samples, &p, clip)?;
+        for (i, &on) in active.iter().enumerate() {
+            if !on {
+                jtj.row_mut(i).fill(0.0);
+                jtj.column_mut(i).fill(0.0);
+                jtj[(i, i)] = 1.0;
+                jtr[i] = 0.0;
+            }
+        }
+        let mut improved = false;
+        for _ in 0..4 {
+            let mut damped = jtj;
+            for i in 0..PARAMS {
+                damped[(i, i)] += lambda * jtj[(i, i)].max(1e-6);
+            }
+            let Some(mut step) = damped.cholesky().map(|c| c.solve(&jtr)) else {
+                lambda *= 10.0;
+                continue;
+            };
+            // A trust region on the path: no point of it moves more than a few pixels a step.
+            let reach = step.rows(0, 5).amax();
+            if reach > MAX_PATH_STEP_PX {
+                step *= MAX_PATH_STEP_PX / reach;
+            }
+            let trial = clamp_params(p + step);
+            match cost_of(samples, &trial, clip) {
+                Some(c) if c < cost => {
+                    let converged = (cost - c) < 1e-4 * cost;
+                    p = trial;
+                    cost = c;
+                    lambda = (lambda * 0.3).max(1e-6);
+                    improved = !converged;
+                    break;
+                }
+                _ => lambda *= 10.0,
+            }
+        }
+        if !improved {
+            break;
+        }
+    }
+    Some((p, cost))
 }
 
 fn dist(a: (f32, f32), b: (f32, f32)) -> f32 {
