@@ -27,7 +27,7 @@ use nalgebra::{SMatrix, SVector};
 use crate::frame::Frame;
 
 /// Pixels the fit uses at most: both end caps and a subsample of the body.
-pub const MAX_FIT_PX: usize = 160;
+pub const MAX_FIT_PX: usize = 128;
 /// Of those, pixels taken from the body (between the end caps).
 const BODY_PX: usize = 32;
 /// Levenberg–Marquardt iterations at most, in each of the two stages.
@@ -249,8 +249,19 @@ fn sagitta_of(a: (f32, f32), b: (f32, f32), mid: (f32, f32)) -> f32 {
 
 /// The arc of parameters `p`, drawn as [`PIECES`] straight pieces.
 struct Path {
-    points: [(f32, f32); PIECES + 1],
+    /// Each piece's start, unit direction and length.
+    pieces: [Piece; PIECES],
+    length: f32,
     mid: (f32, f32),
+    /// The core's and the glow's σ.
+    sigmas: [f32; 2],
+}
+
+#[derive(Clone, Copy, Default)]
+struct Piece {
+    start: (f32, f32),
+    unit: (f32, f32),
+    length: f32,
 }
 
 impl Path {
@@ -267,52 +278,70 @@ impl Path {
             2.0 * mid.0 - 0.5 * (a.0 + b.0),
             2.0 * mid.1 - 0.5 * (a.1 + b.1),
         );
-        let mut points = [a; PIECES + 1];
-        for (i, point) in points.iter_mut().enumerate() {
+        let point = |i: usize| {
             let t = i as f32 / PIECES as f32;
             let (u, v, w) = ((1.0 - t) * (1.0 - t), 2.0 * t * (1.0 - t), t * t);
-            *point = (u * a.0 + v * c.0 + w * b.0, u * a.1 + v * c.1 + w * b.1);
+            (u * a.0 + v * c.0 + w * b.0, u * a.1 + v * c.1 + w * b.1)
+        };
+        let mut pieces = [Piece::default(); PIECES];
+        let mut length = 0.0;
+        for (i, piece) in pieces.iter_mut().enumerate() {
+            let (s, e) = (point(i), point(i + 1));
+            let l = dist(s, e);
+            let unit = if l > 1e-6 {
+                ((e.0 - s.0) / l, (e.1 - s.1) / l)
+            } else {
+                (1.0, 0.0)
+            };
+            *piece = Piece {
+                start: s,
+                unit,
+                length: l,
+            };
+            length += l;
         }
-        Path { points, mid }
+        Path {
+            pieces,
+            length,
+            mid,
+            sigmas: [p[5].exp(), p[6].exp()],
+        }
     }
 
     fn length(&self) -> f32 {
-        self.points.windows(2).map(|w| dist(w[0], w[1])).sum()
+        self.length
     }
 
-    /// The swept Gaussian's light at `(x, y)`, relative to a still spot's centre: the spot's
-    /// line integral along the path over the path's length.
-    fn light(&self, x: f32, y: f32, sigma: f32) -> f32 {
-        let length = self.length();
-        let inv = 1.0 / sigma;
-        if length < 1e-3 * sigma {
-            let (dx, dy) = (x - self.mid.0, y - self.mid.1);
-            return (-0.5 * (dx * dx + dy * dy) * inv * inv).exp();
-        }
-        let mut sum = 0.0;
-        for w in self.points.windows(2) {
-            let (s, e) = (w[0], w[1]);
-            let (dx, dy) = (e.0 - s.0, e.1 - s.1);
-            let l = dx.hypot(dy);
-            if l < 1e-6 {
+    /// The swept Gaussians' light at `(x, y)` (core, glow), each relative to a still spot's
+    /// centre: the spot's line integral along the path over the path's length.
+    fn light2(&self, x: f32, y: f32) -> (f32, f32) {
+        let mut out = [0.0f32; 2];
+        for (light, &sigma) in out.iter_mut().zip(&self.sigmas) {
+            let inv = 1.0 / sigma;
+            if self.length < 1e-3 * sigma {
+                let (dx, dy) = (x - self.mid.0, y - self.mid.1);
+                *light = (-0.5 * (dx * dx + dy * dy) * inv * inv).exp();
                 continue;
             }
-            let (ux, uy) = (dx / l, dy / l);
-            let (px, py) = (x - s.0, y - s.1);
-            let along = (px * ux + py * uy) * inv;
-            let across = (px * -uy + py * ux) * inv;
-            if across.abs() > 5.0 {
-                continue;
+            let mut sum = 0.0;
+            for piece in &self.pieces {
+                if piece.length < 1e-6 {
+                    continue;
+                }
+                let (px, py) = (x - piece.start.0, y - piece.start.1);
+                let across = (px * -piece.unit.1 + py * piece.unit.0) * inv;
+                if across.abs() > 5.0 {
+                    continue;
+                }
+                let along = (px * piece.unit.0 + py * piece.unit.1) * inv;
+                let span = normal_cdf(along) - normal_cdf(along - piece.length * inv);
+                if span > 0.0 {
+                    sum += (-0.5 * across * across).exp() * span;
+                }
             }
-            let span = normal_cdf(along) - normal_cdf(along - l * inv);
-            sum += (-0.5 * across * across).exp() * span;
+            *light = sum * SQRT_TAU * sigma / self.length;
         }
-        sum * SQRT_TAU * sigma / length
-    }
-
-    /// The light of the core and of the glow.
-    fn light2(&self, x: f32, y: f32, p: &Params) -> (f32, f32) {
-        (self.light(x, y, p[5].exp()), self.light(x, y, p[6].exp()))
+        (out[0], out[1])
     }
 }
 
@@ -343,10 +372,10 @@ fn normal_cdf(z: f32) -> f32 {
 /// core + r glow` and the glow's light there.
 #[inline]
 fn model(path: &Path, p: &Params, x: f32, y: f32, clip: f32) -> (f32, (f32, f32)) {
-    let (core, glow) = path.light2(x, y, p);
+    let (core, glow) = path.light2(x, y);
     let q = core + p[8].max(0.0) * glow;
     let v = (p[10] + p[7] * q).max(1e-6);
-    (clip * v.powf(p[9]), (q, glow))
+    (clip * (p[9] * v.ln()).exp(), (q, glow))
 }
 
 /// A sample's residual: luma minus model, or for a clipped pixel how far the model falls
