@@ -144,6 +144,60 @@ fn a_still_led_reads_still() {
     }
 }
 
+/// The fitted model on the spot it is made of (a Gaussian, seen through gamma 2.2, clipped)
+/// over a flat floor: the ends of a 20 px streak land within 0.3 px of the truth, and the
+/// reported uncertainty (`fit_px`) grows with the noise. (Over the presets' textured floor
+/// the same streak's ends are about 0.6 px off, and `fit_px` says so: the model's floor is
+/// flat. The sweep measures that case.)
+#[test]
+fn the_fit_finds_a_gaussian_streak_s_ends_and_knows_its_noise() {
+    use glint::detect::Detector;
+    let mut uncertainties = Vec::new();
+    for noise_luma in [0.0, 4.0] {
+        let mut point = SweepPoint::new(DEFAULT_SEED, 1);
+        point.spot = glint_tools::scene::SpotKind::Gaussian;
+        point.width_px = 1.5;
+        point.saturation = 4.0;
+        point.gamma = 2.2;
+        point.noise_luma = noise_luma;
+        point.path = SweepPath::Line {
+            length_px: 20.0,
+            angle_rad: 0.4,
+        };
+        let mut config = point.config();
+        config.floor.contrast = 0.0;
+        let scene = Scene::new(config).unwrap();
+        let size = FrameSize::new(scene.width_px(), scene.height_px()).unwrap();
+        let detector_config = DetectorConfig {
+            streak_model: StreakModel::Fit,
+            ..DetectorConfig::default()
+        };
+        let mut detector = Detector::new(size, detector_config).unwrap();
+        let mut bytes = vec![0u8; scene.frame_len_bytes()];
+        let truth = scene.render(1, &mut bytes).unwrap();
+        let frame = Frame::new_checked(&bytes, size, size.row_bytes()).unwrap();
+        let (_, streak) = detector.detect(&frame).best.expect("the streak is found");
+        let path = streak.path.expect("the fit converges");
+        let end = (truth.x_px.unwrap(), truth.y_px.unwrap());
+        let mid = (truth.mid_x_px.unwrap(), truth.mid_y_px.unwrap());
+        let start = (2.0 * mid.0 - end.0, 2.0 * mid.1 - end.1);
+        let d =
+            |(x, y): (f32, f32), (tx, ty): (f64, f64)| (f64::from(x) - tx).hypot(f64::from(y) - ty);
+        let [a, b] = path.ends_px;
+        let error = (d(a, start).max(d(b, end))).min(d(a, end).max(d(b, start)));
+        eprintln!(
+            "noise {noise_luma}: ends within {error:.3} px, fit_px {:?}",
+            path.fit_px
+        );
+        assert!(error <= 0.3, "noise {noise_luma}: ends {error:.3} px off");
+        uncertainties.push(path.fit_px.unwrap());
+    }
+    assert!(
+        uncertainties[1] > uncertainties[0],
+        "fit_px grows with the noise: {uncertainties:?}"
+    );
+}
+
 fn env_or<T: std::str::FromStr>(name: &str, default: T) -> T {
     std::env::var(name)
         .ok()
