@@ -3,7 +3,8 @@
 //! Stages: the threshold into the bit mask (at a fixed level, and automatic), blob labelling, streak
 //! analysis (skeleton, centroid, ends), and the whole `Pipeline::process`, with the ends from
 //! the ramps (the default) and from the fitted streak model (`--streak-model fit`). The frames are
-//! rendered scenes with a moving LED streak on a textured floor.
+//! rendered scenes with a moving LED streak on a textured floor. The threshold is also timed on
+//! the same frames repacked as UYVY and as GREY (mono cameras).
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use std::hint::black_box;
@@ -13,7 +14,7 @@ use glint::detect::blobs::Labeler;
 use glint::detect::streak::StreakModel;
 use glint::detect::threshold;
 use glint::detect::{Detector, DetectorConfig};
-use glint::frame::{Frame, FrameSize};
+use glint::frame::{Frame, FrameSize, PixelFormat};
 use glint::pipeline::{Pipeline, PipelineConfig};
 use glint::source::FrameMeta;
 use glint_tools::scene::Scene;
@@ -56,6 +57,7 @@ fn stages(c: &mut Criterion) {
             sequence: 0,
             dropped: 0,
             timestamp_us: 0,
+            monotonic_us: 0,
         };
         group.bench_with_input(BenchmarkId::new("pipeline", name), &frame, |b, frame| {
             b.iter(|| pipeline.process(black_box(frame), meta))
@@ -79,6 +81,39 @@ fn stages(c: &mut Criterion) {
     }
 }
 
+/// The YUYV frame `yuyv` repacked as `format`.
+fn repack(yuyv: &[u8], format: PixelFormat) -> Vec<u8> {
+    match format {
+        PixelFormat::Yuyv => yuyv.to_vec(),
+        PixelFormat::Uyvy => yuyv.chunks_exact(2).flat_map(|p| [p[1], p[0]]).collect(),
+        PixelFormat::Grey => yuyv.iter().step_by(2).copied().collect(),
+    }
+}
+
+/// The threshold on each pixel format, on the same pixels.
+fn formats(c: &mut Criterion) {
+    for name in ["fast-line", "hd-720"] {
+        let (size, yuyv) = rendered(name);
+        let mut group = c.benchmark_group(format!("threshold/{size}"));
+        group.throughput(Throughput::Elements(1));
+        let mut mask = BitImage::new(size);
+        for format in PixelFormat::ALL {
+            let bytes = repack(&yuyv, format);
+            let stride = size.row_bytes_as(format);
+            let frame = Frame::new_checked_as(&bytes, size, stride, format).unwrap();
+            group.bench_function(BenchmarkId::new("fixed", format), |b| {
+                b.iter(|| threshold::threshold_into(black_box(&frame), 247, &mut mask))
+            });
+            group.bench_function(BenchmarkId::new("auto", format), |b| {
+                b.iter(|| {
+                    threshold::apply(black_box(&frame), threshold::Threshold::Auto, &mut mask)
+                })
+            });
+        }
+        group.finish();
+    }
+}
+
 /// A frame of saturated speckles, one pixel in ten lit: sun through foliage. Labelling stops at
 /// its bounded tables, so the cost stays bounded too.
 fn cluttered(c: &mut Criterion) {
@@ -98,6 +133,7 @@ fn cluttered(c: &mut Criterion) {
         sequence: 0,
         dropped: 0,
         timestamp_us: 0,
+        monotonic_us: 0,
     };
     c.bench_function("detect/640x480/pipeline/cluttered", |b| {
         b.iter(|| pipeline.process(black_box(&frame), meta))
@@ -109,6 +145,6 @@ criterion_group! {
     config = Criterion::default()
         .warm_up_time(std::time::Duration::from_millis(500))
         .measurement_time(std::time::Duration::from_secs(2));
-    targets = stages, cluttered
+    targets = stages, formats, cluttered
 }
 criterion_main!(benches);

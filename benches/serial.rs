@@ -42,6 +42,7 @@ fn found_report() -> FrameReport {
             sequence: i as u64,
             dropped: 0,
             timestamp_us: i as u64 * 33_333,
+            monotonic_us: glint::source::clock::monotonic_now_us(),
         };
         report = Some(pipeline.process(&frame, meta));
     }

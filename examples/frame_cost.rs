@@ -7,13 +7,14 @@
 //!
 //! STAGE is `pipeline` (the whole `Pipeline::process` on each frame of the `fast-line` scene, a
 //! 60 px streak at 640×480, in order so the tracker follows it), `threshold` (the automatic
-//! threshold alone) or `none` (set-up only).
+//! threshold alone, on YUYV frames), `threshold-uyvy` and `threshold-grey` (the same frames
+//! repacked as UYVY and as GREY), or `none` (set-up only).
 
 use std::hint::black_box;
 
 use glint::detect::bitimage::BitImage;
 use glint::detect::threshold::{self, Threshold};
-use glint::frame::{Frame, FrameSize};
+use glint::frame::{Frame, FrameSize, PixelFormat};
 use glint::pipeline::{Pipeline, PipelineConfig};
 use glint::source::FrameMeta;
 use glint::track::TrackerConfig;
@@ -23,7 +24,8 @@ use glint_tools::scene::Scene;
 /// rendering cost is the same in every run and cancels out of the difference.
 const RENDERED_FRAMES: usize = 16;
 const SCENE: &str = "fast-line";
-const USAGE: &str = "usage: frame_cost pipeline|threshold|none FRAMES";
+const USAGE: &str =
+    "usage: frame_cost pipeline|threshold|threshold-uyvy|threshold-grey|none FRAMES";
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args = std::env::args().skip(1);
@@ -42,6 +44,23 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     let frame_of =
         |k: usize| Frame::new_checked(&rendered[k % RENDERED_FRAMES], size, size.row_bytes());
+    let format = match stage.as_str() {
+        "threshold-uyvy" => PixelFormat::Uyvy,
+        "threshold-grey" => PixelFormat::Grey,
+        _ => PixelFormat::Yuyv,
+    };
+    let repacked: Vec<Vec<u8>> = rendered
+        .iter()
+        .map(|yuyv| match format {
+            PixelFormat::Yuyv => yuyv.clone(),
+            PixelFormat::Uyvy => yuyv.chunks_exact(2).flat_map(|p| [p[1], p[0]]).collect(),
+            PixelFormat::Grey => yuyv.iter().step_by(2).copied().collect(),
+        })
+        .collect();
+    let repacked_of = |k: usize| {
+        let stride = size.row_bytes_as(format);
+        Frame::new_checked_as(&repacked[k % RENDERED_FRAMES], size, stride, format)
+    };
 
     let tracker = TrackerConfig {
         exposure_us: Some(scene.exposure_us()),
@@ -64,10 +83,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     sequence: k as u64,
                     dropped: 0,
                     timestamp_us: (k as f64 * 1e6 / scene.fps()) as u64,
+                    monotonic_us: 0,
                 };
                 found += usize::from(pipeline.process(black_box(&frame), meta).position.is_some());
             }
             "threshold" => {
+                found += threshold::apply(black_box(&frame), Threshold::Auto, &mut mask).1;
+            }
+            "threshold-uyvy" | "threshold-grey" => {
+                let frame = repacked_of(k)?;
                 found += threshold::apply(black_box(&frame), Threshold::Auto, &mut mask).1;
             }
             "none" => {}

@@ -11,7 +11,10 @@
 //! bounded lists are `heapless` with their capacity in the type, reports are formatted straight
 //! into the reused writer, and serial packets are encoded into stack buffers.
 //! `tests/alloc_free.rs`, `tests/capture_path.rs` and `tests/aruco_alloc_free.rs` install a
-//! counting global allocator and hold the per-frame paths to this.
+//! counting global allocator and hold the per-frame paths to this. Before any of it is
+//! allocated, [`budget`] adds it up from the options, so that a size the machine cannot hold is
+//! refused with a message (`--max-memory-mb`) instead of aborting the process;
+//! `tests/memory_budget.rs` holds that plan to what the stages really allocate.
 //!
 //! # The per-frame path
 //!
@@ -20,13 +23,16 @@
 //! floor, with a calibration) → [`pipeline`] → [`sink`]. [`pipeline::Pipeline::process`] reads
 //! top to bottom.
 
+pub mod budget;
 pub mod detect;
 pub mod frame;
 pub mod geometry;
+pub mod latency;
 pub mod monitor;
 pub mod options;
 pub mod pipeline;
 pub mod sink;
+pub mod small_file;
 pub mod source;
 pub mod stats;
 pub mod track;

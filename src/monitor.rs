@@ -69,6 +69,8 @@ pub struct Monitor {
     totals: Counts,
     period: Counts,
     period_started: Option<Instant>,
+    /// The latest frame's calibration status, when its markers are re-checked.
+    calib: Option<crate::geometry::recheck::CalibStatus>,
 }
 
 impl Monitor {
@@ -82,6 +84,7 @@ impl Monitor {
             totals: Counts::default(),
             period: Counts::default(),
             period_started: None,
+            calib: None,
         }
     }
 
@@ -104,6 +107,9 @@ impl Monitor {
     ) {
         self.totals.add(report);
         self.period.add(report);
+        if report.calib.is_some() {
+            self.calib = report.calib;
+        }
         for stats in [&mut self.stats, &mut self.period_stats]
             .into_iter()
             .flatten()
@@ -156,6 +162,19 @@ impl fmt::Display for Status<'_> {
         )?;
         if let Some(stats) = &m.period_stats {
             write!(f, ", {}", stats.one_line())?;
+        }
+        match m.calib {
+            Some(c) if c.stale => write!(
+                f,
+                ", no calibration marker seen for {:.0} s: floor numbers are stale",
+                c.age_s
+            )?,
+            Some(c) => write!(
+                f,
+                ", calibration confirmed {:.1} s ago ({:.2} px)",
+                c.age_s, c.residual_px
+            )?,
+            None => {}
         }
         self.sink.status(f)
     }

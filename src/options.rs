@@ -11,19 +11,29 @@ use crate::detect::streak::StreakModel;
 use crate::detect::threshold::Threshold;
 use crate::detect::{DetectorConfig, MaskMethod};
 
-/// The highest frame rate accepted, far above any webcam.
-const MAX_FPS: f64 = 10_000.0;
+/// The frame rates accepted: from one frame in 10 s (a time-lapse) to far above any webcam.
+/// The lower bound also keeps frame times (`index / fps`) far from overflowing.
+pub const MIN_FPS: f64 = 0.1;
+pub const MAX_FPS: f64 = 1_000.0;
+
+/// Most erosions: each costs a pass over the mask, and 32 erase any LED a webcam shows.
+pub const MAX_EROSIONS: u32 = 32;
+
+/// Longest stretch of a value quoted back in a message.
+const MAX_QUOTED_CHARS: usize = 80;
 
 /// How the LED is cut out of a frame and thinned.
 #[derive(Debug, Clone, Args)]
 pub struct LedArgs {
     /// Saturation threshold (luma 0–255), or `auto` to follow each frame's top level.
-    #[arg(long, default_value = "auto", value_parser = parse_threshold)]
+    #[arg(long, default_value = "auto", value_parser = parse_threshold,
+          allow_negative_numbers = true)]
     pub threshold: Threshold,
 
-    /// Erosions of the mask before blobs are found (the seed used 10, which erases LEDs
-    /// narrower than 21 px).
-    #[arg(long, default_value_t = 0, value_name = "N")]
+    /// Erosions of the mask before blobs are found, 0 to 32 (the seed used 10, which erases
+    /// LEDs narrower than 21 px).
+    #[arg(long, default_value_t = 0, value_name = "N", allow_negative_numbers = true,
+          value_parser = clap::value_parser!(u32).range(0..=MAX_EROSIONS as i64))]
     pub erode: u32,
 
     /// Structuring element of the erosions.
@@ -88,11 +98,14 @@ impl LedArgs {
     }
 }
 
-/// Parses `--fps`: a positive, finite rate up to 10 000.
+/// Parses `--fps`: from [`MIN_FPS`] to [`MAX_FPS`] frames per second. The message does not
+/// repeat the value: clap's line already shows it, with the option.
 pub fn parse_fps(s: &str) -> Result<f64, String> {
-    match s.parse::<f64>() {
-        Ok(f) if f.is_finite() && f > 0.0 && f <= MAX_FPS => Ok(f),
-        _ => Err(format!("{s:?} is not a frame rate between 0 and {MAX_FPS}")),
+    match s.trim().parse::<f64>() {
+        Ok(f) if (MIN_FPS..=MAX_FPS).contains(&f) => Ok(f),
+        _ => Err(format!(
+            "a frame rate is {MIN_FPS} to {MAX_FPS} frames per second"
+        )),
     }
 }
 
@@ -103,7 +116,16 @@ pub fn parse_threshold(s: &str) -> Result<Threshold, String> {
     }
     s.parse::<u8>()
         .map(Threshold::Fixed)
-        .map_err(|_| format!("{s:?} is neither `auto` nor a luma level 0–255"))
+        .map_err(|_| "neither `auto` nor a luma level 0–255".to_string())
+}
+
+/// `value` as it may be quoted back in a message: whole when short, else its first 80
+/// characters and an ellipsis, so that a 10 MB value does not come back as a 10 MB line.
+pub fn shortened(value: &str) -> String {
+    match value.char_indices().nth(MAX_QUOTED_CHARS) {
+        Some((cut, _)) => format!("{}…", &value[..cut]),
+        None => value.to_string(),
+    }
 }
 
 #[cfg(test)]
@@ -116,9 +138,21 @@ mod tests {
         assert_eq!(parse_threshold("240"), Ok(Threshold::Fixed(240)));
         assert!(parse_threshold("256").unwrap_err().contains("neither"));
         assert_eq!(parse_fps("29.97"), Ok(29.97));
-        for bad in ["0", "-1", "nan", "inf", "10001", "fast"] {
-            assert!(parse_fps(bad).is_err(), "{bad}");
+        assert_eq!(parse_fps("0.1"), Ok(0.1));
+        for bad in ["0", "-1", "0.09", "1e-300", "nan", "inf", "1001", "fast"] {
+            let e = parse_fps(bad).unwrap_err();
+            assert_eq!(e, "a frame rate is 0.1 to 1000 frames per second", "{bad}");
         }
+    }
+
+    #[test]
+    fn long_values_are_shortened_on_a_character_boundary() {
+        assert_eq!(shortened("640x480"), "640x480");
+        let long = "é".repeat(10_000);
+        let short = shortened(&long);
+        assert_eq!(short.chars().count(), 81);
+        assert!(short.ends_with('…'));
+        assert_eq!(shortened(&"a".repeat(80)), "a".repeat(80));
     }
 
     #[test]

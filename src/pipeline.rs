@@ -12,6 +12,7 @@ use crate::detect::blobs::Overflow;
 use crate::detect::threshold::Levels;
 use crate::detect::{Detection, Detector, DetectorConfig};
 use crate::frame::{Frame, FrameSize};
+use crate::geometry::recheck::{CalibStatus, MarkerRecheck};
 use crate::geometry::{FloorFix, FloorStage};
 use crate::sink::Sink;
 use crate::source::{FrameMeta, FrameSource};
@@ -41,9 +42,14 @@ pub struct FrameReport {
     pub ambiguous: bool,
     /// The tracked marker's corners and heading, when tracking a marker and it was found.
     pub marker: Option<MarkerPose>,
+    /// When tracking a marker: the marker detector hit its cost cap on this frame, so part of
+    /// the frame was not searched.
+    pub markers_capped: bool,
     /// Floor position, velocity and heading, when a calibration is loaded and `position` is
     /// known.
     pub floor: Option<FloorFix>,
+    /// Which calibration the floor numbers used, when its markers are re-checked.
+    pub calib: Option<CalibStatus>,
 }
 
 impl FrameReport {
@@ -71,6 +77,8 @@ pub struct Pipeline {
     front: Front,
     /// Screen → floor, when a calibration is loaded.
     floor: Option<FloorStage>,
+    /// The calibration's markers re-checked while tracking.
+    recheck: Option<MarkerRecheck>,
 }
 
 impl Pipeline {
@@ -82,6 +90,7 @@ impl Pipeline {
                 tracker: Tracker::new(config.tracker),
             },
             floor: None,
+            recheck: None,
         })
     }
 
@@ -90,12 +99,20 @@ impl Pipeline {
         Pipeline {
             front: Front::Marker(tracker),
             floor: None,
+            recheck: None,
         }
     }
 
     /// Adds the floor stage: every found frame also gets floor coordinates.
     pub fn with_floor(mut self, floor: FloorStage) -> Self {
         self.floor = Some(floor);
+        self
+    }
+
+    /// Adds the re-check of the calibration's markers (with a floor stage that has a camera
+    /// model): a knocked camera's pose is refitted, and reports say which calibration they use.
+    pub fn with_recheck(mut self, recheck: MarkerRecheck) -> Self {
+        self.recheck = Some(recheck);
         self
     }
 
@@ -112,22 +129,48 @@ impl Pipeline {
     /// the candidates, analyse that one blob's streak, update the track; marker: detect and
     /// pick the id), then map the result to the floor.
     pub fn process(&mut self, frame: &Frame<'_>, meta: FrameMeta) -> FrameReport {
-        let (detection, position, ambiguous, marker) = match &mut self.front {
+        let (detection, position, ambiguous, marker, markers_capped) = match &mut self.front {
             Front::Led { detector, tracker } => {
                 let mut detection = detector.segment(frame);
                 let choice = tracker.choose(detector.candidates(), meta.index, meta.timestamp_us);
                 detection.best = match choice {
-                    Choice::Blob(index) => detector.analyze(frame, index, detection.levels),
+                    Choice::Blob(index) => {
+                        let best = detector.analyze(frame, index, detection.levels);
+                        // Report the level the LED itself was cut at.
+                        if best.is_some() {
+                            detection.levels = detector.levels_of(frame, index, detection.levels);
+                        }
+                        best
+                    }
                     Choice::Nothing | Choice::Ambiguous => None,
                 };
                 let position =
                     tracker.update(meta.timestamp_us, detection.best.as_ref().map(|(_, s)| s));
-                (detection, position, choice == Choice::Ambiguous, None)
+                (
+                    detection,
+                    position,
+                    choice == Choice::Ambiguous,
+                    None,
+                    false,
+                )
             }
             Front::Marker(tracker) => {
                 let found = tracker.process(frame, meta.timestamp_us);
-                (no_detection(), found.estimate, found.ambiguous, found.pose)
+                let capped = found.markers_capped;
+                (
+                    no_detection(),
+                    found.estimate,
+                    found.ambiguous,
+                    found.pose,
+                    capped,
+                )
             }
+        };
+        let calib = match (&mut self.recheck, &mut self.floor) {
+            (Some(recheck), Some(stage)) => {
+                Some(recheck.check(frame, meta.index, meta.timestamp_us, stage))
+            }
+            _ => None,
         };
         let floor = match (&self.floor, &position) {
             (Some(stage), Some(p)) => Some(stage.map(p, marker.as_ref().map(|m| &m.corners_px))),
@@ -139,7 +182,9 @@ impl Pipeline {
             position,
             ambiguous,
             marker,
+            markers_capped,
             floor,
+            calib,
         }
     }
 

@@ -1,6 +1,6 @@
 //! The per-frame path allocates nothing: a counting global allocator watches a whole replay
 //! (dump source → detection → JSON lines sink, CSV sink, serial sink on a pty) of rendered
-//! scenes after start-up.
+//! scenes after start-up, and the MAVLink sink on a pty.
 
 mod common;
 
@@ -20,7 +20,14 @@ static GLOBAL: Counting = Counting;
 fn frames() -> (FrameSize, Vec<u8>, usize) {
     let mut bytes = Vec::new();
     let mut count = 0;
-    for name in ["glare", "fast-line", "circles", "leave-occlude"] {
+    for name in [
+        "glare",
+        "fast-line",
+        "circles",
+        "leave-occlude",
+        "window",
+        "three-leds",
+    ] {
         let scene = Scene::preset(name).unwrap();
         assert_eq!((scene.width_px(), scene.height_px()), (640, 480));
         let (dump, truths) = scene.render_dump();
@@ -41,7 +48,9 @@ fn replay_allocates_nothing_per_frame() {
     // Start-up allocations happen here, outside the count.
     let mut source = DumpSource::new(Cursor::new(&bytes), size, 30.0);
     let mut pipeline = Pipeline::new(size, PipelineConfig::default()).unwrap();
-    let mut sink = JsonLinesSink::new(BufWriter::with_capacity(64 * 1024, io::sink()), false);
+    // With `--predict arrival`, so the prediction the lines carry is counted too.
+    let mut sink =
+        JsonLinesSink::new(BufWriter::with_capacity(64 * 1024, io::sink()), false).predicting();
     let mut summary = None;
     let allocations = allocations_during(|| {
         let (s, result) = pipeline::run(&mut source, &mut pipeline, &mut sink);
@@ -111,6 +120,32 @@ fn reference_floor() -> glint::geometry::FloorStage {
     FloorStage::new(FloorMapping::fit(&floor, &screen).unwrap(), FloorUnit::Cm).unwrap()
 }
 
+/// The reference camera with a wide-angle lens and the LED 12 cm up: every floor point is an
+/// undistorted ray met with a plane.
+fn lens_floor() -> glint::geometry::FloorStage {
+    use glint::geometry::{CameraModel, FloorStage, FloorUnit, Lens, Pose};
+    use nalgebra::{Matrix3, Vector3};
+    let centre = Vector3::new(10.0, -70.0, -130.0);
+    let forward = (Vector3::new(10.0, -5.0, 0.0) - centre).normalize();
+    let right = forward.cross(&Vector3::new(0.0, 0.0, -1.0)).normalize();
+    let r = Matrix3::from_rows(&[
+        right.transpose(),
+        forward.cross(&right).transpose(),
+        forward.transpose(),
+    ]);
+    let camera = CameraModel {
+        lens: Lens {
+            k1: -0.30,
+            k2: 0.09,
+            ..Lens::ideal(460.0, 460.0, 319.5, 239.5)
+        },
+        pose: Pose::new(r, -(r * centre)).unwrap(),
+    };
+    FloorStage::from_camera(camera, FloorUnit::Cm)
+        .with_led_height(12.0)
+        .unwrap()
+}
+
 #[test]
 fn floor_mapping_and_marker_tracking_allocate_nothing_per_frame() {
     use glint::geometry::aruco::Dictionary;
@@ -129,12 +164,11 @@ fn floor_mapping_and_marker_tracking_allocate_nothing_per_frame() {
         bytes: &[u8],
         size: FrameSize,
         config: PipelineConfig,
+        floor: glint::geometry::FloorStage,
         sink: &mut K,
     ) -> u64 {
         let mut source = DumpSource::new(Cursor::new(bytes), size, 30.0);
-        let mut pipeline = Pipeline::new(size, config)
-            .unwrap()
-            .with_floor(reference_floor());
+        let mut pipeline = Pipeline::new(size, config).unwrap().with_floor(floor);
         allocations_during(|| {
             let (s, result) = pipeline::run(&mut source, &mut pipeline, sink);
             result.unwrap();
@@ -142,10 +176,18 @@ fn floor_mapping_and_marker_tracking_allocate_nothing_per_frame() {
         })
     }
     let out = || BufWriter::with_capacity(64 * 1024, io::sink());
-    let json = replay(&bytes, size, config, &mut JsonLinesSink::new(out(), false));
-    assert_eq!(json, 0, "LED with floor, JSON lines");
-    let csv = replay(&bytes, size, config, &mut CsvSink::new(out(), false));
-    assert_eq!(csv, 0, "LED with floor, CSV");
+    for (name, floor) in [("homography", reference_floor()), ("lens", lens_floor())] {
+        let json = replay(
+            &bytes,
+            size,
+            config,
+            floor,
+            &mut JsonLinesSink::new(out(), false),
+        );
+        assert_eq!(json, 0, "LED with floor ({name}), JSON lines");
+        let csv = replay(&bytes, size, config, floor, &mut CsvSink::new(out(), false));
+        assert_eq!(csv, 0, "LED with floor ({name}), CSV");
+    }
     assert!(count > 100);
 
     // A marker pipeline with the floor stage, on rendered frames of a turning marker.
@@ -161,7 +203,7 @@ fn floor_mapping_and_marker_tracking_allocate_nothing_per_frame() {
         dump.extend(MarkerScene::new(reference_camera(), vec![robot]).render_yuyv());
     }
     let tracker = glint::track::MarkerTracker::new(size, Dictionary::Aruco6x6_250, 7).unwrap();
-    let mut pipeline = Pipeline::marker(tracker).with_floor(reference_floor());
+    let mut pipeline = Pipeline::marker(tracker).with_floor(lens_floor());
     let mut source = DumpSource::new(Cursor::new(&dump), size, 30.0);
     let mut reports: heapless::Vec<glint::pipeline::FrameReport, 8> = heapless::Vec::new();
     let allocations = allocations_during(|| {
@@ -209,7 +251,10 @@ fn serial_sink_allocates_nothing_per_frame() {
 
     let mut source = DumpSource::new(Cursor::new(&bytes), size, scene.fps());
     let mut pipeline = Pipeline::new(size, PipelineConfig::default()).unwrap();
-    let mut sink = SerialSink::open(&name, 115_200).expect("open the pty");
+    // With `--predict arrival`: the bend is measured on the capture thread too.
+    let mut sink = SerialSink::open(&name, 115_200)
+        .expect("open the pty")
+        .predicting();
     let allocations = allocations_during(|| {
         pipeline::run(&mut source, &mut pipeline, &mut sink)
             .1
@@ -258,4 +303,173 @@ fn preview_sink_with_a_viewer_allocates_nothing_per_frame() {
     let (_, body) = get(sink.local_addr(), "/state.json");
     let answer = String::from_utf8_lossy(&body);
     assert!(answer.contains("\"captured\":true"), "{answer}");
+}
+
+/// The command's own source, a dump read through the stop-aware reader (one `poll` before each
+/// read) and ended by the stop flag, allocates nothing per frame either.
+#[test]
+fn the_stop_aware_file_source_allocates_nothing_per_frame() {
+    use glint::source::interruptible::Interruptible;
+    use glint::source::stoppable::Stoppable;
+    use std::sync::atomic::AtomicBool;
+    use std::sync::Arc;
+
+    let (size, bytes, count) = frames();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("frames.yuv");
+    std::fs::write(&path, &bytes).unwrap();
+    let stop = Arc::new(AtomicBool::new(false));
+    let reader = Interruptible::new(std::fs::File::open(&path).unwrap(), Arc::clone(&stop));
+    let mut source = Stoppable::new(DumpSource::try_new(reader, size, 30.0).unwrap(), stop);
+    let mut pipeline = Pipeline::new(size, PipelineConfig::default()).unwrap();
+    let mut sink = JsonLinesSink::new(BufWriter::with_capacity(64 * 1024, io::sink()), false);
+    let mut frames_run = 0;
+    let allocations = allocations_during(|| {
+        let (s, result) = pipeline::run(&mut source, &mut pipeline, &mut sink);
+        result.unwrap();
+        frames_run = s.frames;
+    });
+    assert_eq!(frames_run, count as u64);
+    assert_eq!(allocations, 0, "allocations during {count} frames");
+}
+
+/// The re-check of the calibration's markers (detection twice a second, a pose refit after a
+/// knock) allocates nothing per frame either.
+#[test]
+fn the_marker_recheck_and_a_pose_refit_allocate_nothing() {
+    use glint::frame::Frame;
+    use glint::geometry::aruco::Dictionary;
+    use glint::geometry::recheck::MarkerRecheck;
+    use glint::geometry::{CameraModel, FloorStage, FloorUnit, Lens, MarkerPlacement, Pose};
+    use glint::source::FrameMeta;
+    use nalgebra::{Matrix3, Vector3};
+
+    // The knocked scene's true camera before the knock: the mild lens over the reference pose.
+    let config = Scene::preset_config("knocked").unwrap();
+    let view = config.view.clone().unwrap();
+    let knock_frame = view.knock.unwrap().frame;
+    let l = view.lens;
+    let centre = Vector3::new(10.0, -70.0, -130.0);
+    let forward = (Vector3::new(10.0, -5.0, 0.0) - centre).normalize();
+    let right = forward.cross(&Vector3::new(0.0, 0.0, -1.0)).normalize();
+    let r = Matrix3::from_rows(&[
+        right.transpose(),
+        forward.cross(&right).transpose(),
+        forward.transpose(),
+    ]);
+    let camera = CameraModel {
+        lens: Lens {
+            fx: l.fx,
+            fy: l.fy,
+            cx: l.cx,
+            cy: l.cy,
+            k1: l.k1,
+            k2: l.k2,
+            k3: l.k3,
+            p1: l.p1,
+            p2: l.p2,
+        },
+        pose: Pose::new(r, -(r * centre)).unwrap(),
+    };
+    let map: Vec<MarkerPlacement> = view.markers.iter().map(|m| m.placement()).collect();
+    let scene = Scene::new(config).unwrap();
+    let size = FrameSize::new(scene.width_px(), scene.height_px()).unwrap();
+    let floor = FloorStage::from_camera(camera, FloorUnit::Cm);
+    let recheck = MarkerRecheck::new(size, Dictionary::Aruco6x6_250, &map, 0.05);
+    let mut pipeline = Pipeline::new(size, PipelineConfig::default())
+        .unwrap()
+        .with_floor(floor)
+        .with_recheck(recheck);
+    let frames: Vec<(usize, Vec<u8>)> = (knock_frame - 16..knock_frame + 16)
+        .map(|i| {
+            let mut bytes = vec![0u8; scene.frame_len_bytes()];
+            scene.render(i, &mut bytes).unwrap();
+            (i, bytes)
+        })
+        .collect();
+    let mut ages: heapless::Vec<f64, 64> = heapless::Vec::new();
+    let allocations = allocations_during(|| {
+        for (i, bytes) in &frames {
+            let frame = Frame::new_checked(bytes, size, size.row_bytes()).unwrap();
+            let meta = FrameMeta {
+                index: *i as u64,
+                sequence: *i as u64,
+                dropped: 0,
+                timestamp_us: *i as u64 * 33_333,
+                monotonic_us: *i as u64 * 33_333,
+            };
+            let report = pipeline.process(&frame, meta);
+            ages.push(report.calib.unwrap().age_s).unwrap();
+        }
+    });
+    assert_eq!(allocations, 0, "marker re-check and pose refit");
+    let refit = pipeline.floor().unwrap().camera().unwrap().pose;
+    assert_ne!(
+        refit, camera.pose,
+        "the knock was seen and the pose refitted"
+    );
+    assert_eq!(
+        pipeline.floor().unwrap().camera().unwrap().lens,
+        camera.lens
+    );
+    // Confirmed at the checks before the knock and refitted at the knock: ages restart.
+    assert!(ages.iter().all(|&a| a < 0.55), "{ages:?}");
+}
+
+/// The MAVLink sink's per-frame call (messages built on the stack, posted to the writer
+/// thread, which frames and writes them and sends the heartbeats) allocates nothing on the
+/// capture thread.
+#[test]
+fn mavlink_sink_allocates_nothing_per_frame() {
+    use glint::sink::mavlink::{Identity, MavlinkSink, ToLocal};
+    use serialport::SerialPort;
+    use std::io::Read;
+    use std::sync::atomic::{AtomicBool, Ordering};
+    use std::sync::Arc;
+
+    let (size, bytes, count) = frames();
+    let (mut master, slave) = serialport::TTYPort::pair().expect("pty pair");
+    let name = slave.name().expect("slave name");
+    let stop = Arc::new(AtomicBool::new(false));
+    let reader = {
+        let stop = Arc::clone(&stop);
+        std::thread::spawn(move || {
+            let mut buf = [0u8; 1024];
+            let mut received = 0;
+            while !stop.load(Ordering::Relaxed) {
+                received += master.read(&mut buf).unwrap_or(0);
+            }
+            received
+        })
+    };
+
+    let floor = reference_floor();
+    let identity = Identity {
+        system_id: 1,
+        component_id: glint::sink::mavlink::VISION_COMPONENT_ID,
+    };
+    let mut sink = MavlinkSink::open(&name, 115_200, identity, ToLocal::new(floor, 30.0, 0.1))
+        .expect("open the pty");
+    let mut source = DumpSource::new(Cursor::new(&bytes), size, 30.0);
+    let mut pipeline = Pipeline::new(size, PipelineConfig::default())
+        .unwrap()
+        .with_floor(floor);
+    let allocations = allocations_during(|| {
+        pipeline::run(&mut source, &mut pipeline, &mut sink)
+            .1
+            .unwrap();
+    });
+    glint::sink::Sink::finish(&mut sink).unwrap();
+    stop.store(true, Ordering::Relaxed);
+    let received = reader.join().unwrap();
+    let stats = sink.stats();
+    assert!(
+        stats.positions as usize > count / 2 && stats.speeds > 0,
+        "{stats:?}"
+    );
+    assert!(
+        stats.sent > 0 && received > 0,
+        "{stats:?}, {received} bytes"
+    );
+    assert_eq!(allocations, 0, "allocations during {count} frames");
 }

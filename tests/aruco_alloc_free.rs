@@ -55,3 +55,26 @@ fn detection_and_calibration_allocate_nothing() {
     assert_eq!(found, 6);
     assert_eq!(allocations, 0, "allocations during detection");
 }
+
+#[path = "aruco_frames/mod.rs"]
+mod aruco_frames;
+
+#[test]
+fn a_frame_that_hits_the_caps_allocates_nothing() {
+    // A thousand squares fill the candidate heap (the shortest give way) and the read cap.
+    let mut luma = aruco_frames::squares(640, 480, 10, 16);
+    aruco_frames::paste_marker(&mut luma, 640, Dictionary::Aruco6x6_250, 98, (470, 330), 10);
+    let bytes = aruco_frames::to_yuyv(&luma);
+    let size = FrameSize::new(640, 480).unwrap();
+    let frame = Frame::new_checked(&bytes, size, 1280).unwrap();
+    let mut detector = Detector::new(size, DetectorConfig::new(Dictionary::Aruco6x6_250));
+    let mut found = 0;
+    let allocations = allocations_during(|| {
+        for _ in 0..2 {
+            found += detector.detect(&frame, None).unwrap().len();
+        }
+    });
+    assert!(detector.stats().capped);
+    assert_eq!(found, 2);
+    assert_eq!(allocations, 0, "allocations during capped detection");
+}

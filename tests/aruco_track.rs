@@ -103,7 +103,15 @@ fn a_turning_robot_is_tracked_on_the_screen_and_on_the_floor() {
     let run = glint()
         .args(["calibrate", "--input"])
         .arg(&cal_dump)
-        .args(["--size", "640x480", "--marker", "23:20@-60,50", "--out"])
+        .args([
+            "--size",
+            "640x480",
+            "--marker",
+            "23:20@-60,50",
+            "--lens",
+            "ideal",
+        ])
+        .arg("--out")
         .arg(&calib)
         .output()
         .unwrap();

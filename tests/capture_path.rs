@@ -183,6 +183,7 @@ impl FrameSource for PaddedSource {
             dropped: 0,
             // The same times a dump source at 30 fps gives.
             timestamp_us: (index as f64 * 1e6 / 30.0).round() as u64,
+            monotonic_us: 0,
         };
         Ok(Some((frame, meta)))
     }

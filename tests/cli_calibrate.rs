@@ -41,27 +41,21 @@ fn calibrate(
         .arg(dump)
         .args(["--size", "640x480", "--out"])
         .arg(out);
+    // Marker arguments, then any other options as given.
+    let options_at = markers
+        .iter()
+        .position(|m| m.starts_with("--"))
+        .unwrap_or(markers.len());
+    let (markers, options) = markers.split_at(options_at);
+    if options.is_empty() {
+        // One or two markers near the centre cannot determine a lens.
+        cmd.args(["--lens", "ideal"]);
+    }
+    cmd.args(options);
     for m in markers {
         cmd.args(["--marker", m]);
     }
     cmd.output().unwrap()
-}
-
-fn matrix(v: &toml::Value) -> [[f64; 3]; 3] {
-    let rows = v.as_array().unwrap();
-    let row = |r: usize| {
-        let a = rows[r].as_array().unwrap();
-        [0, 1, 2].map(|c| a[c].as_float().unwrap())
-    };
-    [row(0), row(1), row(2)]
-}
-
-fn apply(m: &[[f64; 3]; 3], p: Point) -> Point {
-    let w = m[2][0] * p.x + m[2][1] * p.y + m[2][2];
-    Point::new(
-        (m[0][0] * p.x + m[0][1] * p.y + m[0][2]) / w,
-        (m[1][0] * p.x + m[1][1] * p.y + m[1][2]) / w,
-    )
 }
 
 #[test]
@@ -93,6 +87,8 @@ fn two_markers_over_three_frames_give_an_accurate_documented_file() {
     assert_eq!(t["units"].as_str(), Some("cm"));
     assert_eq!(t["dictionary"].as_str(), Some("DICT_6X6_250"));
     assert_eq!(t["frames"].as_integer(), Some(3));
+    assert_eq!(t["version"].as_integer(), Some(2));
+    assert_eq!(t["lens"]["source"].as_str(), Some("ideal"));
     assert_eq!(t["residuals"]["corners"].as_integer(), Some(8));
     assert!(t["residuals"]["rms_px"].as_float().unwrap() < 0.05);
     let markers = t["marker"].as_array().unwrap();
@@ -102,39 +98,100 @@ fn two_markers_over_three_frames_give_an_accurate_documented_file() {
         Some(55.0)
     );
 
-    // The written screen-to-floor matrix, over the 1.6 m × 1.4 m area, against the truth.
-    let to_floor = matrix(&t["homography"]["screen_to_floor"]);
-    let to_screen = matrix(&t["homography"]["floor_to_screen"]);
+    // The written camera, over the 1.6 m × 1.4 m area, against the truth.
+    let size = glint::frame::FrameSize::new(640, 480).unwrap();
+    let calibration = glint::geometry::CalibrationFile::parse(&text, size).unwrap();
+    let camera = calibration.floor.camera().copied().unwrap();
     let (mut worst_cm, mut worst_px): (f64, f64) = (0.0, 0.0);
     for yi in 0..=14 {
         for xi in 0..=16 {
             let truth = Point::new(-70.0 + 10.0 * f64::from(xi), -60.0 + 10.0 * f64::from(yi));
             let screen = scene.camera.project(truth).unwrap();
-            worst_cm = worst_cm.max((apply(&to_floor, screen) - truth).norm());
-            worst_px = worst_px.max((apply(&to_screen, truth) - screen).norm());
+            let floor = calibration.floor.screen_to_floor(&screen).unwrap();
+            worst_cm = worst_cm.max((floor - truth).norm());
+            worst_px = worst_px.max((camera.project(&truth, 0.0).unwrap() - screen).norm());
         }
     }
     eprintln!("worst over the area: {worst_cm:.3} cm, {worst_px:.3} px");
     assert!(worst_cm < 0.3, "{worst_cm} cm");
     assert!(worst_px < 0.25, "{worst_px} px");
+    // The camera is where the renderer put it, 1.3 m up.
+    let height = camera.pose.height();
+    assert!((height - 130.0).abs() < 3.0, "{height} cm");
 }
 
 #[test]
-fn a_named_marker_that_is_not_seen_is_refused() {
+fn map_markers_this_camera_does_not_see_are_listed_and_left_out() {
     let scene = MarkerScene::new(reference_camera(), vec![marker(23, 0.0, 0.0)]);
     let (dir, path) = dump(&scene, 1);
     let out = dir.path().join("calib.toml");
     let run = calibrate(&path, &out, &["23:20", "7:20@100,0"]);
+    let stdout = String::from_utf8_lossy(&run.stdout);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    assert!(stdout.contains("not seen (left out): marker 7"), "{stdout}");
+    let t: toml::Value = toml::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    assert_eq!(t["unseen"].as_array().unwrap()[0].as_integer(), Some(7));
+    assert_eq!(t["marker"].as_array().unwrap().len(), 1);
+
+    // None of them seen: nothing to calibrate from.
+    let out = dir.path().join("none.toml");
+    let run = calibrate(&path, &out, &["7:20@100,0", "8:20@0,100"]);
     assert!(!run.status.success());
     let stderr = String::from_utf8_lossy(&run.stderr);
     assert_eq!(stderr.trim_end().lines().count(), 1, "{stderr}");
     assert!(
         stderr.contains(
-            "marker 7 was not seen in any of 1 frames with DICT_6X6_250 (markers seen: 23)"
+            "none of the named markers was seen in any of 1 frames with DICT_6X6_250 (markers seen: 23)"
         ),
         "{stderr}"
     );
     assert!(!out.exists(), "no file is written for a failed calibration");
+}
+
+#[test]
+fn overlapping_markers_on_the_map_are_one_clear_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("empty.yuv");
+    std::fs::write(&path, []).unwrap();
+    let out = dir.path().join("calib.toml");
+    let run = calibrate(&path, &out, &["23:20", "7:20@10,10"]);
+    assert!(!run.status.success());
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert_eq!(stderr.trim_end().lines().count(), 1, "{stderr}");
+    assert!(
+        stderr.contains("markers 23 and 7 overlap on the map (23:20@0,0 and 7:20@10,10)"),
+        "{stderr}"
+    );
+    // Touching edges is not overlapping.
+    let run = calibrate(&path, &out, &["23:20", "7:20@20,0"]);
+    assert!(String::from_utf8_lossy(&run.stderr).contains("holds no whole frame"));
+}
+
+#[test]
+fn a_lens_the_markers_cannot_determine_is_refused_with_where_to_add_markers() {
+    let scene = MarkerScene::new(
+        reference_camera(),
+        vec![marker(23, 0.0, 0.0), marker(101, 25.0, -20.0)],
+    );
+    let (dir, path) = dump(&scene, 2);
+    let out = dir.path().join("calib.toml");
+    let run = calibrate(&path, &out, &["23:20", "101:20@25,-20", "--lens", "fit"]);
+    assert!(!run.status.success());
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert_eq!(stderr.trim_end().lines().count(), 1, "{stderr}");
+    assert!(
+        stderr.contains("the markers do not determine the lens"),
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains("top left") && stderr.contains("--lens ideal"),
+        "{stderr}"
+    );
+    assert!(!out.exists());
 }
 
 #[test]

@@ -51,7 +51,7 @@ fn calibrate(scene: &MarkerScene, dir: &Path, markers: &[&str]) -> PathBuf {
     let mut cmd = glint();
     cmd.args(["calibrate", "--input"])
         .arg(&dump)
-        .args(["--size", "640x480", "--out"])
+        .args(["--size", "640x480", "--lens", "ideal", "--out"])
         .arg(&out);
     for m in markers {
         cmd.args(["--marker", m]);
@@ -309,10 +309,8 @@ fn bad_calibration_files_are_refused_with_one_line() {
             .collect()
     };
     assert_refused(&run(&without("height_px")), "missing field `height_px`");
-    assert_refused(
-        &run(&without("floor_to_screen")),
-        "missing field `floor_to_screen`",
-    );
+    assert_refused(&run(&without("fx")), "missing field `fx`");
+    assert_refused(&run(&without("rms_px")), "missing field `rms_px`");
     assert_refused(&run("this is not toml"), "line 1");
     assert_refused(
         &run(&good.replace("width_px = 640", "width_px = 320")),
@@ -322,25 +320,116 @@ fn bad_calibration_files_are_refused_with_one_line() {
         &run(&good.replace("units = \"cm\"", "units = \"parsecs\"")),
         "parsecs",
     );
-
-    // A degenerate matrix: the third row a copy of the first.
-    let line = good
-        .lines()
-        .find(|l| l.starts_with("floor_to_screen"))
-        .unwrap();
-    let rows: Vec<&str> = line.split("], [").collect();
-    let first = rows[0].trim_start_matches("floor_to_screen = [[");
-    let degenerate = format!("floor_to_screen = [[{first}], [{first}], [{first}]]");
     assert_refused(
-        &run(&good.replace(line, &degenerate)),
-        "homography.floor_to_screen: the homography is singular",
+        &run(&good.replace("units = \"cm\"", "units = \"mm\"")),
+        "units must be \"cm\"",
     );
-    // A finite, invertible, wrong number.
-    let edited = good.replace(line, &line.replacen('1', "2", 1));
-    assert_ne!(edited, good);
-    assert_refused(&run(&edited), "not inverses of each other");
+    assert_refused(
+        &run(&good.replace("version = 2", "version = 3")),
+        "version 3 is not one this glint reads",
+    );
+
+    // A rotation that is not one: its first row doubled.
+    let line = good.lines().find(|l| l.starts_with("rotation")).unwrap();
+    let rows: Vec<&str> = line.split("], [").collect();
+    let first = rows[0].trim_start_matches("rotation = [[");
+    let doubled: Vec<String> = first
+        .split(", ")
+        .map(|v| format!("{:?}", 2.0 * v.parse::<f64>().unwrap()))
+        .collect();
+    let edited = good.replace(line, &line.replacen(first, &doubled.join(", "), 1));
+    assert_refused(
+        &run(&edited),
+        "[pose]: the rotation matrix is not a rotation",
+    );
+    // A finite, plausible, wrong number.
+    let fx = good.lines().find(|l| l.starts_with("fx")).unwrap();
+    let edited = good.replace(fx, "fx = 480.0");
+    assert_refused(&run(&edited), "were the numbers edited?");
     assert_refused(
         &run(&good.replace("[[marker]]", "[[unused]]")),
-        "no [[marker]] entries",
+        "unknown field `unused`",
+    );
+    let marker_at = good.find("[[marker]]").unwrap();
+    assert_refused(&run(&good[..marker_at]), "no [[marker]] entries");
+}
+
+#[test]
+fn an_led_height_needs_a_pose_below_the_camera() {
+    let scene = MarkerScene::new(reference_camera(), vec![marker(23, 20.0, 0.0, 0.0)]);
+    let dir = tempfile::tempdir().unwrap();
+    let calib = calibrate(&scene, dir.path(), &["23:20"]);
+    let r = render("slow-line");
+    let c = calib.to_str().unwrap();
+    let ok = track(&r, &["--calib", c, "--led-height-cm", "12"]);
+    assert!(
+        ok.status.success(),
+        "{}",
+        String::from_utf8_lossy(&ok.stderr)
+    );
+    assert_refused(
+        &track(&r, &["--calib", c, "--led-height-cm", "500"]),
+        "the LED must be below the camera, which is 130.",
+    );
+    let out = track(&r, &["--led-height-cm", "12"]);
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--calib"));
+    let out = track(&r, &["--calib", c, "--led-height-cm", "-3"]);
+    assert!(String::from_utf8_lossy(&out.stderr).contains("is not a height between 0 and 1000"));
+
+    // A calibration from an older glint (a homography only) has no pose to raise the LED with.
+    let h = "[[2.1, 0.3, 320.0], [-0.2, 1.4, 240.0], [0.0004, 0.0021, 1.0]]";
+    let inv = nalgebra::Matrix3::new(2.1, 0.3, 320.0, -0.2, 1.4, 240.0, 0.0004, 0.0021, 1.0)
+        .try_inverse()
+        .unwrap();
+    let inv = (0..3)
+        .map(|i| format!("[{:?}, {:?}, {:?}]", inv[(i, 0)], inv[(i, 1)], inv[(i, 2)]))
+        .collect::<Vec<_>>()
+        .join(", ");
+    let corners: Vec<String> = [(0.0, 0.0), (20.0, 0.0), (20.0, 20.0), (0.0, 20.0)]
+        .iter()
+        .map(|&(x, y)| {
+            let w = 0.0004 * x + 0.0021 * y + 1.0;
+            format!(
+                "[{:?}, {:?}]",
+                (2.1 * x + 0.3 * y + 320.0) / w,
+                (-0.2 * x + 1.4 * y + 240.0) / w
+            )
+        })
+        .collect();
+    let v1 = format!(
+        "width_px = 640\nheight_px = 480\nunits = \"cm\"\n[homography]\nfloor_to_screen = {h}\n\
+         screen_to_floor = [{inv}]\n[[marker]]\nid = 23\nsize_cm = 20.0\norigin_cm = [0.0, 0.0]\n\
+         corners_px = [{}]\nresiduals_px = [0.0, 0.0, 0.0, 0.0]\n",
+        corners.join(", ")
+    );
+    let (_d, old) = temp_file("old.toml", v1.as_bytes());
+    let o = old.to_str().unwrap();
+    let loads = track(&r, &["--calib", o]);
+    assert!(
+        loads.status.success(),
+        "{}",
+        String::from_utf8_lossy(&loads.stderr)
+    );
+    assert_refused(
+        &track(&r, &["--calib", o, "--led-height-cm", "12"]),
+        "an LED height needs the camera's pose",
+    );
+
+    // The settings key of glint run.
+    let settings = format!("calib = {c:?}\nled-height-cm = 500\n");
+    let (_s, config) = temp_file("glint.toml", settings.as_bytes());
+    let run = glint()
+        .args(["run", "--config"])
+        .arg(&config)
+        .args(["--input"])
+        .arg(&r.dump)
+        .args(["--size", "640x480"])
+        .output()
+        .unwrap();
+    assert!(!run.status.success());
+    assert!(
+        String::from_utf8_lossy(&run.stderr).contains("the LED must be below the camera"),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
     );
 }

@@ -159,8 +159,10 @@ fn chromium() -> Option<&'static str> {
 #[test]
 fn headless_chromium_renders_the_page() {
     // Like the VM suite: skipped only when asked to, never because something is missing.
-    if std::env::var_os("GLINT_SKIP_BROWSER").is_some() {
-        eprintln!("SKIPPED: GLINT_SKIP_BROWSER is set");
+    if common::skipped(
+        "GLINT_SKIP_BROWSER",
+        "the preview page in headless Chromium",
+    ) {
         return;
     }
     let browser = chromium().expect("chromium is installed (tools/setup-system.sh installs it)");

@@ -19,8 +19,8 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use glint_protocol::{
-    Decoder, Heartbeat, Message, Position, Received, Status, TrackerState, Units, PROTOCOL_VERSION,
-    QUANTA_PER_PX,
+    Decoder, Heartbeat, Message, Position, PositionAge, Received, Status, TrackerState, Units,
+    PROTOCOL_VERSION, QUANTA_PER_PX,
 };
 use glint_tools::scene::Scene;
 use nix::fcntl::{fcntl, FcntlArg, FdFlag, OFlag};
@@ -127,13 +127,31 @@ impl Robot {
 
     /// The next position update, collecting heartbeats on the way; fails on anything else.
     fn next_position(&self, heartbeats: &mut Vec<(usize, Heartbeat)>, frame: usize) -> Position {
-        loop {
+        self.next_update(heartbeats, frame).0
+    }
+
+    /// The next position update and the age frame that must follow it at once.
+    fn next_update(
+        &self,
+        heartbeats: &mut Vec<(usize, Heartbeat)>,
+        frame: usize,
+    ) -> (Position, PositionAge) {
+        let position = loop {
             match self.messages.recv_timeout(PATIENCE) {
-                Ok(Ok(Message::Position(p))) => return p,
+                Ok(Ok(Message::Position(p))) => break p,
                 Ok(Ok(Message::Heartbeat(h))) => heartbeats.push((frame, h)),
                 Ok(other) => panic!("frame {frame}: the robot saw {other:?}"),
                 Err(e) => panic!("frame {frame}: no position update arrived: {e}"),
             }
+        };
+        (position, self.age_of(&position))
+    }
+
+    /// The age frame that must come right after `position`.
+    fn age_of(&self, position: &Position) -> PositionAge {
+        match self.messages.recv_timeout(PATIENCE) {
+            Ok(Ok(Message::Age(a))) if a.seq == position.seq => a,
+            other => panic!("after {position:?} the robot saw {other:?}"),
         }
     }
 
@@ -241,6 +259,37 @@ impl Glint {
 /// without close-on-exec, and a glint started by a test running in parallel must not inherit
 /// them (an inherited master keeps the pty alive after the test drops it).
 static SPAWNING: Mutex<()> = Mutex::new(());
+
+/// Bytes of a message on the wire.
+fn wire_len(message: Message) -> u64 {
+    let mut out = [0u8; glint_protocol::MAX_ENCODED_LEN + 1];
+    glint_protocol::encode(&message, &mut out)
+        .expect("fits")
+        .len() as u64
+}
+
+/// An update's age on arrival: at least the line time of the update and its age at the default
+/// baud, and at most the time since the test started sending its frame plus the line time of
+/// everything that write may hold (a pty takes no line time, the age counts it all the same).
+/// Its frame was read from a pipe, so glint counts the age from the frame's arrival.
+fn check_age(p: &Position, age: &PositionAge, since_sending: Duration) {
+    const BAUD: u64 = 115_200;
+    const LONGEST_HEARTBEAT_AND_DELIMITER: u64 = 16;
+    assert!(!age.predicted, "{age:?}");
+    let update_bytes = wire_len(Message::Position(*p)) + wire_len(Message::Age(*age));
+    let line_us = |bytes: u64| bytes * 10 * 1_000_000 / BAUD;
+    let age_us = u64::from(age.age_us);
+    assert!(
+        age_us >= line_us(update_bytes),
+        "{age:?}: less than the line time"
+    );
+    let bound_us =
+        since_sending.as_micros() as u64 + line_us(update_bytes + LONGEST_HEARTBEAT_AND_DELIMITER);
+    assert!(
+        age_us <= bound_us,
+        "{age:?}: older than the {bound_us} µs since its frame was sent"
+    );
+}
 
 /// A pty pair; the slave end stays open here too, so the master end never reads a hang-up
 /// between glint's opens.
@@ -354,8 +403,11 @@ fn one_valid_update_per_frame_in_order_with_heartbeats() {
     let mut positions = Vec::new();
     let mut heartbeats = Vec::new();
     for i in 0..total {
+        let sending = Instant::now();
         glint.send(frames.frame(i));
-        positions.push(robot.next_position(&mut heartbeats, i));
+        let (p, age) = robot.next_update(&mut heartbeats, i);
+        check_age(&p, &age, sending.elapsed());
+        positions.push(p);
     }
     let done = glint.finish();
     let leftover = robot.drain(Duration::from_millis(200));
@@ -513,7 +565,10 @@ fn a_port_that_comes_back_is_reopened_and_starts_with_a_delimiter() {
         glint.send(frames.frame(i));
         i += 1;
         match robot.messages.recv_timeout(Duration::from_millis(100)) {
-            Ok(Ok(Message::Position(p))) => break p,
+            Ok(Ok(Message::Position(p))) => {
+                robot.age_of(&p);
+                break p;
+            }
             Ok(Ok(Message::Heartbeat(_))) | Err(RecvTimeoutError::Timeout) => {}
             Ok(other) => panic!("after reopening the robot saw {other:?}"),
             Err(e) => panic!("{e}"),
@@ -524,8 +579,13 @@ fn a_port_that_comes_back_is_reopened_and_starts_with_a_delimiter() {
         Ok(0x00),
         "reopened with a delimiter"
     );
-    // Every update after the reopening arrives, numbered by frame: the gap is the outage.
-    assert!(usize::from(first.seq) >= gone_until && usize::from(first.seq) < i);
+    // Every update after the reopening arrives, numbered by frame: the gap is the outage. The
+    // port may come back while glint still works through the frames sent during the outage, so
+    // the first update after it may be any from the unplugging on.
+    assert!(
+        usize::from(first.seq) >= unplug_at && usize::from(first.seq) < i,
+        "first {first:?}, gone until {gone_until}, sent {i}"
+    );
     // Updates posted while the port was being reopened may still be on their way (on a loaded
     // machine the first one seen need not be the last one sent): take them, in order, before
     // holding every further frame to its own update.
@@ -534,6 +594,7 @@ fn a_port_that_comes_back_is_reopened_and_starts_with_a_delimiter() {
         match robot.messages.recv_timeout(Duration::from_millis(500)) {
             Ok(Ok(Message::Position(p))) => {
                 assert!(p.seq > last_seq, "in order after reopening");
+                robot.age_of(&p);
                 last_seq = p.seq;
             }
             Ok(Ok(Message::Heartbeat(_))) => {}
@@ -585,8 +646,7 @@ fn the_baud_rate_is_checked() {
 /// Needs tools/setup-system.sh's packages; `GLINT_SKIP_VM=1` skips it (loudly).
 #[test]
 fn a_real_uart_in_a_vm_delivers_every_frame_sent() {
-    if std::env::var("GLINT_SKIP_VM").is_ok_and(|v| v == "1") {
-        eprintln!("\n*** GLINT_SKIP_VM=1: SKIPPING the UART VM test ***\n");
+    if common::skipped("GLINT_SKIP_VM", "the serial link over the VM's 8250 UART") {
         return;
     }
     let repo = Path::new(env!("CARGO_MANIFEST_DIR"));
@@ -691,6 +751,9 @@ fn a_real_uart_in_a_vm_delivers_every_frame_sent() {
                 assert_eq!(h.protocol_version, PROTOCOL_VERSION);
                 heartbeats += 1;
             }
+            // Each update's age follows it; the LED is never asked for here.
+            Ok(Message::Age(a)) => assert_eq!(Some(a.seq), positions.last().map(|p| p.seq)),
+            Ok(Message::Led(r)) => panic!("over the UART: an unasked LED request {r:?}"),
             Err(e) => panic!("over the UART: {e}"),
         }
     }
@@ -729,4 +792,106 @@ fn a_real_uart_in_a_vm_delivers_every_frame_sent() {
         .filter(|p| p.status == Status::Lost)
         .count();
     assert!(lost > 0, "lost updates crossed the UART too");
+}
+
+/// The median of `values`.
+fn median(mut values: Vec<f64>) -> f64 {
+    values.sort_by(f64::total_cmp);
+    values.get(values.len() / 2).copied().unwrap_or(f64::NAN)
+}
+
+#[test]
+fn predict_arrival_moves_found_positions_on_by_their_age_and_says_so() {
+    let frames = Frames::new("figure-eight");
+    let (master, _slave, name) = pty();
+    let robot = Robot::listen(master);
+    let mut args = scene_args(&frames.scene);
+    args.extend(["--predict".to_string(), "arrival".to_string()]);
+    let mut glint = Glint::start("-", &args, Path::new(&name));
+    let mut updates = Vec::new();
+    let mut heartbeats = Vec::new();
+    let count = frames.count() / 2;
+    for i in 0..count {
+        glint.send(frames.frame(i));
+        updates.push(robot.next_update(&mut heartbeats, i));
+    }
+    let done = glint.finish();
+    assert!(done.status.success(), "glint failed:\n{}", done.log);
+    assert_eq!(done.reports.len(), count);
+    let px = f64::from(QUANTA_PER_PX);
+    let trajectory = &frames.scene.config().trajectory;
+    let mut predicted = 0;
+    let mut closer = 0;
+    // Per predicted update: its error against the truth on arrival, and what its inputs'
+    // errors (position at capture, velocity over the age, both against the truth, and the
+    // path's bend over the age) allow.
+    let (mut sent_errors, mut input_errors) = (Vec::new(), Vec::new());
+    let (mut json_errors, mut json_input_errors) = (Vec::new(), Vec::new());
+    for ((p, age), r) in updates.iter().zip(&done.reports) {
+        let frame = r["frame"].as_u64().unwrap();
+        let velocity = r["vx"].as_f64().zip(r["vy"].as_f64());
+        if r["found"] != true || velocity.is_none() {
+            assert!(!age.predicted, "frame {frame}: nothing to predict from");
+            assert!(r.get("predicted").is_none(), "frame {frame}");
+            continue;
+        }
+        let (vx, vy) = velocity.unwrap();
+        // Frames after the first of a track have their bend measured too; all are predicted.
+        assert!(
+            age.predicted,
+            "frame {frame}: a found, moving LED is predicted"
+        );
+        predicted += 1;
+        // Against the renderer's truth at the arrival: the end of the exposure plus the age.
+        let ahead_s = f64::from(age.age_us) * 1e-6;
+        let at = trajectory
+            .motion(r["t"].as_f64().unwrap() + ahead_s)
+            .position_px;
+        let sent = (f64::from(p.x) / px, f64::from(p.y) / px);
+        let miss = |(x, y): (f64, f64)| (x - at.x).hypot(y - at.y);
+        let measured = (r["x"].as_f64().unwrap(), r["y"].as_f64().unwrap());
+        closer += usize::from(miss(sent) < miss(measured));
+        let t_s = r["t"].as_f64().unwrap();
+        let truth = trajectory.motion(t_s);
+        let position_error =
+            (measured.0 - truth.position_px.x).hypot(measured.1 - truth.position_px.y);
+        let velocity_error = (vx - truth.velocity_px_s.x).hypot(vy - truth.velocity_px_s.y);
+        // The path's bend over the look-ahead, which the prediction estimates from the turn of
+        // the measured velocity: half the true acceleration times the look-ahead squared.
+        let bend_px = |ahead_s: f64| {
+            let (before, after) = (trajectory.motion(t_s - 1e-3), trajectory.motion(t_s + 1e-3));
+            let ax = (after.velocity_px_s.x - before.velocity_px_s.x) / 2e-3;
+            let ay = (after.velocity_px_s.y - before.velocity_px_s.y) / 2e-3;
+            0.5 * ax.hypot(ay) * ahead_s * ahead_s
+        };
+        sent_errors.push(miss(sent));
+        input_errors.push(position_error + velocity_error * ahead_s + bend_px(ahead_s) + 0.5 / px);
+        // The JSON line's own prediction, to the moment it was written, is flagged there.
+        let j = &r["predicted"];
+        let ahead_ms = j["ahead_ms"].as_f64().expect("ahead_ms");
+        let at = trajectory
+            .motion(r["t"].as_f64().unwrap() + ahead_ms * 1e-3)
+            .position_px;
+        let printed = (j["x"].as_f64().unwrap(), j["y"].as_f64().unwrap());
+        json_errors.push((printed.0 - at.x).hypot(printed.1 - at.y));
+        json_input_errors
+            .push(position_error + velocity_error * ahead_ms * 1e-3 + bend_px(ahead_ms * 1e-3));
+    }
+    let (sent, inputs) = (median(sent_errors), median(input_errors));
+    eprintln!("sent {sent:.2} px from the truth on arrival (median), inputs allow {inputs:.2} px");
+    assert!(
+        sent <= inputs,
+        "sent {sent:.2} px, its inputs allow {inputs:.2} px"
+    );
+    let (json, json_inputs) = (median(json_errors), median(json_input_errors));
+    assert!(
+        json <= json_inputs + JSON_POSITION_RESOLUTION_PX,
+        "JSON prediction {json:.2} px, its inputs allow {json_inputs:.2} px"
+    );
+    assert!(predicted > count / 2, "{predicted} of {count} predicted");
+    // Moving on by the age brings nearly every update closer to where the LED is on arrival.
+    assert!(
+        closer * 10 >= predicted * 9,
+        "{closer} of {predicted} closer"
+    );
 }

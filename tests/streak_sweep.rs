@@ -84,6 +84,7 @@ fn run_point(point: &SweepPoint, model: StreakModel) -> PointScore {
             sequence: index as u64,
             dropped: 0,
             timestamp_us: index as u64 * period_us,
+            monotonic_us: index as u64 * period_us,
         };
         let report = pipeline.process(&frame, meta);
         match truth.visible {

@@ -47,10 +47,7 @@ static SUITE: OnceLock<Result<Suite, String>> = OnceLock::new();
 
 /// The suite's output, booting the VM on first use; `None` when skipped.
 fn suite() -> Option<&'static Suite> {
-    if std::env::var("GLINT_SKIP_VM").is_ok_and(|v| v == "1") {
-        eprintln!(
-            "\n*** GLINT_SKIP_VM=1: SKIPPING the vivid VM tests; V4L2 capture is NOT tested ***\n"
-        );
+    if common::skipped("GLINT_SKIP_VM", "V4L2 capture on the vivid VM") {
         return None;
     }
     match SUITE.get_or_init(run_suite) {

@@ -39,6 +39,27 @@ ensure_rustup_target() {
     if ! rustup target list --installed | grep -qx "$1"; then
         rustup target add "$1"
     fi
+    ensure_sysroot "$1"
+}
+
+# The target's Debian cross toolchain: its linker, and its C library headers, which bindgen needs
+# for the `v4l` crate (sys/time.h). The linker packages only recommend the headers, so a missing
+# one is named here rather than surfacing as a clang error deep in a build script.
+ensure_sysroot() {
+    local triple package
+    case "$1" in
+        aarch64-unknown-linux-gnu) triple=aarch64-linux-gnu package=arm64 ;;
+        armv7-unknown-linux-gnueabihf) triple=arm-linux-gnueabihf package=armhf ;;
+    esac
+    if ! command -v "$triple-gcc" >/dev/null; then
+        echo "cross.sh: $triple-gcc is missing: run tools/setup-system.sh test" >&2
+        exit 1
+    fi
+    if [ ! -f "/usr/$triple/include/sys/time.h" ]; then
+        echo "cross.sh: /usr/$triple/include/sys/time.h is missing (Debian package" \
+            "libc6-dev-$package-cross): run tools/setup-system.sh test" >&2
+        exit 1
+    fi
 }
 
 build() {

@@ -2,8 +2,8 @@
  * glint.h: decoder for glint's serial position packets, for Arduino-class robots.
  *
  * Single header, C99 (also compiles as C++ for Arduino sketches), no malloc, no floating point
- * needed, about 90 bytes of RAM per decoder. The wire format is board/protocol/SPEC.md
- * (protocol version 1): COBS frames ending in 0x00, each holding a message id, a postcard body
+ * needed, about 130 bytes of RAM per decoder and message. The wire format is board/protocol/SPEC.md
+ * (protocol version 2): COBS frames ending in 0x00, each holding a message id, a postcard body
  * and a CRC-16/CCITT-FALSE.
  *
  * Usage, in the manner of the Pixy2 library:
@@ -16,9 +16,23 @@
  *
  *     void loop() {
  *         while (Serial1.available() > 0) {
- *             if (glint_decoder_push(&decoder, (uint8_t)Serial1.read(), &msg) == GLINT_POSITION) {
+ *             switch (glint_decoder_push(&decoder, (uint8_t)Serial1.read(), &msg)) {
+ *             case GLINT_POSITION:
  *                 // msg.position.x, .y: mm when msg.position.units == GLINT_UNITS_FLOOR,
  *                 // else 1/8 px; msg.position.status == GLINT_STATUS_FOUND when seen this frame.
+ *                 break;
+ *             case GLINT_AGE:
+ *                 // Arrives right after the position with msg.age.seq == msg.position.seq: the
+ *                 // position was msg.age.age_us old when this frame's last byte arrived, so
+ *                 // now it is msg.age.age_us + (micros() - the time this byte was read).
+ *                 received_at_us = micros();
+ *                 break;
+ *             case GLINT_LED:
+ *                 // if (glint_led_is_for(&msg.led, MY_ROBOT_ID)): switch the LED off
+ *                 // msg.led.delay_us from now, for msg.led.off_us (0: back on now).
+ *                 break;
+ *             default:
+ *                 break;
  *             }
  *         }
  *     }
@@ -40,9 +54,14 @@
 #error "GLINT_BUFFER_LEN must be 23..255"
 #endif
 
-#define GLINT_PROTOCOL_VERSION 1
+#define GLINT_PROTOCOL_VERSION 2
 #define GLINT_ID_POSITION 0x01
 #define GLINT_ID_HEARTBEAT 0x02
+#define GLINT_ID_AGE 0x03
+#define GLINT_ID_LED 0x04
+
+/* The robot id of a LED request addressed to every robot. */
+#define GLINT_EVERY_ROBOT 0
 
 /* Position units: GLINT_UNITS_FLOOR = 1 mm (mm/s); GLINT_UNITS_PIXELS = 1/8 px (1/8 px/s). */
 #define GLINT_UNITS_PIXELS 0
@@ -62,6 +81,8 @@ enum glint_result {
     GLINT_NONE = 0,      /* frame not complete yet (or an empty frame) */
     GLINT_POSITION,      /* msg->position is filled in */
     GLINT_HEARTBEAT,     /* msg->heartbeat is filled in */
+    GLINT_AGE,           /* msg->age is filled in (version 2) */
+    GLINT_LED,           /* msg->led is filled in (version 2) */
     GLINT_UNKNOWN,       /* valid frame with an id this decoder does not know: msg->id; skip it */
     GLINT_ERR_OVERFLOW,  /* frame longer than GLINT_BUFFER_LEN, dropped */
     GLINT_ERR_COBS,      /* invalid COBS, dropped */
@@ -87,11 +108,34 @@ struct glint_heartbeat {
     uint8_t tracker_state; /* GLINT_TRACKER_* */
 };
 
+/* The age of the position update sent just before it (same seq). */
+struct glint_age {
+    uint8_t seq;       /* the position's seq */
+    uint32_t age_us;   /* capture to the last byte of this frame leaving glint, in us */
+    uint8_t predicted; /* 1: the position's x, y were extrapolated by age_us */
+};
+
+/* "Robot `robot`, switch your LED off for off_us, starting delay_us after at_us." */
+struct glint_led {
+    uint8_t robot;     /* GLINT_EVERY_ROBOT (0) or one robot's id */
+    uint8_t request;   /* +1 per request, wraps at 256 */
+    uint32_t at_us;    /* glint's clock (as timestamp_us) when this frame's last byte left */
+    uint32_t delay_us; /* from then (or from arrival) until the LED goes off; 0 = at once */
+    uint32_t off_us;   /* how long it stays off; 0 = switch it back on now */
+};
+
 struct glint_message {
     uint8_t id; /* the message id of the last frame that had a good CRC */
     struct glint_position position;
     struct glint_heartbeat heartbeat;
+    struct glint_age age;
+    struct glint_led led;
 };
+
+/* Whether a LED request is addressed to the robot with id `my_id`. */
+static inline int glint_led_is_for(const struct glint_led *led, uint8_t my_id) {
+    return led->robot == GLINT_EVERY_ROBOT || led->robot == my_id;
+}
 
 struct glint_decoder {
     uint8_t buf[GLINT_BUFFER_LEN];
@@ -184,6 +228,10 @@ static inline uint16_t glint_read_u16_varint(struct glint_reader *r) {
     return (uint16_t)glint_read_varint(r, 3, 0x03);
 }
 
+static inline uint32_t glint_read_u32_varint(struct glint_reader *r) {
+    return glint_read_varint(r, 5, 0x0F);
+}
+
 /* Zigzag: 0 -> 0, 1 -> -1, 2 -> 1, 3 -> -2 ... (no implementation-defined conversions). */
 static inline int16_t glint_read_i16_varint(struct glint_reader *r) {
     uint16_t z = glint_read_u16_varint(r);
@@ -209,9 +257,27 @@ static inline int glint_parse_position(struct glint_reader *r, struct glint_posi
 static inline int glint_parse_heartbeat(struct glint_reader *r, struct glint_heartbeat *h) {
     h->protocol_version = glint_read_u8(r);
     h->frame_rate_centihz = glint_read_u16_varint(r);
-    h->dropped_frames = glint_read_varint(r, 5, 0x0F);
+    h->dropped_frames = glint_read_u32_varint(r);
     h->tracker_state = glint_read_u8(r);
     return h->tracker_state <= GLINT_TRACKER_COASTING;
+}
+
+static inline int glint_parse_age(struct glint_reader *r, struct glint_age *a) {
+    uint8_t flags;
+    a->seq = glint_read_u8(r);
+    a->age_us = glint_read_u32_varint(r);
+    flags = glint_read_u8(r);
+    a->predicted = flags & 0x01u;
+    return (flags & 0xFEu) == 0;
+}
+
+static inline int glint_parse_led(struct glint_reader *r, struct glint_led *l) {
+    l->robot = glint_read_u8(r);
+    l->request = glint_read_u8(r);
+    l->at_us = glint_read_u32_fixed(r);
+    l->delay_us = glint_read_u32_varint(r);
+    l->off_us = glint_read_u32_varint(r);
+    return 1;
 }
 
 /* Checks and parses the COBS-decoded payload id ‖ body ‖ crc_lo ‖ crc_hi. */
@@ -239,6 +305,12 @@ static inline enum glint_result glint_parse_payload(const uint8_t *payload, uint
     } else if (msg->id == GLINT_ID_HEARTBEAT) {
         valid = glint_parse_heartbeat(&r, &msg->heartbeat);
         kind = GLINT_HEARTBEAT;
+    } else if (msg->id == GLINT_ID_AGE) {
+        valid = glint_parse_age(&r, &msg->age);
+        kind = GLINT_AGE;
+    } else if (msg->id == GLINT_ID_LED) {
+        valid = glint_parse_led(&r, &msg->led);
+        kind = GLINT_LED;
     } else {
         return GLINT_UNKNOWN;
     }

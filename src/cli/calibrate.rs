@@ -1,26 +1,34 @@
-//! `glint calibrate`: find ArUco markers at known floor positions in a raw YUYV dump and write
-//! the screen ↔ floor calibration as a documented TOML file.
+//! `glint calibrate`: find ArUco markers at known floor positions in a raw YUYV dump, fit the
+//! camera (lens and pose over the floor) to them, and write the calibration as a documented
+//! TOML file (version 2, see `glint::geometry::calibration_file`).
 //!
 //! Each named marker's corners are averaged over every frame it is seen in (noise falls with
-//! the square root of the frame count), then all corners of all named markers are fitted at once.
+//! the square root of the frame count), then all corners of all seen markers are fitted at once.
+//! Markers of the map that this camera does not see are listed and left out.
 
 use std::collections::BTreeSet;
 use std::fmt::Write as _;
 use std::fs::File;
-use std::io::{self, Read};
+use std::io::{self, Read, Write as _};
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::str::FromStr;
 
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use nalgebra::Matrix3;
 
+use glint::budget::{self, MemoryPlan};
 use glint::frame::FrameSize;
-use glint::geometry::aruco::{Detector, DetectorConfig, Dictionary, Marker};
-use glint::geometry::{calibrate, Calibration, MarkerPlacement, Point};
-use glint::source::dump::DumpSource;
+use glint::geometry::aruco::{Detector, DetectorConfig, Dictionary};
+use glint::geometry::camera_fit::{LENS_UNDETERMINED_PX, LENS_WEAK_PX};
+use glint::geometry::lens_file;
+use glint::geometry::{
+    fit_camera, CalibrationRecord, CameraFit, LensChoice, MarkerPlacement, Point, RecordedMarker,
+};
+use glint::source::dump::{DumpError, DumpSource};
 use glint::source::FrameSource;
+
+use super::memory::MemoryArgs;
 
 /// Nominal frame rate given to the dump source; calibration does not use timestamps.
 const NOMINAL_FPS: f64 = 30.0;
@@ -31,7 +39,7 @@ pub struct CalibrateArgs {
     #[arg(long, value_name = "PATH|-")]
     input: String,
 
-    /// Frame size in pixels.
+    /// Frame size in pixels: sides 1 to 16384, the width even.
     #[arg(long, value_name = "WxH")]
     size: FrameSize,
 
@@ -44,9 +52,40 @@ pub struct CalibrateArgs {
     #[arg(long, default_value = "DICT_6X6_250")]
     dict: Dictionary,
 
+    /// The lens: `fit` it with the pose from the markers (they must spread over the
+    /// picture), assume an `ideal` distortion-free one (principal point at the centre), or read
+    /// a lens calibrated elsewhere from FILE (OpenCV's camera YAML or ROS's camera_info YAML;
+    /// the pose is then fitted alone).
+    #[arg(long, value_name = "fit|ideal|FILE", default_value = "fit")]
+    lens: LensArg,
+
     /// Where to write the calibration.
     #[arg(long, value_name = "FILE")]
     out: PathBuf,
+
+    #[command(flatten)]
+    memory: MemoryArgs,
+}
+
+/// The `--lens` argument.
+#[derive(Debug, Clone)]
+enum LensArg {
+    Fit,
+    Ideal,
+    File(PathBuf),
+}
+
+impl FromStr for LensArg {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        Ok(match s {
+            "fit" => LensArg::Fit,
+            "ideal" => LensArg::Ideal,
+            "" => return Err("is empty; give fit, ideal or a lens file".to_owned()),
+            path => LensArg::File(PathBuf::from(path)),
+        })
+    }
 }
 
 /// One `--marker ID:SIZE_CM[@X,Y]` argument.
@@ -91,6 +130,48 @@ struct CornerSums {
     frames: u32,
 }
 
+/// Reads a lens file (OpenCV's or ROS's camera YAML), at most a little past its size cap so
+/// that a device or a huge file is refused rather than read whole.
+// A shared capped-file reader is coming with the hardening work; this read uses the same cap.
+fn read_lens(path: &std::path::Path, size: FrameSize) -> Result<glint::geometry::Lens> {
+    let file = File::open(path).with_context(|| format!("cannot open lens {}", path.display()))?;
+    if !file.metadata().map(|m| m.is_file()).unwrap_or(false) {
+        bail!("lens {}: not a regular file", path.display());
+    }
+    let mut text = String::new();
+    file.take(lens_file::MAX_LENS_FILE_BYTES as u64 + 1)
+        .read_to_string(&mut text)
+        .with_context(|| format!("cannot read lens {}", path.display()))?;
+    lens_file::parse(&text, size).with_context(|| format!("lens {}", path.display()))
+}
+
+/// Refuses a map whose markers share floor (their paper squares overlap).
+fn check_overlaps(placements: &[MarkerPlacement]) -> Result<()> {
+    for (i, a) in placements.iter().enumerate() {
+        for b in &placements[..i] {
+            let apart_x = a.origin.x >= b.origin.x + b.size || b.origin.x >= a.origin.x + a.size;
+            let apart_y = a.origin.y >= b.origin.y + b.size || b.origin.y >= a.origin.y + a.size;
+            if !(apart_x || apart_y) {
+                bail!(
+                    "markers {} and {} overlap on the map ({}:{}@{},{} and {}:{}@{},{}); \
+                     check their positions",
+                    b.id,
+                    a.id,
+                    b.id,
+                    b.size,
+                    b.origin.x,
+                    b.origin.y,
+                    a.id,
+                    a.size,
+                    a.origin.x,
+                    a.origin.y
+                );
+            }
+        }
+    }
+    Ok(())
+}
+
 pub fn run(args: CalibrateArgs) -> Result<ExitCode> {
     let placements: Vec<MarkerPlacement> = args.markers.iter().map(|m| m.0).collect();
     for (i, p) in placements.iter().enumerate() {
@@ -98,6 +179,29 @@ pub fn run(args: CalibrateArgs) -> Result<ExitCode> {
             bail!("marker {} is named more than once", p.id);
         }
     }
+    let config = DetectorConfig::new(args.dict);
+    let mut plan = MemoryPlan::new();
+    let size = args.size;
+    plan.add(
+        "the frame buffer",
+        format!("--size {size}"),
+        budget::frame_bytes(size),
+    );
+    plan.add(
+        "the marker detector",
+        format!("--size {size}"),
+        budget::marker_detector_bytes(size, config.max_perimeter_px),
+    );
+    args.memory.check(&plan)?;
+    check_overlaps(&placements)?;
+    let (choice, lens_source) = match &args.lens {
+        LensArg::Fit => (LensChoice::Fit, "fitted".to_owned()),
+        LensArg::Ideal => (LensChoice::Ideal, "ideal".to_owned()),
+        LensArg::File(path) => {
+            let lens = read_lens(path, args.size)?;
+            (LensChoice::Known(lens), path.display().to_string())
+        }
+    };
     let reader: Box<dyn Read> = if args.input == "-" {
         Box::new(io::stdin().lock())
     } else {
@@ -108,15 +212,21 @@ pub fn run(args: CalibrateArgs) -> Result<ExitCode> {
         }
         Box::new(file)
     };
-    let mut source = DumpSource::new(reader, args.size, NOMINAL_FPS);
-    let mut detector = Detector::new(args.size, DetectorConfig::new(args.dict));
+    let mut source = DumpSource::try_new(reader, args.size, NOMINAL_FPS)?;
+    let mut detector = Detector::new(args.size, config);
     let mut sums = vec![CornerSums::default(); placements.len()];
     let mut seen_ids = BTreeSet::new();
     let mut frames = 0u64;
-    while let Some((frame, _meta)) = source
-        .next_frame()
-        .with_context(|| format!("after {frames} whole frames"))?
-    {
+    let mut capped_frames = 0u64;
+    loop {
+        let (frame, _meta) = match source.next_frame() {
+            Ok(Some(next)) => next,
+            Ok(None) => break,
+            Err(DumpError::Empty) => {
+                bail!("{} holds no whole frame of {}", args.input, args.size)
+            }
+            Err(e) => return Err(e).with_context(|| format!("after {frames} whole frames")),
+        };
         frames += 1;
         let markers = detector.detect(&frame, None)?;
         seen_ids.extend(markers.iter().map(|m| m.id));
@@ -138,197 +248,138 @@ pub fn run(args: CalibrateArgs) -> Result<ExitCode> {
                 _ => {}
             }
         }
-    }
-    if frames == 0 {
-        bail!("{} holds no whole frame of {}", args.input, args.size);
-    }
-    for (p, sum) in placements.iter().zip(&sums) {
-        if sum.frames == 0 {
-            let seen: Vec<String> = seen_ids.iter().map(u16::to_string).collect();
-            let seen = if seen.is_empty() {
-                "no markers at all".to_owned()
-            } else {
-                format!("markers seen: {}", seen.join(", "))
-            };
-            bail!(
-                "marker {} was not seen in any of {frames} frames with {} ({seen})",
-                p.id,
-                args.dict
-            );
+        if detector.stats().capped {
+            if capped_frames == 0 {
+                log::warn!(
+                    "frame {}: marker detection hit its cost cap (a cluttered frame); \
+                     part of the frame was not searched",
+                    frames - 1
+                );
+            }
+            capped_frames += 1;
         }
     }
-    let averaged: Vec<Marker> = placements
+    if capped_frames > 0 {
+        log::warn!(
+            "marker detection hit its cost cap in {capped_frames} of {frames} frames; \
+             markers there may have been missed"
+        );
+    }
+    let mut recorded = Vec::new();
+    let mut unseen = Vec::new();
+    for (p, s) in placements.iter().zip(&sums) {
+        if s.frames == 0 {
+            unseen.push(p.id);
+            continue;
+        }
+        let n = f64::from(s.frames);
+        recorded.push(RecordedMarker {
+            placement: *p,
+            frames_seen: s.frames,
+            corners_px: s.sums.map(|[x, y]| Point::new(x / n, y / n)),
+        });
+    }
+    if recorded.is_empty() {
+        let seen: Vec<String> = seen_ids.iter().map(u16::to_string).collect();
+        let seen = if seen.is_empty() {
+            "no markers at all".to_owned()
+        } else {
+            format!("markers seen: {}", seen.join(", "))
+        };
+        bail!(
+            "none of the named markers was seen in any of {frames} frames with {} ({seen})",
+            args.dict
+        );
+    }
+    let (floor, screen): (Vec<Point>, Vec<Point>) = recorded
         .iter()
-        .zip(&sums)
-        .map(|(p, s)| {
-            let n = f64::from(s.frames);
-            Marker {
-                id: p.id,
-                corners: s.sums.map(|[x, y]| Point::new(x / n, y / n)),
-                corrected_bits: 0,
-                refined: true,
-            }
-        })
-        .collect();
-    let calibration = calibrate(&averaged, &placements).context("calibration failed")?;
-    let report = Report {
+        .flat_map(|m| m.placement.corners().into_iter().zip(m.corners_px))
+        .unzip();
+    let fit = fit_camera(&floor, &screen, args.size, choice).context("calibration failed")?;
+    if matches!(args.lens, LensArg::Fit) && !fit.determined() {
+        let regions: Vec<&str> = fit.regions_above(LENS_UNDETERMINED_PX).collect();
+        bail!(
+            "the markers do not determine the lens: the mapping is uncertain by up to {:.1} px \
+             in the {} of the picture; put markers there (the lens shows most near the edges \
+             and corners), or pass --lens ideal to assume a distortion-free lens",
+            fit.picture_uncertainty_px,
+            regions.join(", ")
+        );
+    }
+    let record = CalibrationRecord {
         size: args.size,
-        dict: args.dict,
+        dictionary: args.dict,
         frames,
-        placements: &placements,
-        sums: &sums,
-        averaged: &averaged,
-        calibration: &calibration,
+        lens_source,
+        camera: fit.camera,
+        markers: recorded,
+        unseen,
     };
-    let toml = report.toml()?;
+    let toml = record.to_toml()?;
     std::fs::write(&args.out, toml)
         .with_context(|| format!("cannot write {}", args.out.display()))?;
-    print!("{}", report.summary()?);
-    println!("wrote {}", args.out.display());
+    // The file is written; a closed or full standard output is not worth a panic.
+    let mut stdout = io::stdout().lock();
+    write!(stdout, "{}", summary(&record, &fit)?)
+        .and_then(|()| writeln!(stdout, "wrote {}", args.out.display()))
+        .context("writing the summary to standard output")?;
     Ok(ExitCode::SUCCESS)
 }
 
-/// Everything the calibration file and the printed summary say.
-struct Report<'a> {
-    size: FrameSize,
-    dict: Dictionary,
-    frames: u64,
-    placements: &'a [MarkerPlacement],
-    sums: &'a [CornerSums],
-    averaged: &'a [Marker],
-    calibration: &'a Calibration,
-}
-
-impl Report<'_> {
-    /// Reprojection residual of each corner of a marker, pixels.
-    fn residuals_px(&self, p: &MarkerPlacement, m: &Marker) -> Result<[f64; 4]> {
-        let mut out = [0.0; 4];
-        for (k, (f, s)) in p.corners().iter().zip(&m.corners).enumerate() {
-            out[k] = (self.calibration.mapping.floor_to_screen(f)? - s).norm();
-        }
-        Ok(out)
+/// The lines printed for a person.
+fn summary(record: &CalibrationRecord, fit: &CameraFit) -> Result<String> {
+    let mut s = String::new();
+    let lens = &fit.camera.lens;
+    writeln!(
+        s,
+        "calibrated from {} corners of {} marker(s) over {} frames: residual rms {:.3} px, max {:.3} px",
+        fit.corners,
+        record.markers.len(),
+        record.frames,
+        fit.rms_residual_px,
+        fit.max_residual_px
+    )?;
+    if !record.unseen.is_empty() {
+        let ids: Vec<String> = record.unseen.iter().map(u16::to_string).collect();
+        writeln!(s, "  not seen (left out): marker {}", ids.join(", "))?;
     }
-
-    /// The documented TOML file.
-    fn toml(&self) -> Result<String> {
-        let c = self.calibration;
-        let h = c.mapping.floor_to_screen_homography();
-        let inv = h.inverse()?;
-        let matrix = |m: &Matrix3<f64>| {
-            (0..3)
-                .map(|r| format!("[{:?}, {:?}, {:?}]", m[(r, 0)], m[(r, 1)], m[(r, 2)]))
-                .collect::<Vec<_>>()
-                .join(", ")
-        };
-        let mut t = String::new();
-        writeln!(
-            t,
-            "# glint floor calibration, written by `glint calibrate`."
-        )?;
-        writeln!(t, "#")?;
-        writeln!(
-            t,
-            "# Screen coordinates are pixels of the camera image: x to the right, y down,"
-        )?;
-        writeln!(
-            t,
-            "# pixel centres at whole numbers (as OpenCV). Floor coordinates are in the"
-        )?;
-        writeln!(
-            t,
-            "# units of the marker sizes (cm), on a map of the floor seen from above."
-        )?;
-        writeln!(t)?;
-        writeln!(
-            t,
-            "# The camera image this calibration belongs to; another size is refused."
-        )?;
-        writeln!(t, "width_px = {}", self.size.width())?;
-        writeln!(t, "height_px = {}", self.size.height())?;
-        writeln!(t, "units = \"cm\"")?;
-        writeln!(t, "dictionary = \"{}\"", self.dict)?;
-        writeln!(
-            t,
-            "# Frames read; each marker's corners are averaged over the frames it is seen in."
-        )?;
-        writeln!(t, "frames = {}", self.frames)?;
-        writeln!(t)?;
-        writeln!(t, "[homography]")?;
-        writeln!(
-            t,
-            "# Row-major 3x3 matrices: [x_px, y_px, w] ~ floor_to_screen * [x_cm, y_cm, 1],"
-        )?;
-        writeln!(
-            t,
-            "# and the inverse for screen to floor (divide by the third component)."
-        )?;
-        writeln!(t, "floor_to_screen = [{}]", matrix(h.matrix()))?;
-        writeln!(t, "screen_to_floor = [{}]", matrix(inv.matrix()))?;
-        writeln!(t)?;
-        writeln!(t, "[residuals]")?;
-        writeln!(
-            t,
-            "# Distances between the detected (averaged) corners and the floor corners mapped"
-        )?;
-        writeln!(
-            t,
-            "# to the screen, in pixels. Four corners of one marker fit exactly (zero)."
-        )?;
-        writeln!(t, "corners = {}", c.corners)?;
-        writeln!(t, "rms_px = {:?}", c.rms_residual_px)?;
-        writeln!(t, "max_px = {:?}", c.max_residual_px)?;
-        for ((p, s), m) in self.placements.iter().zip(self.sums).zip(self.averaged) {
-            let corners = m
-                .corners
-                .iter()
-                .map(|q| format!("[{:?}, {:?}]", q.x, q.y))
-                .collect::<Vec<_>>()
-                .join(", ");
-            let residuals = self
-                .residuals_px(p, m)?
-                .map(|r| format!("{r:?}"))
-                .join(", ");
-            writeln!(t)?;
-            writeln!(t, "[[marker]]")?;
-            writeln!(t, "id = {}", p.id)?;
-            writeln!(t, "size_cm = {:?}", p.size)?;
-            writeln!(
-                t,
-                "# Floor position of the printed top-left corner; the top edge runs along +x."
-            )?;
-            writeln!(t, "origin_cm = [{:?}, {:?}]", p.origin.x, p.origin.y)?;
-            writeln!(t, "frames_seen = {}", s.frames)?;
-            writeln!(
-                t,
-                "# Top-left, top-right, bottom-right, bottom-left as printed."
-            )?;
-            writeln!(t, "corners_px = [{corners}]")?;
-            writeln!(t, "residuals_px = [{residuals}]")?;
-        }
-        Ok(t)
-    }
-
-    /// The lines printed for a person.
-    fn summary(&self) -> Result<String> {
-        let mut s = String::new();
-        let c = self.calibration;
+    writeln!(
+        s,
+        "  lens ({}): fx {:.1} fy {:.1} cx {:.1} cy {:.1} px, k1 {:.4} k2 {:.4} p1 {:.5} p2 {:.5} k3 {:.4}",
+        record.lens_source, lens.fx, lens.fy, lens.cx, lens.cy, lens.k1, lens.k2, lens.p1, lens.p2, lens.k3
+    )?;
+    writeln!(
+        s,
+        "  camera {:.1} cm above the floor",
+        fit.camera.pose.height()
+    )?;
+    writeln!(
+        s,
+        "  expected floor error (1 sigma, corner noise {:.3} px): up to {:.1} mm over the markers' area, {:.1} mm over the whole picture; mapping uncertain by up to {:.2} px",
+        fit.noise_px,
+        10.0 * fit.markers_area_uncertainty,
+        10.0 * fit.picture_uncertainty,
+        fit.picture_uncertainty_px
+    )?;
+    let weak: Vec<&str> = fit.regions_above(LENS_WEAK_PX).collect();
+    if !weak.is_empty() {
         writeln!(
             s,
-            "calibrated from {} corners of {} marker(s) over {} frames: residual rms {:.3} px, max {:.3} px",
-            c.corners,
-            self.placements.len(),
-            self.frames,
-            c.rms_residual_px,
-            c.max_residual_px
+            "  more markers in the {} of the picture would pin the lens down better",
+            weak.join(", ")
         )?;
-        for ((p, sums), m) in self.placements.iter().zip(self.sums).zip(self.averaged) {
-            let r = self.residuals_px(p, m)?;
-            writeln!(
-                s,
-                "  marker {:>4} ({} frames): corner residuals {:.3} {:.3} {:.3} {:.3} px",
-                p.id, sums.frames, r[0], r[1], r[2], r[3]
-            )?;
-        }
-        Ok(s)
     }
+    for m in &record.markers {
+        let r = glint::geometry::calibration_record::corner_residuals_px(
+            &fit.camera,
+            &m.placement,
+            &m.corners_px,
+        )?;
+        writeln!(
+            s,
+            "  marker {:>4} ({} frames): corner residuals {:.3} {:.3} {:.3} {:.3} px",
+            m.placement.id, m.frames_seen, r[0], r[1], r[2], r[3]
+        )?;
+    }
+    Ok(s)
 }

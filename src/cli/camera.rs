@@ -6,7 +6,7 @@ use std::path::Path;
 use anyhow::Result;
 use clap::{Args, ValueEnum};
 
-use glint::frame::FrameSize;
+use glint::frame::{FrameSize, PixelFormat};
 use glint::source::v4l2::{
     CaptureConfig, ControlRequest, NamedControl, PowerLine, ReopeningSource, DEFAULT_BUFFER_COUNT,
 };
@@ -17,16 +17,17 @@ const MAX_BUFFERS: i64 = 32;
 /// What the camera is asked for beyond size and frame rate.
 #[derive(Debug, Args)]
 pub struct CameraArgs {
-    /// mmap buffers to ask the driver for.
+    /// mmap buffers to ask the driver for, 1 to 32 (each holds one frame).
     #[arg(long, value_name = "N", default_value_t = DEFAULT_BUFFER_COUNT,
+          allow_negative_numbers = true,
           value_parser = clap::value_parser!(u32).range(1..=MAX_BUFFERS))]
     buffers: u32,
 
     /// Manual exposure time in microseconds (turns auto exposure off unless
     /// --auto-exposure on). A short exposure leaves the LED the only saturated thing. The
     /// tracker uses it too: the streak's length over it is the speed within one frame; so for
-    /// a recording, give the exposure it was made with.
-    #[arg(long, value_name = "MICROSECONDS",
+    /// a recording, give the exposure it was made with. 1 to 10000000.
+    #[arg(long, value_name = "MICROSECONDS", allow_negative_numbers = true,
           value_parser = clap::value_parser!(u32).range(1..=10_000_000))]
     exposure_us: Option<u32>,
 
@@ -74,6 +75,11 @@ impl CameraArgs {
         self.buffers != DEFAULT_BUFFER_COUNT || !request.is_empty()
     }
 
+    /// The mmap buffers asked for.
+    pub fn buffers(&self) -> u32 {
+        self.buffers
+    }
+
     /// The exposure time given, in microseconds.
     pub fn exposure_us(&self) -> Option<u32> {
         self.exposure_us
@@ -92,7 +98,7 @@ impl CameraArgs {
     }
 }
 
-/// Opens the camera at `path` for YUYV frames of `size` (at `fps` when given), sets the
+/// Opens the camera at `path` for `format` frames of `size` (at `fps` when given), sets the
 /// controls (the report goes to the log), and arranges for Ctrl-C and SIGTERM to end the stream
 /// cleanly. Live runs log at info level at least, so the control report and the periodic
 /// summary show by default.
@@ -100,6 +106,7 @@ pub fn open(
     path: &Path,
     size: FrameSize,
     fps: Option<u32>,
+    format: PixelFormat,
     camera: &CameraArgs,
 ) -> Result<ReopeningSource> {
     if log::max_level() < log::LevelFilter::Info {
@@ -107,12 +114,14 @@ pub fn open(
     }
     let mut config = CaptureConfig::new(path, size, fps);
     config.buffer_count = camera.buffers;
+    config.format = format;
     let source = ReopeningSource::open(config, camera.request())?;
     if let Some(inner) = source.current() {
         let n = inner.negotiated();
         log::info!(
-            "{}: YUYV {} with rows {} bytes apart, {}, {} mmap buffers",
+            "{}: {} {} with rows {} bytes apart, {}, {} mmap buffers",
             path.display(),
+            String::from_utf8_lossy(&n.format.fourcc()),
             n.size,
             n.stride_bytes,
             n.fps

@@ -2,19 +2,23 @@
 //! lies beside it), standard input, or a camera. Every one of them becomes an [`InputSource`],
 //! so they all run through the one monitored per-frame path, `glint::monitor::run`.
 
-use std::fs::File;
+use std::fs::{File, OpenOptions};
 use std::io::{self, Read};
+use std::os::unix::fs::OpenOptionsExt;
 use std::path::Path;
 #[cfg(feature = "v4l2")]
 use std::path::PathBuf;
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
 use std::time::Duration;
 
 use anyhow::{bail, Context, Result};
 use clap::Args;
 
-use glint::frame::{Frame, FrameSize};
+use glint::frame::{Frame, FrameSize, PixelFormat};
 use glint::monitor::{Counts, Monitor, MonitorConfig};
 use glint::source::dump::{DumpError, DumpSource};
+use glint::source::interruptible::Interruptible;
 use glint::source::sidecar::{ReplayError, ReplaySource, Sidecar, SidecarError};
 #[cfg(feature = "v4l2")]
 use glint::source::v4l2::{ReopeningSource, V4l2Error};
@@ -52,6 +56,11 @@ pub struct InputArgs {
     #[arg(long, requires = "input")]
     no_sidecar: bool,
 
+    /// Pixel format of the frames: yuyv, uyvy or grey (8-bit luma, as mono cameras such as
+    /// the OV9281 send). Default: the sidecar's format for a recorded dump, else yuyv.
+    #[arg(long, value_name = "yuyv|uyvy|grey")]
+    format_in: Option<PixelFormat>,
+
     #[cfg(feature = "v4l2")]
     #[command(flatten)]
     camera: CameraArgs,
@@ -62,8 +71,9 @@ pub struct InputArgs {
     stats: bool,
 
     /// Seconds between summaries (frames, fps, drops, found ratio) on standard error while
-    /// tracking from a camera; 0 for none.
-    #[arg(long, value_name = "SECONDS", default_value_t = 10.0, value_parser = parse_seconds)]
+    /// tracking from a camera, up to 86400; 0 for none.
+    #[arg(long, value_name = "SECONDS", default_value_t = 10.0, value_parser = parse_seconds,
+          allow_negative_numbers = true)]
     summary_every: f64,
 }
 
@@ -75,6 +85,21 @@ impl InputArgs {
         return self.camera.exposure_us();
         #[cfg(not(feature = "v4l2"))]
         return None;
+    }
+
+    /// The mmap buffers a camera will fill, when the input is a camera.
+    pub fn camera_buffers(&self) -> Option<u32> {
+        #[cfg(feature = "v4l2")]
+        if self.source.device.is_some() {
+            return Some(self.camera.buffers());
+        }
+        None
+    }
+
+    /// The pixel format given with `--format-in`, or YUYV: the format of dumps without a
+    /// sidecar, of standard input, of cameras, and of a background dump.
+    pub fn pixel_format(&self) -> PixelFormat {
+        self.format_in.unwrap_or_default()
     }
 
     /// The dump file given with `--input` (not standard input).
@@ -99,9 +124,7 @@ impl InputArgs {
 fn parse_seconds(s: &str) -> Result<f64, String> {
     match s.parse::<f64>() {
         Ok(v) if v.is_finite() && (0.0..=86_400.0).contains(&v) => Ok(v),
-        _ => Err(format!(
-            "{s:?} is not a number of seconds between 0 and 86400"
-        )),
+        _ => Err("not a number of seconds from 0 to 86400".to_string()),
     }
 }
 
@@ -159,11 +182,18 @@ pub struct Input {
     pub monitor: Monitor,
 }
 
-/// Opens what `args` name for frames of `size`; `fps` is the `--fps` given, if any.
-pub fn open(args: &InputArgs, size: FrameSize, fps: Option<f64>) -> Result<Input> {
+/// Opens what `args` name for frames of `size`; `fps` is the `--fps` given, if any. Reading a
+/// dump or standard input gives up waiting once `stop` is set.
+pub fn open(
+    args: &InputArgs,
+    size: FrameSize,
+    fps: Option<f64>,
+    stop: &Arc<AtomicBool>,
+) -> Result<Input> {
     #[cfg(feature = "v4l2")]
     if let Some(device) = &args.source.device {
-        let source = camera::open(device, size, camera::whole_fps(fps)?, &args.camera)?;
+        let fps = camera::whole_fps(fps)?;
+        let source = camera::open(device, size, fps, args.pixel_format(), &args.camera)?;
         return Ok(Input {
             source: InputSource::Camera(Box::new(source)),
             live: true,
@@ -183,21 +213,26 @@ pub fn open(args: &InputArgs, size: FrameSize, fps: Option<f64>) -> Result<Input
     };
     let fps_or_default = fps.unwrap_or(DEFAULT_DUMP_FPS);
     if input == "-" {
-        let stdin: Box<dyn Read> = Box::new(io::stdin().lock());
+        let stdin: Box<dyn Read> = Box::new(Interruptible::new(io::stdin(), Arc::clone(stop)));
         return Ok(Input {
-            source: InputSource::Dump(DumpSource::new(stdin, size, fps_or_default)),
+            source: InputSource::Dump(DumpSource::try_with_format(
+                stdin,
+                size,
+                fps_or_default,
+                args.pixel_format(),
+            )?),
             live: true,
             monitor,
         });
     }
-    let file = File::open(input).with_context(|| format!("cannot open {input}"))?;
+    let file = open_without_waiting(Path::new(input))?;
     let metadata = file
         .metadata()
         .with_context(|| format!("cannot read {input}"))?;
     if metadata.is_dir() {
         bail!("{input} is a directory, not a dump");
     }
-    let reader: Box<dyn Read> = Box::new(file);
+    let reader: Box<dyn Read> = Box::new(Interruptible::new(file, Arc::clone(stop)));
     let sidecar = if args.no_sidecar {
         None
     } else {
@@ -205,18 +240,41 @@ pub fn open(args: &InputArgs, size: FrameSize, fps: Option<f64>) -> Result<Input
     };
     let source = match sidecar {
         Some(sidecar) => {
+            let recorded = sidecar.pixel_format()?;
+            if let Some(given) = args.format_in.filter(|&f| f != recorded) {
+                bail!(
+                    "the sidecar of {input} says the frames are {recorded}, but --format-in is \
+                     {given} (--no-sidecar replays the dump without it)"
+                );
+            }
             if fps.is_some() {
                 log::warn!("--fps is ignored: the sidecar's frame times are used");
             }
-            InputSource::Replay(ReplaySource::new(reader, size, sidecar))
+            let dump = DumpSource::try_with_format(reader, size, fps_or_default, recorded)?;
+            InputSource::Replay(ReplaySource::from_dump(dump, sidecar))
         }
-        None => InputSource::Dump(DumpSource::new(reader, size, fps_or_default)),
+        None => InputSource::Dump(DumpSource::try_with_format(
+            reader,
+            size,
+            fps_or_default,
+            args.pixel_format(),
+        )?),
     };
     Ok(Input {
         source,
         live: false,
         monitor,
     })
+}
+
+/// Opens a dump for reading without waiting: a FIFO opens at once instead of blocking until a
+/// writer comes (the reads then wait, see [`Interruptible`]).
+pub fn open_without_waiting(input: &Path) -> Result<File> {
+    OpenOptions::new()
+        .read(true)
+        .custom_flags(nix::fcntl::OFlag::O_NONBLOCK.bits())
+        .open(input)
+        .with_context(|| format!("cannot open {}", input.display()))
 }
 
 /// The checked sidecar of `dump`, or `None` when it has none.
@@ -249,7 +307,7 @@ pub fn report(monitor: &Monitor) {
         log::info!("{dropped} frames dropped upstream of {frames} processed");
     }
     if let Some(stats) = monitor.stats() {
-        eprintln!("glint: {stats}");
+        super::logger::write_line(format_args!("glint: {stats}"));
     }
 }
 

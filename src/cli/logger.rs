@@ -2,8 +2,14 @@
 //! mix with the results on standard output. Under systemd (when `JOURNAL_STREAM` is set) each
 //! line starts with its syslog priority (`<4>` for a warning), which journald reads as the
 //! record's level and strips.
+//!
+//! A log line that cannot be written (standard error on a full disk, a closed pipe) is dropped
+//! and counted, never a panic: the log must not be what stops a tracker. [`write_line`] is the
+//! same for the few lines the command writes on standard error itself.
 
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::fmt;
+use std::io::{self, Write};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 use log::{Level, LevelFilter, Log, Metadata, Record};
 
@@ -26,11 +32,11 @@ impl Log for StderrLogger {
             } else {
                 ""
             };
-            eprintln!(
+            write_line(format_args!(
                 "{priority}glint: {}: {}",
                 record.level().as_str().to_lowercase(),
                 record.args()
-            );
+            ));
         }
     }
 
@@ -45,6 +51,22 @@ fn syslog_prefix(level: Level) -> &'static str {
         Level::Info => "<6>",
         Level::Debug | Level::Trace => "<7>",
     }
+}
+
+/// Lines that could not be written to standard error.
+static DROPPED_LINES: AtomicU64 = AtomicU64::new(0);
+
+/// Writes one line on standard error; if that fails, drops it and counts it.
+pub fn write_line(line: fmt::Arguments<'_>) {
+    let mut stderr = io::stderr().lock();
+    if writeln!(stderr, "{line}").is_err() {
+        DROPPED_LINES.fetch_add(1, Ordering::Relaxed);
+    }
+}
+
+/// How many lines could not be written to standard error so far.
+pub fn dropped_lines() -> u64 {
+    DROPPED_LINES.load(Ordering::Relaxed)
 }
 
 static LOGGER: StderrLogger = StderrLogger {

@@ -7,25 +7,35 @@ mod camera;
 #[cfg(feature = "v4l2")]
 mod devices;
 mod input;
+mod latency;
 mod logger;
+mod memory;
 #[cfg(feature = "v4l2")]
 mod record;
 mod run;
-mod run_config;
+// Reached from tests/readme_commands.rs, which splices settings files as `main` does.
+pub(crate) mod run_config;
 mod signals;
 mod track;
 
+use std::ffi::OsString;
 use std::process::ExitCode;
 
+use clap::error::{ContextKind, ContextValue, ErrorKind};
 use clap::{CommandFactory, Parser, Subcommand};
+
+use glint::options::shortened;
 
 /// Exit code for bad arguments (as clap uses).
 const EXIT_USAGE: u8 = 2;
 
+/// Longest argument accepted: a path (PATH_MAX) is the longest thing any option takes.
+const MAX_ARGUMENT_BYTES: usize = 4096;
+
 /// glint tracks a saturated LED in YUYV video and reports its position per frame.
 #[derive(Debug, Parser)]
-#[command(name = "glint", version, about)]
-struct Cli {
+#[command(name = "glint", version, about, arg_required_else_help = true)]
+pub struct Cli {
     /// More log output on standard error (-v info, -vv debug).
     #[arg(short, long, action = clap::ArgAction::Count, global = true)]
     verbose: u8,
@@ -42,6 +52,9 @@ enum Command {
     /// lines, with the settings in a file (`--config`), a periodic status in the log, and a
     /// clean stop on SIGTERM.
     Run(run::RunArgs),
+    /// Measure the whole loop's latency: ask the robot over --serial to switch its LED off at
+    /// random moments, and time the first frame in which it is gone.
+    Latency(latency::LatencyArgs),
     /// Calibrate screen to floor from ArUco markers at known floor positions in a dump.
     Calibrate(calibrate::CalibrateArgs),
     /// List the V4L2 cameras with their formats, sizes, frame intervals and controls.
@@ -58,16 +71,25 @@ pub fn main() -> ExitCode {
     let spliced = match run_config::splice(std::env::args_os().collect(), &Cli::command()) {
         Ok(spliced) => spliced,
         Err(message) => {
-            eprintln!("glint: {message}");
+            logger::write_line(format_args!("glint: {message}"));
             return ExitCode::from(EXIT_USAGE);
         }
     };
+    if let Some(message) = oversized_argument(&spliced.argv) {
+        logger::write_line(format_args!("glint: {message}"));
+        return ExitCode::from(EXIT_USAGE);
+    }
     let cli = match Cli::try_parse_from(&spliced.argv) {
         Ok(cli) => cli,
         Err(e) if !e.use_stderr() => {
             // --help and --version go to standard output as usual.
             let _ = e.print();
             return ExitCode::SUCCESS;
+        }
+        Err(e) if e.kind() == ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => {
+            // `glint` alone: the usage, on standard error since nothing was run.
+            let _ = e.print();
+            return ExitCode::from(EXIT_USAGE);
         }
         Err(e) => {
             let rendered = e.render().to_string();
@@ -80,7 +102,11 @@ pub fn main() -> ExitCode {
                     lines.map(str::trim).take_while(|l| !l.is_empty()).collect();
                 message = format!("{message} {}", listed.join(", "));
             }
-            eprintln!("glint: {}", spliced.attribute(&e, message));
+            // clap quotes the bad value whole; a huge one is cut short.
+            if let Some(ContextValue::String(value)) = e.get(ContextKind::InvalidValue) {
+                message = message.replace(value.as_str(), &shortened(value));
+            }
+            logger::write_line(format_args!("glint: {}", spliced.attribute(&e, message)));
             return ExitCode::from(EXIT_USAGE);
         }
     };
@@ -88,6 +114,7 @@ pub fn main() -> ExitCode {
     let result = match cli.command {
         Command::Track(args) => track::run(args),
         Command::Run(args) => run::run(args),
+        Command::Latency(args) => latency::run(args),
         Command::Calibrate(args) => calibrate::run(args),
         #[cfg(feature = "v4l2")]
         Command::Devices => devices::run(),
@@ -97,8 +124,34 @@ pub fn main() -> ExitCode {
     match result {
         Ok(code) => code,
         Err(e) => {
-            eprintln!("glint: {e:#}");
+            logger::write_line(format_args!("glint: {e:#}"));
             ExitCode::FAILURE
         }
     }
+}
+
+/// The refusal of an argument longer than any option takes, if there is one, naming its
+/// option: a 10 MB value is not worth parsing, nor quoting back whole.
+fn oversized_argument(argv: &[OsString]) -> Option<String> {
+    let at = argv
+        .iter()
+        .enumerate()
+        .skip(1)
+        .find(|(_, a)| a.len() > MAX_ARGUMENT_BYTES)
+        .map(|(i, _)| i)?;
+    let text = argv.get(at)?.to_string_lossy();
+    let option = match text.strip_prefix("--").and_then(|t| t.split_once('=')) {
+        Some((name, _)) => Some(format!("--{}", shortened(name))),
+        None => argv
+            .get(at - 1)
+            .map(|a| a.to_string_lossy())
+            .filter(|a| a.starts_with("--") && !a.contains('=') && at > 1)
+            .map(|a| shortened(&a)),
+    };
+    let what = option.map_or("an argument".to_string(), |o| format!("the value of {o}"));
+    Some(format!(
+        "{what} is {} bytes, longer than any option takes (at most {MAX_ARGUMENT_BYTES}): '{}'",
+        text.len(),
+        shortened(&text)
+    ))
 }

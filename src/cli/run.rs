@@ -9,18 +9,17 @@ use std::io::{self, BufWriter, Write};
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use std::sync::atomic::AtomicBool;
-use std::sync::Arc;
 
 use anyhow::{Context, Result};
 use clap::Args;
 
+use glint::budget::{self, MemoryPlan};
 use glint::geometry::CalibrationFile;
 use glint::monitor::{self, Monitor};
-use glint::sink::{BestEffort, JsonLinesSink, PreviewSink, Tee};
-use glint::source::stoppable::Stoppable;
+use glint::sink::{BestEffort, PreviewSink, Tee};
+use glint::small_file;
 
-use super::signals;
+use super::logger;
 use super::track::{self, Opened, TrackSettings};
 
 /// Where `--preview` serves without an address: this machine only.
@@ -34,6 +33,7 @@ const JSONL_BUFFER_BYTES: usize = 16 * 1024;
 pub struct RunArgs {
     /// Settings file (TOML). Its keys are the long names of these options (`device`, `size`,
     /// `exposure-us`, `calib`, `serial`, `jsonl`, ...); options on the command line override it.
+    /// A regular file of at most 1 MB.
     #[arg(long, value_name = "FILE")]
     config: Option<PathBuf>,
 
@@ -64,17 +64,15 @@ pub fn run(args: RunArgs) -> Result<ExitCode> {
     check_files(&args)?;
     let jsonl = args.jsonl.as_deref().map(open_jsonl).transpose()?;
     let Opened {
-        source,
+        mut source,
         mut pipeline,
         serial,
         ..
-    } = track::open(&args.settings)?;
+    } = track::open(&args.settings, &memory_plan(&args))?;
     // Unlike `glint track`, every run reports its status, whatever the source.
     let mut monitor = Monitor::new(args.settings.input.monitor_config());
-    let stop = Arc::new(AtomicBool::new(false));
-    signals::stop_on_signals(&stop)?;
-    let mut source = Stoppable::new(source, stop);
-    let jsonl = jsonl.map(|out| BestEffort::new("jsonl", JsonLinesSink::new(out, true)));
+    let jsonl =
+        jsonl.map(|out| BestEffort::new("jsonl", track::jsonl_sink(out, true, &args.settings)));
     let preview = args
         .preview
         .map(|addr| start_preview(addr, &args.settings))
@@ -83,9 +81,10 @@ pub fn run(args: RunArgs) -> Result<ExitCode> {
     let (summary, result) = monitor::run(&mut source, &mut pipeline, &mut sink, &mut monitor);
     let totals = monitor.totals();
     log::info!(
-        "stopped after {} frames ({} dropped upstream)",
+        "stopped after {} frames ({} dropped upstream, {} log lines lost)",
         totals.frames,
-        totals.dropped
+        totals.dropped,
+        logger::dropped_lines()
     );
     if let Some(stats) = monitor.stats() {
         log::info!("whole run: {}", stats.one_line());
@@ -93,12 +92,26 @@ pub fn run(args: RunArgs) -> Result<ExitCode> {
     track::conclude(&summary, result)
 }
 
+/// What the run will allocate: the tracking's needs, and the preview's.
+fn memory_plan(args: &RunArgs) -> MemoryPlan {
+    let mut plan = args.settings.memory_plan();
+    if args.preview.is_some() {
+        let size = args.settings.size;
+        plan.add(
+            "the preview",
+            format!("--preview, --size {size}"),
+            budget::preview_bytes(size),
+        );
+    }
+    plan
+}
+
 /// Starts the preview server and says where it is (the address actually bound, for port 0).
 fn start_preview(addr: SocketAddr, settings: &TrackSettings) -> Result<PreviewSink> {
     // The calibration was checked when the pipeline was built; here only its markers are read.
     let markers = match settings.floor.calib.as_deref() {
         Some(path) => {
-            let text = std::fs::read_to_string(path)
+            let text = small_file::read_text(path, small_file::MAX_SETTINGS_BYTES)
                 .with_context(|| format!("calib = {:?}: cannot read it", path.display()))?;
             CalibrationFile::marker_corners_px(&text)
                 .with_context(|| format!("calib = {:?}", path.display()))?

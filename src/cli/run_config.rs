@@ -18,6 +18,8 @@ use std::path::PathBuf;
 
 use clap::error::{ContextKind, ContextValue};
 use clap::{ArgAction, Command};
+use glint::options::shortened;
+use glint::small_file;
 use toml::Value;
 
 /// The subcommand that takes a settings file.
@@ -86,7 +88,7 @@ pub fn splice(argv: Vec<OsString>, cli: &Command) -> Result<Spliced, String> {
     let Some(path) = config_path(given) else {
         return Ok(unchanged(argv));
     };
-    let text = std::fs::read_to_string(&path)
+    let text = small_file::read_text(&path, small_file::MAX_SETTINGS_BYTES)
         .map_err(|e| format!("cannot read settings {}: {e}", path.display()))?;
     let settings = to_options(&text, run).map_err(|e| format!("{}: {e}", path.display()))?;
     let overridden = overridden_keys(given, run);
@@ -155,7 +157,12 @@ fn to_options(text: &str, run: &Command) -> Result<Vec<(String, Vec<OsString>)>,
             .get_arguments()
             .find(|a| a.get_long() == Some(key.as_str()))
             .filter(|_| !NOT_IN_FILE.contains(&key.as_str()))
-            .ok_or_else(|| format!("unknown key `{key}` (the keys are `glint run` options)"))?;
+            .ok_or_else(|| {
+                format!(
+                    "unknown key `{}` (the keys are `glint run` options)",
+                    shortened(key)
+                )
+            })?;
         let flag = || OsString::from(format!("--{key}"));
         let with_value = |v: &Value| scalar(v).map(|s| OsString::from(format!("--{key}={s}")));
         let wrong = |what: &str| format!("key `{key}`: {what}, not {}", describe(value));
@@ -204,7 +211,7 @@ fn scalar(value: &Value) -> Option<String> {
 /// A value's kind, for messages.
 fn describe(value: &Value) -> String {
     match value {
-        Value::String(s) => format!("the string {s:?}"),
+        Value::String(s) => format!("the string {:?}", shortened(s)),
         Value::Integer(i) => format!("the number {i}"),
         Value::Float(f) => format!("the number {f}"),
         Value::Boolean(b) => format!("{b}"),
@@ -357,7 +364,7 @@ mod tests {
             .collect();
         let e = splice(argv, &cli()).unwrap_err();
         assert!(
-            e.contains("cannot read settings /nonexistent/glint.toml"),
+            e.contains("cannot read settings /nonexistent/glint.toml: "),
             "{e}"
         );
     }

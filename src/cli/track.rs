@@ -1,23 +1,30 @@
 //! `glint track`: run the pipeline on a raw YUYV dump or a camera and print one report per frame.
 
-use std::fs::File;
 use std::io::{self, BufWriter};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
 
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
 
-use super::{calib_args, input};
+use super::{calib_args, input, memory, signals};
 
+use glint::budget::{self, MemoryPlan};
 use glint::detect::bgdiff::MAX_BACKGROUND_FRAMES;
 use glint::detect::MaskMethod;
 use glint::frame::FrameSize;
+use glint::geometry::CalibrationFile;
 use glint::monitor::{self, Monitor};
 use glint::options::{parse_fps, LedArgs};
 use glint::pipeline::{self, Pipeline, PipelineConfig, RunSummary};
-use glint::sink::{serial, CsvSink, JsonLinesSink, SerialSink, Tee};
+use glint::sink::mavlink::{self, Identity, ToLocal};
+use glint::sink::{serial, CsvSink, JsonLinesSink, MavlinkSink, SerialSink, Tee};
+use glint::small_file;
 use glint::source::dump::DumpSource;
+use glint::source::interruptible::Interruptible;
+use glint::source::stoppable::Stoppable;
 use glint::source::FrameSource;
 use glint::track::TrackerConfig;
 
@@ -41,13 +48,14 @@ pub struct TrackSettings {
     #[command(flatten)]
     pub input: input::InputArgs,
 
-    /// Frame size in pixels.
+    /// Frame size in pixels: sides 1 to 16384, the width even. What the options need for
+    /// frames of this size must fit in --max-memory-mb.
     #[arg(long, value_name = "WxH")]
     pub size: FrameSize,
 
-    /// Frame rate: of a dump without a sidecar, for timestamps (default 30); of a camera, to
-    /// ask for (default: its current one).
-    #[arg(long, value_parser = parse_fps)]
+    /// Frame rate, 0.1 to 1000: of a dump without a sidecar, for timestamps (default 30); of
+    /// a camera, to ask for (default: its current one).
+    #[arg(long, value_parser = parse_fps, allow_negative_numbers = true)]
     fps: Option<f64>,
 
     #[command(flatten)]
@@ -59,8 +67,9 @@ pub struct TrackSettings {
     detector: DetectorArg,
 
     /// With `--detector bgdiff`: learn the background from the first N frames (their
-    /// per-pixel median), which are then reported as not found.
-    #[arg(long, default_value_t = 9, value_name = "N",
+    /// per-pixel median), which are then reported as not found; 1 to 63, each one frame of
+    /// luma in memory.
+    #[arg(long, default_value_t = 9, value_name = "N", allow_negative_numbers = true,
           value_parser = clap::value_parser!(u16).range(1..=MAX_BACKGROUND_FRAMES as i64))]
     background_frames: u16,
 
@@ -69,8 +78,9 @@ pub struct TrackSettings {
     #[arg(long, value_name = "PATH")]
     pub background: Option<PathBuf>,
 
-    /// With `--detector bgdiff`: the luma difference from the background that counts.
-    #[arg(long, default_value_t = 60, value_name = "LUMA",
+    /// With `--detector bgdiff`: the luma difference from the background that counts, 1 to
+    /// 255.
+    #[arg(long, default_value_t = 60, value_name = "LUMA", allow_negative_numbers = true,
           value_parser = clap::value_parser!(u8).range(1..))]
     diff: u8,
 
@@ -78,12 +88,65 @@ pub struct TrackSettings {
     pub floor: calib_args::FloorArgs,
 
     /// Also send position packets to the robot on this serial port (board/protocol/SPEC.md).
-    #[arg(long, value_name = "PORT")]
+    #[arg(long, value_name = "PORT", overrides_with = "no_serial")]
     pub serial: Option<String>,
 
-    /// Line rate of --serial, 8N1.
-    #[arg(long, default_value_t = serial::DEFAULT_BAUD, value_parser = clap::value_parser!(u32).range(50..=4_000_000))]
-    baud: u32,
+    /// No serial link, whatever a --serial before it (or the settings file's `serial`) says:
+    /// try a Pi's settings on a dump without its UART.
+    #[arg(long, overrides_with = "serial")]
+    no_serial: bool,
+
+    /// `arrival`: send positions extrapolated to the moment each update reaches the robot (and
+    /// print them, as `predicted`, in JSON lines): velocity from the streak, bend from the turn
+    /// of the velocity between frames. Flagged as predicted in the update's age frame.
+    #[arg(long, value_enum, default_value_t = Predict::None)]
+    pub predict: Predict,
+
+    /// Line rate of --serial, 8N1: 50 to 4000000 baud.
+    #[arg(long, default_value_t = serial::DEFAULT_BAUD, allow_negative_numbers = true,
+          value_parser = clap::value_parser!(u32).range(50..=4_000_000))]
+    pub baud: u32,
+
+    /// Send MAVLink 2 to an autopilot on --serial instead of glint's packets:
+    /// VISION_POSITION_ESTIMATE (and VISION_SPEED_ESTIMATE) in metres, north = floor +x turned
+    /// by --mavlink-yaw-offset-deg, and a HEARTBEAT every second. Needs --calib.
+    #[arg(long, requires = "serial")]
+    pub mavlink: bool,
+
+    /// With --mavlink: the compass bearing of floor +x, in degrees clockwise from north.
+    #[arg(long, default_value_t = 0.0, value_name = "DEG", allow_negative_numbers = true,
+          value_parser = parse_yaw_offset_deg)]
+    mavlink_yaw_offset_deg: f64,
+
+    /// With --mavlink: the vehicle's MAVLink system id (ArduPilot's SYSID_THISMAV).
+    #[arg(long, default_value_t = mavlink::DEFAULT_SYSTEM_ID, value_name = "ID",
+          value_parser = clap::value_parser!(u8).range(1..))]
+    mavlink_system_id: u8,
+
+    #[command(flatten)]
+    pub memory: memory::MemoryArgs,
+}
+
+/// What positions go out: as measured, or extrapolated to their arrival.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum Predict {
+    /// As measured at the end of the exposure.
+    None,
+    /// Moved on to the moment the update reaches its reader.
+    Arrival,
+}
+
+/// The serial link: glint's own packets, or MAVLink with `--mavlink` (never both).
+pub type SerialLink = Tee<Option<SerialSink>, Option<MavlinkSink>>;
+
+/// A finite bearing within ±360°.
+fn parse_yaw_offset_deg(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(deg) if deg.is_finite() && deg.abs() <= 360.0 => Ok(deg),
+        _ => Err(format!(
+            "{text:?} is not a bearing in degrees from -360 to 360"
+        )),
+    }
 }
 
 #[derive(Debug, Clone, Copy, ValueEnum)]
@@ -103,6 +166,47 @@ enum DetectorArg {
 }
 
 impl TrackSettings {
+    /// What these settings will allocate, by the options that ask for it.
+    pub fn memory_plan(&self) -> MemoryPlan {
+        let size = self.size;
+        let mut plan = MemoryPlan::new();
+        match self.input.camera_buffers() {
+            Some(buffers) => plan.add(
+                "the camera's buffers",
+                format!("--buffers {buffers} × --size {size}"),
+                u64::from(buffers).saturating_mul(budget::frame_bytes(size)),
+            ),
+            None => plan.add(
+                "the frame buffer",
+                format!("--size {size}"),
+                budget::frame_bytes(size),
+            ),
+        }
+        match self.detector {
+            DetectorArg::Aruco => plan.add(
+                "the marker detector",
+                format!("--detector aruco, --size {size}"),
+                budget::marker_detector_bytes(size, self.floor.max_perimeter_px()),
+            ),
+            DetectorArg::Saturation | DetectorArg::Bgdiff => plan.add(
+                "the masks and scratch",
+                format!("--size {size}"),
+                budget::led_detector_bytes(size),
+            ),
+        }
+        if self.detector == DetectorArg::Bgdiff {
+            plan.add(
+                "the background model",
+                format!(
+                    "--background-frames {} × --size {size}",
+                    self.background_frames
+                ),
+                budget::background_bytes(size, usize::from(self.background_frames)),
+            );
+        }
+        plan
+    }
+
     fn pipeline_config(&self) -> PipelineConfig {
         PipelineConfig {
             detector: self.led.detector_config(match self.detector {
@@ -121,22 +225,27 @@ impl TrackSettings {
 
 /// A run's parts, opened and checked: everything but the text output.
 pub struct Opened {
-    pub source: input::InputSource,
+    /// The input, ending cleanly on Ctrl-C or SIGTERM whatever it is waiting for.
+    pub source: Stoppable<input::InputSource>,
     /// Reports are flushed one by one (a pipe or a camera), not in blocks.
     pub live: bool,
     pub monitor: Monitor,
     pub pipeline: Pipeline,
-    pub serial: Option<SerialSink>,
+    pub serial: SerialLink,
 }
 
-/// Opens the input, builds the pipeline (learning a separate background when asked) and opens
-/// the serial link, in that order.
-pub fn open(settings: &TrackSettings) -> Result<Opened> {
+/// Checks that `plan` (these settings' memory, and whatever the caller adds) fits the limit,
+/// then opens the input, builds the pipeline (learning a separate background when asked) and
+/// opens the serial link, in that order; from then on Ctrl-C and SIGTERM stop the run cleanly.
+pub fn open(settings: &TrackSettings, plan: &MemoryPlan) -> Result<Opened> {
+    settings.memory.check(plan)?;
+    let stop = Arc::new(AtomicBool::new(false));
+    signals::stop_on_signals(&stop)?;
     let input::Input {
         source,
         live,
         monitor,
-    } = input::open(&settings.input, settings.size, settings.fps)?;
+    } = input::open(&settings.input, settings.size, settings.fps, &stop)?;
     let aruco = settings.detector == DetectorArg::Aruco;
     let mut pipeline = calib_args::build_pipeline(
         &settings.floor,
@@ -148,20 +257,50 @@ pub fn open(settings: &TrackSettings) -> Result<Opened> {
         if settings.detector != DetectorArg::Bgdiff {
             bail!("--background goes with --detector bgdiff");
         }
-        learn_background(&mut pipeline, path, settings)?;
+        learn_background(&mut pipeline, path, settings, &stop)?;
     }
-    let serial = settings
-        .serial
-        .as_deref()
-        .map(|port| SerialSink::open(port, settings.baud))
-        .transpose()?;
+    let serial = open_serial(settings, &pipeline)?;
     Ok(Opened {
-        source,
+        source: Stoppable::new(source, stop),
         live,
         monitor,
         pipeline,
         serial,
     })
+}
+
+/// Opens `--serial` with glint's packets, or with MAVLink under `--mavlink`.
+fn open_serial(settings: &TrackSettings, pipeline: &Pipeline) -> Result<SerialLink> {
+    let Some(port) = settings.serial.as_deref() else {
+        return Ok(Tee::new(None, None));
+    };
+    if !settings.mavlink {
+        let sink = SerialSink::open(port, settings.baud)?;
+        let sink = match settings.predict {
+            Predict::Arrival => sink.predicting(),
+            Predict::None => sink,
+        };
+        return Ok(Tee::new(Some(sink), None));
+    }
+    let (Some(path), Some(floor)) = (settings.floor.calib.as_deref(), pipeline.floor()) else {
+        bail!("--mavlink needs --calib: an autopilot takes positions in metres on the floor");
+    };
+    // Read again for its residual (the pipeline keeps only the mapping); checked already.
+    let calibration = small_file::read_text(path, small_file::MAX_SETTINGS_BYTES)
+        .map_err(anyhow::Error::from)
+        .and_then(|text| Ok(CalibrationFile::parse(&text, settings.size)?))
+        .with_context(|| format!("calibration {}", path.display()))?;
+    let local = ToLocal::new(
+        *floor,
+        settings.mavlink_yaw_offset_deg,
+        calibration.max_residual_px,
+    );
+    let identity = Identity {
+        system_id: settings.mavlink_system_id,
+        component_id: mavlink::VISION_COMPONENT_ID,
+    };
+    let sink = MavlinkSink::open(port, settings.baud, identity, local)?;
+    Ok(Tee::new(None, Some(sink)))
 }
 
 pub fn run(args: TrackArgs) -> Result<ExitCode> {
@@ -171,13 +310,13 @@ pub fn run(args: TrackArgs) -> Result<ExitCode> {
         mut monitor,
         mut pipeline,
         serial,
-    } = open(&args.settings)?;
+    } = open(&args.settings, &args.settings.memory_plan())?;
     let stdout = BufWriter::with_capacity(OUTPUT_BUFFER_BYTES, io::stdout().lock());
     let (summary, result) = match args.format {
         Format::Jsonl => monitor::run(
             &mut source,
             &mut pipeline,
-            &mut Tee::new(JsonLinesSink::new(stdout, live), serial),
+            &mut Tee::new(jsonl_sink(stdout, live, &args.settings), serial),
             &mut monitor,
         ),
         Format::Csv => monitor::run(
@@ -189,6 +328,15 @@ pub fn run(args: TrackArgs) -> Result<ExitCode> {
     };
     input::report(&monitor);
     conclude(&summary, result)
+}
+
+/// The JSON lines sink, predicting when `--predict arrival` asks.
+pub fn jsonl_sink<W: io::Write>(out: W, live: bool, settings: &TrackSettings) -> JsonLinesSink<W> {
+    let sink = JsonLinesSink::new(out, live);
+    match settings.predict {
+        Predict::Arrival => sink.predicting(),
+        Predict::None => sink,
+    }
 }
 
 /// Reports the end of a run and turns its outcome into an exit code.
@@ -206,16 +354,25 @@ where
         Err(pipeline::RunError::Sink(e)) if e.kind() == io::ErrorKind::BrokenPipe => {
             Ok(ExitCode::SUCCESS)
         }
+        // An empty input says so itself; "after 0 whole frames" would add nothing.
+        Err(e) if summary.frames == 0 => Err(e.into()),
         Err(e) => Err(e).with_context(|| format!("after {} whole frames", summary.frames)),
     }
 }
 
 /// Feeds the first `--background-frames` frames of a separate dump to the background model.
-fn learn_background(pipeline: &mut Pipeline, path: &Path, args: &TrackSettings) -> Result<()> {
-    let file =
-        File::open(path).with_context(|| format!("cannot open background {}", path.display()))?;
+/// A FIFO that stays quiet gives up once `stop` is set.
+fn learn_background(
+    pipeline: &mut Pipeline,
+    path: &Path,
+    args: &TrackSettings,
+    stop: &Arc<AtomicBool>,
+) -> Result<()> {
+    let file = input::open_without_waiting(path).context("background")?;
+    let reader = Interruptible::new(file, Arc::clone(stop));
     let fps = args.fps.unwrap_or(input::DEFAULT_DUMP_FPS);
-    let mut source = DumpSource::new(file, args.size, fps);
+    let mut source =
+        DumpSource::try_with_format(reader, args.size, fps, args.input.pixel_format())?;
     let mut learned = 0;
     while learned < args.background_frames {
         match source.next_frame() {

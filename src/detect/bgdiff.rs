@@ -86,9 +86,13 @@ impl Background {
         let Some(plane) = self.learning.get_mut(start..start + pixels) else {
             return Ok(());
         };
-        for (dst_row, row) in plane.chunks_exact_mut(self.size.width()).zip(frame.rows()) {
-            for (dst, pixel) in dst_row.iter_mut().zip(row.chunks_exact(2)) {
-                *dst = pixel[0];
+        let step = frame.luma_step();
+        for (dst_row, row) in plane
+            .chunks_exact_mut(self.size.width())
+            .zip(frame.luma_rows())
+        {
+            for (dst, &luma) in dst_row.iter_mut().zip(row.iter().step_by(step)) {
+                *dst = luma;
             }
         }
         self.frames_learned += 1;
@@ -121,17 +125,23 @@ impl Background {
         }
         let width = self.size.width();
         let mut count = 0;
+        let step = frame.luma_step();
         for (y, (row, background)) in frame
-            .rows()
+            .luma_rows()
             .zip(self.median.chunks_exact(width))
             .enumerate()
         {
             let words = mask.row_mut(y);
             for (k, word) in words.iter_mut().enumerate() {
                 let mut bits = 0u64;
-                let pixels = row.chunks_exact(2).zip(background).skip(64 * k).take(64);
-                for (i, (pixel, &b)) in pixels.enumerate() {
-                    bits |= u64::from(pixel[0].abs_diff(b) >= diff_luma) << i;
+                let pixels = row
+                    .iter()
+                    .step_by(step)
+                    .zip(background)
+                    .skip(64 * k)
+                    .take(64);
+                for (i, (&luma, &b)) in pixels.enumerate() {
+                    bits |= u64::from(luma.abs_diff(b) >= diff_luma) << i;
                 }
                 *word = bits;
                 count += bits.count_ones() as usize;

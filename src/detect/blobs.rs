@@ -64,6 +64,14 @@ pub struct Run {
     slot: u16,
 }
 
+impl Run {
+    /// The index of the blob this run belongs to, or `None` when the blob did not fit in the
+    /// list.
+    pub fn blob(&self) -> Option<usize> {
+        (self.slot != NO_SLOT).then_some(usize::from(self.slot))
+    }
+}
+
 /// Why labelling stopped short.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct Overflow {
@@ -146,6 +154,11 @@ impl Labeler {
     /// What did not fit.
     pub fn overflow(&self) -> Overflow {
         self.overflow
+    }
+
+    /// Every run of the last labelled mask, top to bottom.
+    pub fn runs(&self) -> &[Run] {
+        &self.runs
     }
 
     /// The runs of blob `index`, top to bottom.

@@ -19,7 +19,7 @@ use blobs::{Blob, Labeler, Overflow};
 use morph::Kernel;
 use skeleton::SkeletonMethod;
 use streak::{Streak, StreakModel, StreakScratch};
-use threshold::{Levels, Threshold, AUTO_MARGIN_LUMA};
+use threshold::{blob_level, Levels, Threshold, AUTO_MARGIN_LUMA};
 
 use crate::frame::{Frame, FrameSize};
 
@@ -182,6 +182,7 @@ impl Detector {
                     )
                 }
             }
+            (_, _) if self.config.threshold == Threshold::Auto => self.cut_auto(frame),
             _ => threshold::apply(frame, self.config.threshold, &mut self.mask),
         };
         if self.config.erosions > 0 && mask_px > 0 {
@@ -215,6 +216,50 @@ impl Detector {
         detection
     }
 
+    /// The automatic threshold, blob by blob: a low first cut, its blobs, and each blob cut
+    /// again at its own top level (see [`threshold::blob_level`]). When the first cut is too
+    /// busy for the blob tables, one level for the whole frame instead.
+    fn cut_auto(&mut self, frame: &Frame<'_>) -> (Levels, usize) {
+        let (top_luma, count) = threshold::first_cut(frame, &mut self.mask);
+        let mut levels = Levels {
+            top_luma,
+            threshold_luma: None,
+        };
+        if count == 0 || frame.size() != self.size {
+            self.mask.clear_all();
+            return (levels, 0);
+        }
+        self.labeler.label(&self.mask);
+        match blob_level::cut_each_blob(
+            frame,
+            &self.labeler,
+            self.config.min_area_px,
+            &mut self.mask,
+        ) {
+            Some(cut) => {
+                levels.threshold_luma = cut.brightest_level_luma;
+                (levels, cut.count)
+            }
+            None => {
+                let level = top_luma.saturating_sub(AUTO_MARGIN_LUMA);
+                levels.threshold_luma = Some(level);
+                (
+                    levels,
+                    threshold::recut_rows(frame, level, &mut self.mask, count),
+                )
+            }
+        }
+    }
+
+    /// The levels blob `index` of the last segmented frame was cut at: its own (automatic
+    /// threshold, background difference) or the fixed level.
+    pub fn levels_of(&self, frame: &Frame<'_>, index: usize, frame_levels: Levels) -> Levels {
+        match (self.config.method, self.config.threshold) {
+            (MaskMethod::Saturation, Threshold::Fixed(_)) => frame_levels,
+            _ => blob_level::levels_of_blob(frame, &self.labeler, index),
+        }
+    }
+
     /// Segments `frame` and analyses its largest candidate: detection without tracking.
     pub fn detect(&mut self, frame: &Frame<'_>) -> Detection {
         let mut detection = self.segment(frame);
@@ -246,14 +291,14 @@ impl Detector {
         index: usize,
         levels: Levels,
     ) -> Option<(Blob, Streak)> {
+        if levels.threshold_luma.is_none() && self.background.is_none() {
+            return None;
+        }
         let blob = *self.labeler.blobs().get(index)?;
-        // A difference mask has no saturation level of its own: the blob's brightest pixel
-        // stands in for it, so rim weights and tip ramps work as on a saturated blob.
-        let levels = match levels.threshold_luma {
-            Some(_) => levels,
-            None if self.background.is_some() => blob_levels(frame, &blob),
-            None => return None,
-        };
+        // Each blob was cut at its own level (automatic threshold), and a difference mask has
+        // no saturation level at all: the blob's brightest pixel stands in for it, so rim
+        // weights and tip ramps work as on a saturated blob.
+        let levels = self.levels_of(frame, index, levels);
         let streak = streak::analyze(
             frame,
             &self.labeler,
@@ -280,18 +325,5 @@ impl Detector {
     /// The blobs of the last frame.
     pub fn blobs(&self) -> &[Blob] {
         self.labeler.blobs()
-    }
-}
-
-/// Levels taken from a blob's own brightest pixel.
-fn blob_levels(frame: &Frame<'_>, blob: &Blob) -> Levels {
-    let b = blob.bbox;
-    let top_luma = (b.y_min_px..=b.y_max_px)
-        .flat_map(|y| (b.x_min_px..=b.x_max_px).filter_map(move |x| frame.luma(x, y)))
-        .max()
-        .unwrap_or(0);
-    Levels {
-        top_luma,
-        threshold_luma: Some(top_luma.saturating_sub(AUTO_MARGIN_LUMA)),
     }
 }

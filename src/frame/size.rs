@@ -3,7 +3,10 @@
 use core::fmt;
 use core::str::FromStr;
 
-/// The largest side accepted, far above any webcam, so that sizes times strides never overflow.
+use super::PixelFormat;
+
+/// The largest side accepted, far above any webcam, so that sizes times strides never overflow
+/// (what a size costs in memory is checked against `--max-memory-mb` separately).
 pub const MAX_SIDE_PX: u32 = 16_384;
 
 /// Width and height of a frame in pixels: both non-zero, the width even (YUYV pairs pixels).
@@ -76,12 +79,22 @@ impl FrameSize {
 
     /// Bytes of one unpadded YUYV row.
     pub fn row_bytes(&self) -> usize {
-        self.width() * super::YUYV_BYTES_PER_PIXEL
+        self.row_bytes_as(PixelFormat::Yuyv)
     }
 
     /// Bytes of one unpadded YUYV frame, as raw dumps store it.
     pub fn frame_bytes(&self) -> usize {
-        self.row_bytes() * self.height()
+        self.frame_bytes_as(PixelFormat::Yuyv)
+    }
+
+    /// Bytes of one unpadded row of `format`.
+    pub fn row_bytes_as(&self, format: PixelFormat) -> usize {
+        self.width() * format.bytes_per_pixel()
+    }
+
+    /// Bytes of one unpadded frame of `format`, as raw dumps store it.
+    pub fn frame_bytes_as(&self, format: PixelFormat) -> usize {
+        self.row_bytes_as(format) * self.height()
     }
 }
 
@@ -95,7 +108,8 @@ impl FromStr for FrameSize {
     type Err = SizeError;
 
     fn from_str(s: &str) -> Result<Self, Self::Err> {
-        let syntax = || SizeError::Syntax(s.to_owned());
+        // The text is quoted back in the message: at most its start.
+        let syntax = || SizeError::Syntax(crate::options::shortened(s));
         let (w, h) = s.trim().split_once(['x', 'X']).ok_or_else(syntax)?;
         let w: u32 = w.trim().parse().map_err(|_| syntax())?;
         let h: u32 = h.trim().parse().map_err(|_| syntax())?;

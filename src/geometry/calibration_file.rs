@@ -2,23 +2,37 @@
 //!
 //! A wrong mapping is worse than none: every floor position and speed would be silently off. So
 //! the file is checked from end to end before tracking starts, and each problem is refused with
-//! one line naming it:
-//! - it parses as TOML and has every field (`width_px`, `height_px`, `units`,
-//!   `[homography] floor_to_screen, screen_to_floor`, and at least one `[[marker]]`);
-//! - it was made for the frame size being tracked (a homography holds for one image size);
-//! - both matrices are finite, non-singular, and inverses of each other;
-//! - each marker's recorded corners are inside the frame and its recorded residuals are what
-//!   the matrix really gives for them (an edited or mistyped number shows up here);
-//! - the marker corners lie on one side of the floor's horizon, which also tells the mapping
-//!   which side of the horizon the floor is.
+//! one line naming it.
+//!
+//! **Version 2** (`version = 2`, what this glint writes: a lens, a pose and the marker map).
+//! Every field is required: `width_px`, `height_px`, `units`, `frames`, `unseen`, `[lens]`
+//! (`fx fy cx cy k1 k2 p1 p2 k3`), `[pose]` (`rotation`, `translation_cm`, `height_cm`),
+//! `[residuals]` (`corners`, `rms_px`, `max_px`), and at least one `[[marker]]` (`id`,
+//! `size_cm`, `origin_cm`, `corners_px`, `residuals_px`); `dictionary`, `source` and
+//! `frames_seen` are for people and optional. Checked: the frame size; `units` is `cm`, as
+//! every floor key says (`_cm`); the lens is finite, sane and does not fold over inside the
+//! picture; the rotation is a rotation and the camera above the floor, at the height recorded;
+//! every corner is inside the frame and its recorded residual is what the lens and pose give;
+//! the `[residuals]` summary agrees with the markers'.
+//!
+//! **Version 1** (no `version` key: files written by earlier glint, still read, as an ideal lens
+//! and an LED on the floor). Required: `width_px`, `height_px`, `units`, `[homography]
+//! floor_to_screen, screen_to_floor`, and at least one `[[marker]]` as above. Optional, because
+//! earlier files may lack them, but checked when present: `frames`, and the `[residuals]`
+//! section (`corners`, `rms_px`, `max_px`). Checked: the frame size; `units` is `cm`; both
+//! matrices are finite, non-singular, and inverses of each other; each marker's corners are
+//! inside the frame and its residuals are what the matrix gives; the corners lie on one side of
+//! the floor's horizon, which also tells the mapping which side of the horizon is floor.
 
 use core::fmt;
 
-use nalgebra::Matrix3;
+use nalgebra::{Matrix3, Vector3};
 use serde::Deserialize;
 
 use super::aruco::Dictionary;
 use super::calibration::MarkerPlacement;
+use super::calibration_record::CALIBRATION_VERSION;
+use super::camera::{CameraError, CameraModel, Lens, Pose};
 use super::floor::{FloorStage, FloorUnit};
 use super::homography::{FloorMapping, Homography, HomographyError, Point};
 use crate::frame::{FrameSize, SizeError};
@@ -28,33 +42,83 @@ use crate::frame::{FrameSize, SizeError};
 const INVERSE_TOLERANCE: f64 = 1e-9;
 /// A recorded corner residual may differ from the recomputed one by this much (pixels).
 const RESIDUAL_TOLERANCE_PX: f64 = 0.01;
+/// The recorded camera height may differ from the pose's by this much (cm; it is written with
+/// all the digits of an `f64`).
+const HEIGHT_TOLERANCE_CM: f64 = 1e-6;
 
-/// The file's layout; every field here must be present.
+/// The file's layout, both versions; which optional parts each version needs is checked in
+/// [`CalibrationFile::parse`].
 #[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
 struct FileLayout {
+    version: Option<i64>,
     width_px: u32,
     height_px: u32,
     units: String,
     dictionary: Option<String>,
-    homography: MatricesLayout,
+    frames: Option<u64>,
+    unseen: Option<Vec<u16>>,
+    homography: Option<MatricesLayout>,
+    lens: Option<LensLayout>,
+    pose: Option<PoseLayout>,
+    residuals: Option<ResidualsLayout>,
     #[serde(default)]
     marker: Vec<MarkerLayout>,
 }
 
 #[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct LensLayout {
+    /// Where the lens came from, for people.
+    #[serde(rename = "source")]
+    _source: Option<String>,
+    fx: f64,
+    fy: f64,
+    cx: f64,
+    cy: f64,
+    k1: f64,
+    k2: f64,
+    p1: f64,
+    p2: f64,
+    k3: f64,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PoseLayout {
+    rotation: [[f64; 3]; 3],
+    translation_cm: [f64; 3],
+    height_cm: f64,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ResidualsLayout {
+    corners: usize,
+    rms_px: f64,
+    max_px: f64,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
 struct MatricesLayout {
     floor_to_screen: [[f64; 3]; 3],
     screen_to_floor: [[f64; 3]; 3],
 }
 
 #[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
 struct MarkerLayout {
     id: u16,
     size_cm: f64,
     origin_cm: [f64; 2],
+    frames_seen: Option<u32>,
     corners_px: [[f64; 2]; 4],
     residuals_px: [f64; 4],
 }
+
+/// The floor unit every floor key of the file carries (`size_cm`, `origin_cm`, ...).
+const FILE_UNIT: FloorUnit = FloorUnit::Cm;
 
 /// Which of the two matrices.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -88,6 +152,26 @@ pub enum CalibrationFileError {
     OtherFrameSize { file: FrameSize, frames: FrameSize },
     /// `units` is not a known unit.
     UnknownUnits(String),
+    /// `units` names another unit than the file's numbers are in.
+    UnitsDisagree(FloorUnit),
+    /// The version is not one this glint reads.
+    Version(i64),
+    /// A field the file's version requires is missing.
+    Missing(&'static str),
+    /// The lens cannot be used.
+    Lens(CameraError),
+    /// The pose is not a pose (not a rotation, or the camera not above the floor).
+    Pose(CameraError),
+    /// `[pose] height_cm` is not the height the rotation and translation give.
+    HeightMismatch { recorded_cm: f64, actual_cm: f64 },
+    /// A marker is said to be seen in more frames than were read.
+    FramesSeen { id: u16, seen: u32, frames: u64 },
+    /// A `[residuals]` number is not what the markers give.
+    SummaryMismatch {
+        field: &'static str,
+        recorded: f64,
+        actual: f64,
+    },
     /// `dictionary` is not a known dictionary.
     UnknownDictionary(String),
     /// A matrix entry is NaN or infinite.
@@ -132,6 +216,40 @@ impl fmt::Display for CalibrationFileError {
             CalibrationFileError::UnknownUnits(u) => {
                 write!(f, "units {u:?}: must be one of mm, cm, m, in")
             }
+            CalibrationFileError::UnitsDisagree(u) => write!(
+                f,
+                "units = \"{u}\", but the file's floor numbers are in cm (size_cm, origin_cm, \
+                 translation_cm): units must be \"cm\""
+            ),
+            CalibrationFileError::Version(v) => write!(
+                f,
+                "version {v} is not one this glint reads (1 or {CALIBRATION_VERSION}; a newer \
+                 glint may have written it)"
+            ),
+            CalibrationFileError::Missing(field) => write!(f, "missing field `{field}`"),
+            CalibrationFileError::Lens(e) => write!(f, "[lens]: {e}"),
+            CalibrationFileError::FramesSeen { id, seen, frames } => write!(
+                f,
+                "marker {id}: frames_seen = {seen}, but only {frames} frames were read"
+            ),
+            CalibrationFileError::Pose(e) => write!(f, "[pose]: {e}"),
+            CalibrationFileError::HeightMismatch {
+                recorded_cm,
+                actual_cm,
+            } => write!(
+                f,
+                "[pose] height_cm is {recorded_cm} but the rotation and translation put the \
+                 camera {actual_cm:.3} cm up (were the numbers edited?)"
+            ),
+            CalibrationFileError::SummaryMismatch {
+                field,
+                recorded,
+                actual,
+            } => write!(
+                f,
+                "[residuals] {field} is {recorded} but the markers give {actual:.4} (were the \
+                 numbers edited?)"
+            ),
             CalibrationFileError::UnknownDictionary(d) => write!(f, "dictionary {d:?} is unknown"),
             CalibrationFileError::NonFinite(m) => write!(f, "{m} has a NaN or infinite entry"),
             CalibrationFileError::Degenerate(m, e) => write!(f, "{m}: {e}"),
@@ -159,7 +277,7 @@ impl fmt::Display for CalibrationFileError {
                 actual_px,
             } => write!(
                 f,
-                "marker {id}: corner {corner} is {actual_px:.3} px from where the homography \
+                "marker {id}: corner {corner} is {actual_px:.3} px from where the calibration \
                  puts it, but the file records {recorded_px:.3} px (were the numbers edited?)"
             ),
             CalibrationFileError::Mapping(e) => write!(f, "the marker corners: {e}"),
@@ -172,6 +290,8 @@ impl core::error::Error for CalibrationFileError {}
 /// A validated calibration.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CalibrationFile {
+    /// The file's version (1: a homography only; 2: lens and pose).
+    pub version: u32,
     /// The frame size it was made for (equal to the frames it was checked against).
     pub size: FrameSize,
     /// The dictionary its markers were found with, when recorded.
@@ -180,6 +300,8 @@ pub struct CalibrationFile {
     pub floor: FloorStage,
     /// Largest recorded corner residual, pixels.
     pub max_residual_px: f64,
+    /// Root-mean-square recorded corner residual, pixels.
+    pub rms_residual_px: f64,
 }
 
 impl CalibrationFile {
@@ -194,9 +316,29 @@ impl CalibrationFile {
             .collect())
     }
 
+    /// The marker map a calibration was made from; `text` should have passed
+    /// [`CalibrationFile::parse`].
+    pub fn marker_map(text: &str) -> Result<Vec<MarkerPlacement>, CalibrationFileError> {
+        let layout: FileLayout = toml::from_str(text).map_err(|e| syntax_error(text, &e))?;
+        Ok(layout
+            .marker
+            .iter()
+            .map(|m| MarkerPlacement {
+                id: m.id,
+                size: m.size_cm,
+                origin: Point::new(m.origin_cm[0], m.origin_cm[1]),
+            })
+            .collect())
+    }
+
     /// Parses and checks `text` (the file's contents) for frames of `frames`.
     pub fn parse(text: &str, frames: FrameSize) -> Result<Self, CalibrationFileError> {
         let layout: FileLayout = toml::from_str(text).map_err(|e| syntax_error(text, &e))?;
+        let version = match layout.version {
+            None | Some(1) => 1,
+            Some(v) if v == i64::from(CALIBRATION_VERSION) => CALIBRATION_VERSION,
+            Some(v) => return Err(CalibrationFileError::Version(v)),
+        };
         let size = FrameSize::new(layout.width_px, layout.height_px)
             .map_err(CalibrationFileError::BadFrameSize)?;
         if size != frames {
@@ -206,6 +348,9 @@ impl CalibrationFile {
             .units
             .parse()
             .map_err(|_| CalibrationFileError::UnknownUnits(layout.units.clone()))?;
+        if unit != FILE_UNIT {
+            return Err(CalibrationFileError::UnitsDisagree(unit));
+        }
         let dictionary = match &layout.dictionary {
             Some(name) => Some(
                 name.parse::<Dictionary>()
@@ -213,40 +358,172 @@ impl CalibrationFile {
             ),
             None => None,
         };
-        let to_screen = homography(
-            &layout.homography.floor_to_screen,
-            MatrixName::FloorToScreen,
-        )?;
-        let to_floor = homography(
-            &layout.homography.screen_to_floor,
-            MatrixName::ScreenToFloor,
-        )?;
-        if !inverses(to_screen.matrix(), to_floor.matrix()) {
-            return Err(CalibrationFileError::MatricesDisagree);
+        if version >= 2 {
+            for (present, field) in [
+                (layout.frames.is_some(), "frames"),
+                (layout.unseen.is_some(), "unseen"),
+                (layout.lens.is_some(), "lens"),
+                (layout.pose.is_some(), "pose"),
+                (layout.residuals.is_some(), "residuals"),
+            ] {
+                if !present {
+                    return Err(CalibrationFileError::Missing(field));
+                }
+            }
         }
         if layout.marker.is_empty() {
             return Err(CalibrationFileError::NoMarkers);
         }
-        let mut corners = Vec::with_capacity(4 * layout.marker.len());
-        let mut max_residual_px: f64 = 0.0;
-        for m in &layout.marker {
-            check_marker(m, &to_screen, size)?;
-            corners.extend(m.corners_px.iter().map(|&[x, y]| Point::new(x, y)));
-            max_residual_px = m
-                .residuals_px
-                .iter()
-                .fold(max_residual_px, |a, &r| a.max(r));
+        let floor = match (&layout.lens, &layout.pose, &layout.homography) {
+            (Some(lens), Some(pose), _) if version >= 2 => {
+                let camera = camera_model(lens, pose, size)?;
+                for m in &layout.marker {
+                    check_marker(m, size, |f| camera.project(f, 0.0).ok())?;
+                }
+                FloorStage::from_camera(camera, unit)
+            }
+            (_, _, Some(matrices)) if version == 1 => {
+                homography_stage(matrices, &layout, size, unit)?
+            }
+            _ => {
+                return Err(CalibrationFileError::Missing(if version == 1 {
+                    "homography"
+                } else {
+                    "lens"
+                }))
+            }
+        };
+        if let Some(frames) = layout.frames {
+            for m in &layout.marker {
+                if let Some(seen) = m.frames_seen.filter(|&s| u64::from(s) > frames) {
+                    return Err(CalibrationFileError::FramesSeen {
+                        id: m.id,
+                        seen,
+                        frames,
+                    });
+                }
+            }
         }
-        let mapping = FloorMapping::from_floor_to_screen(to_screen, &corners)
-            .map_err(CalibrationFileError::Mapping)?;
-        let floor = FloorStage::new(mapping, unit).map_err(CalibrationFileError::Mapping)?;
+        if let Some(summary) = &layout.residuals {
+            check_summary(summary, &layout.marker)?;
+        }
+        let max_residual_px = layout
+            .marker
+            .iter()
+            .flat_map(|m| m.residuals_px)
+            .fold(0.0f64, f64::max);
+        let corners = 4 * layout.marker.len();
+        let rms_residual_px = (layout
+            .marker
+            .iter()
+            .flat_map(|m| m.residuals_px)
+            .map(|r| r * r)
+            .sum::<f64>()
+            / corners as f64)
+            .sqrt();
         Ok(CalibrationFile {
+            version,
             size,
             dictionary,
             floor,
             max_residual_px,
+            rms_residual_px,
         })
     }
+}
+
+/// The floor stage of a version-1 file: its two matrices, checked against each other and the
+/// markers.
+fn homography_stage(
+    matrices: &MatricesLayout,
+    layout: &FileLayout,
+    size: FrameSize,
+    unit: FloorUnit,
+) -> Result<FloorStage, CalibrationFileError> {
+    let to_screen = homography(&matrices.floor_to_screen, MatrixName::FloorToScreen)?;
+    let to_floor = homography(&matrices.screen_to_floor, MatrixName::ScreenToFloor)?;
+    if !inverses(to_screen.matrix(), to_floor.matrix()) {
+        return Err(CalibrationFileError::MatricesDisagree);
+    }
+    let mut corners = Vec::with_capacity(4 * layout.marker.len());
+    for m in &layout.marker {
+        check_marker(m, size, |f| to_screen.apply(f).ok())?;
+        corners.extend(m.corners_px.iter().map(|&[x, y]| Point::new(x, y)));
+    }
+    let mapping = FloorMapping::from_floor_to_screen(to_screen, &corners)
+        .map_err(CalibrationFileError::Mapping)?;
+    FloorStage::new(mapping, unit).map_err(CalibrationFileError::Mapping)
+}
+
+/// The lens and pose of a version-2 file, checked.
+fn camera_model(
+    lens: &LensLayout,
+    pose: &PoseLayout,
+    size: FrameSize,
+) -> Result<CameraModel, CalibrationFileError> {
+    let lens = Lens {
+        fx: lens.fx,
+        fy: lens.fy,
+        cx: lens.cx,
+        cy: lens.cy,
+        k1: lens.k1,
+        k2: lens.k2,
+        p1: lens.p1,
+        p2: lens.p2,
+        k3: lens.k3,
+    };
+    lens.check(size).map_err(CalibrationFileError::Lens)?;
+    let r = Matrix3::from_fn(|r, c| pose.rotation[r][c]);
+    let [tx, ty, tz] = pose.translation_cm;
+    let pose_model = Pose::new(r, Vector3::new(tx, ty, tz)).map_err(CalibrationFileError::Pose)?;
+    let actual_cm = pose_model.height();
+    if actual_cm.is_nan() || actual_cm <= 0.0 {
+        return Err(CalibrationFileError::Pose(CameraError::BehindCamera));
+    }
+    let height_agrees = (pose.height_cm - actual_cm).abs() <= HEIGHT_TOLERANCE_CM;
+    if !height_agrees {
+        return Err(CalibrationFileError::HeightMismatch {
+            recorded_cm: pose.height_cm,
+            actual_cm,
+        });
+    }
+    Ok(CameraModel {
+        lens,
+        pose: pose_model,
+    })
+}
+
+/// Checks the `[residuals]` summary against the markers' own residuals.
+fn check_summary(
+    summary: &ResidualsLayout,
+    markers: &[MarkerLayout],
+) -> Result<(), CalibrationFileError> {
+    let all: Vec<f64> = markers.iter().flat_map(|m| m.residuals_px).collect();
+    let corners = all.len();
+    if summary.corners != corners {
+        return Err(CalibrationFileError::SummaryMismatch {
+            field: "corners",
+            recorded: summary.corners as f64,
+            actual: corners as f64,
+        });
+    }
+    let rms = (all.iter().map(|r| r * r).sum::<f64>() / corners.max(1) as f64).sqrt();
+    let max = all.iter().copied().fold(0.0f64, f64::max);
+    for (field, recorded, actual) in [
+        ("rms_px", summary.rms_px, rms),
+        ("max_px", summary.max_px, max),
+    ] {
+        // Written so that NaN is refused too.
+        let agrees = (recorded - actual).abs() <= RESIDUAL_TOLERANCE_PX;
+        if !agrees {
+            return Err(CalibrationFileError::SummaryMismatch {
+                field,
+                recorded,
+                actual,
+            });
+        }
+    }
+    Ok(())
 }
 
 /// Names the line and, when that line assigns a key, the key of a TOML error: the parser's
@@ -300,11 +577,11 @@ fn inverses(a: &Matrix3<f64>, b: &Matrix3<f64>) -> bool {
     (product / scale - Matrix3::identity()).amax() <= INVERSE_TOLERANCE
 }
 
-/// Checks one marker entry against the frame and the floor→screen matrix.
+/// Checks one marker entry against the frame and the calibration's floor→screen mapping.
 fn check_marker(
     m: &MarkerLayout,
-    to_screen: &Homography,
     size: FrameSize,
+    to_screen: impl Fn(&Point) -> Option<Point>,
 ) -> Result<(), CalibrationFileError> {
     let placement = MarkerPlacement {
         id: m.id,
@@ -326,8 +603,7 @@ fn check_marker(
         if !((0.0..=max_x).contains(&x) && (0.0..=max_y).contains(&y)) {
             return Err(CalibrationFileError::CornerOutsideFrame { id: m.id, corner });
         }
-        let actual_px = to_screen
-            .apply(&floor)
+        let actual_px = to_screen(&floor)
             .map(|p| (p - Point::new(x, y)).norm())
             .unwrap_or(f64::INFINITY);
         // Written so that a NaN residual is refused too.
@@ -345,207 +621,4 @@ fn check_marker(
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    const SIZE: (u32, u32) = (640, 480);
-
-    /// An oblique view of the floor, cm → px.
-    fn floor_to_screen() -> Matrix3<f64> {
-        Matrix3::new(2.1, 0.3, 320.0, -0.2, 1.4, 240.0, 0.0004, 0.0021, 1.0)
-    }
-
-    fn rows(m: &Matrix3<f64>) -> String {
-        (0..3)
-            .map(|r| format!("[{:?}, {:?}, {:?}]", m[(r, 0)], m[(r, 1)], m[(r, 2)]))
-            .collect::<Vec<_>>()
-            .join(", ")
-    }
-
-    /// A correct file for a 20 cm marker at the floor origin, as `glint calibrate` lays it out.
-    fn good_file() -> String {
-        let h = Homography::from_matrix(floor_to_screen()).unwrap();
-        let inv = h.inverse().unwrap();
-        let placement = MarkerPlacement {
-            id: 23,
-            size: 20.0,
-            origin: Point::new(0.0, 0.0),
-        };
-        let corners: Vec<String> = placement
-            .corners()
-            .iter()
-            .map(|c| {
-                let p = h.apply(c).unwrap();
-                format!("[{:?}, {:?}]", p.x, p.y)
-            })
-            .collect();
-        format!(
-            "# a comment\nwidth_px = {}\nheight_px = {}\nunits = \"cm\"\n\
-             dictionary = \"DICT_6X6_250\"\nframes = 1\n\n[homography]\n\
-             floor_to_screen = [{}]\nscreen_to_floor = [{}]\n\n[[marker]]\nid = 23\n\
-             size_cm = 20.0\norigin_cm = [0.0, 0.0]\ncorners_px = [{}]\n\
-             residuals_px = [0.0, 0.0, 0.0, 0.0]\n",
-            SIZE.0,
-            SIZE.1,
-            rows(h.matrix()),
-            rows(inv.matrix()),
-            corners.join(", ")
-        )
-    }
-
-    #[test]
-    fn the_markers_corners_come_back_for_drawing() {
-        let text = good_file();
-        assert!(parse(&text).is_ok());
-        let markers = CalibrationFile::marker_corners_px(&text).unwrap();
-        assert_eq!(markers.len(), 1);
-        // The first corner is the marker's floor origin seen through the matrix.
-        let h = Homography::from_matrix(floor_to_screen()).unwrap();
-        let p = h.apply(&Point::new(0.0, 0.0)).unwrap();
-        let (x, y) = markers[0][0];
-        assert!((f64::from(x) - p.x).abs() < 1e-3 && (f64::from(y) - p.y).abs() < 1e-3);
-        assert!(CalibrationFile::marker_corners_px("not toml [").is_err());
-    }
-
-    fn frames() -> FrameSize {
-        FrameSize::new(SIZE.0, SIZE.1).unwrap()
-    }
-
-    fn parse(text: &str) -> Result<CalibrationFile, CalibrationFileError> {
-        CalibrationFile::parse(text, frames())
-    }
-
-    #[test]
-    fn a_correct_file_maps_like_its_matrix() {
-        let c = parse(&good_file()).unwrap();
-        assert_eq!(c.size, frames());
-        assert_eq!(c.dictionary, Some(Dictionary::Aruco6x6_250));
-        assert_eq!(c.floor.unit(), FloorUnit::Cm);
-        let truth = Homography::from_matrix(floor_to_screen()).unwrap();
-        let floor = Point::new(35.0, -12.0);
-        let screen = truth.apply(&floor).unwrap();
-        let back = c.floor.mapping().screen_to_floor(&screen).unwrap();
-        assert!((back - floor).norm() < 1e-9, "{back:?}");
-    }
-
-    #[test]
-    fn missing_fields_are_named() {
-        let good = good_file();
-        for (line_start, field) in [
-            ("width_px", "width_px"),
-            ("units", "units"),
-            ("screen_to_floor", "screen_to_floor"),
-            ("residuals_px", "residuals_px"),
-        ] {
-            let text: String = good
-                .lines()
-                .filter(|l| !l.starts_with(line_start))
-                .map(|l| format!("{l}\n"))
-                .collect();
-            let err = parse(&text).unwrap_err();
-            assert!(
-                err.to_string()
-                    .contains(&format!("missing field `{field}`")),
-                "{field}: {err}"
-            );
-        }
-        let no_markers: String = good.split("[[marker]]").next().unwrap().to_owned();
-        assert_eq!(
-            parse(&no_markers).unwrap_err(),
-            CalibrationFileError::NoMarkers
-        );
-    }
-
-    #[test]
-    fn syntax_errors_carry_their_line() {
-        let text = good_file().replacen("units = \"cm\"", "units = cm", 1);
-        let err = parse(&text).unwrap_err();
-        assert!(
-            matches!(err, CalibrationFileError::Syntax { line: Some(4), .. }),
-            "{err:?}"
-        );
-        let err =
-            parse(&good_file().replacen("[0.0, 0.0, 0.0, 0.0]", "[0.0, 0.0]", 1)).unwrap_err();
-        assert!(err.to_string().contains("residuals_px"), "{err}");
-    }
-
-    #[test]
-    fn another_frame_size_is_refused() {
-        let err = CalibrationFile::parse(&good_file(), FrameSize::new(320, 240).unwrap());
-        assert_eq!(
-            err.unwrap_err().to_string(),
-            "made for 640x480 frames, but the frames are 320x240; calibrate again at 320x240"
-        );
-        let odd = good_file().replacen("width_px = 640", "width_px = 641", 1);
-        assert!(matches!(
-            parse(&odd),
-            Err(CalibrationFileError::BadFrameSize(SizeError::OddWidth(641)))
-        ));
-    }
-
-    #[test]
-    fn bad_numbers_and_degenerate_matrices_are_refused() {
-        let good = good_file();
-        let h = Homography::from_matrix(floor_to_screen()).unwrap();
-        let f2s = format!("floor_to_screen = [{}]", rows(h.matrix()));
-        let s2f = format!(
-            "screen_to_floor = [{}]",
-            rows(h.inverse().unwrap().matrix())
-        );
-        // NaN is valid TOML.
-        let nan = good.replacen(
-            &f2s,
-            "floor_to_screen = [[nan, 0.3, 320.0], [-0.2, 1.4, 240.0], [0.0004, 0.0021, 1.0]]",
-            1,
-        );
-        assert_eq!(
-            parse(&nan).unwrap_err(),
-            CalibrationFileError::NonFinite(MatrixName::FloorToScreen)
-        );
-        let singular = good.replacen(
-            &s2f,
-            "screen_to_floor = [[1.0, 2.0, 3.0], [2.0, 4.0, 6.0], [0.0, 0.0, 1.0]]",
-            1,
-        );
-        assert_eq!(
-            parse(&singular).unwrap_err(),
-            CalibrationFileError::Degenerate(MatrixName::ScreenToFloor, HomographyError::Singular)
-        );
-        // A plausible matrix that is not the other's inverse (one digit changed).
-        let edited = good.replacen("[2.1, 0.3, 320.0]", "[2.1, 0.3, 321.0]", 1);
-        assert_eq!(
-            parse(&edited).unwrap_err(),
-            CalibrationFileError::MatricesDisagree
-        );
-        let units = good.replacen("units = \"cm\"", "units = \"furlongs\"", 1);
-        assert!(parse(&units).unwrap_err().to_string().contains("furlongs"));
-        let size = good.replacen("size_cm = 20.0", "size_cm = -20.0", 1);
-        assert_eq!(
-            parse(&size).unwrap_err(),
-            CalibrationFileError::BadMarker { id: 23 }
-        );
-    }
-
-    #[test]
-    fn corners_that_disagree_with_the_matrix_are_refused() {
-        // The marker said to be 25 cm: its corners are no longer where the matrix puts them.
-        let text = good_file().replacen("size_cm = 20.0", "size_cm = 25.0", 1);
-        let err = parse(&text).unwrap_err();
-        assert!(
-            matches!(
-                err,
-                CalibrationFileError::ResidualMismatch {
-                    id: 23,
-                    corner: 1,
-                    ..
-                }
-            ),
-            "{err:?}"
-        );
-        let text = good_file().replacen("corners_px = [[", "corners_px = [[-5", 1);
-        assert!(matches!(
-            parse(&text),
-            Err(CalibrationFileError::CornerOutsideFrame { id: 23, corner: 0 })
-        ));
-    }
-}
+mod tests;

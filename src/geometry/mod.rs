@@ -5,10 +5,18 @@
 pub mod aruco;
 pub mod calibration;
 pub mod calibration_file;
+pub mod calibration_record;
+pub mod camera;
+pub mod camera_fit;
 pub mod floor;
 pub mod homography;
+pub mod lens_file;
+pub mod recheck;
 
 pub use calibration::{calibrate, Calibration, CalibrationError, MarkerPlacement};
 pub use calibration_file::{CalibrationFile, CalibrationFileError};
-pub use floor::{FloorEstimate, FloorFix, FloorStage, FloorUnit};
+pub use calibration_record::{CalibrationRecord, RecordedMarker, CALIBRATION_VERSION};
+pub use camera::{CameraError, CameraModel, Lens, Pose};
+pub use camera_fit::{fit_camera, CameraFit, CameraFitError, LensChoice};
+pub use floor::{FloorEstimate, FloorFix, FloorStage, FloorUnit, NeedsCameraPose};
 pub use homography::{FloorMapping, Homography, HomographyError, Point};

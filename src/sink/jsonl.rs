@@ -5,27 +5,48 @@
 //! With a calibration, found frames get `floor_x`, `floor_y` and `floor_unit`, and when the
 //! velocity is known `floor_vx`, `floor_vy`, `floor_speed` (units/s), for a marker
 //! `floor_heading_deg`; a position on or beyond the floor's horizon gets `beyond_horizon: true`
-//! and no floor numbers. Headings are degrees from +x towards +y of their coordinates
-//! ([`crate::track::marker_heading_deg`]). Then the detection's diagnostics, among them, with
-//! `--streak-model fit`, `fit_px`: one standard deviation of the fitted path's ends (px).
+//! and no floor numbers. When the calibration's markers are re-checked, every line says which
+//! calibration it used, `"calib":{"age_s":…,"residual_px":…}` (seconds since markers last
+//! confirmed the pose, and their rms residual then), and floor numbers get `floor_stale: true`
+//! once no marker has been seen for a while (the camera may have moved). Headings are degrees
+//! from +x towards +y of their coordinates ([`crate::track::marker_heading_deg`]). With
+//! `--predict arrival`, a found frame with a known velocity gets `predicted`: `{"x", "y" (px),
+//! "ahead_ms"}`, the position extrapolated to the moment the line is written, `ahead_ms` after
+//! the end of the exposure (see [`super::predict`]). Then the detection's diagnostics, among
+//! them, with `--streak-model fit`, `fit_px`: one standard deviation of the fitted path's ends
+//! (px).
 
 use std::io::{self, Write};
 
+use super::predict::{Predictor, Reference};
 use super::Sink;
 use crate::geometry::FloorFix;
 use crate::pipeline::FrameReport;
+use crate::source::clock::monotonic_now_us;
 
 /// Writes reports as JSON lines; flushes after each line when `live`, so a consumer reading a
 /// pipe sees every frame as it happens.
 pub struct JsonLinesSink<W: Write> {
     out: W,
     live: bool,
+    /// With `--predict arrival`.
+    predictor: Option<Predictor>,
 }
 
 impl<W: Write> JsonLinesSink<W> {
     /// A sink on `out`.
     pub fn new(out: W, live: bool) -> Self {
-        JsonLinesSink { out, live }
+        JsonLinesSink {
+            out,
+            live,
+            predictor: None,
+        }
+    }
+
+    /// Adds the position extrapolated to the moment each line is written (`--predict arrival`).
+    pub fn predicting(mut self) -> Self {
+        self.predictor = Some(Predictor::new());
+        self
     }
 }
 
@@ -58,6 +79,20 @@ impl<W: Write> Sink for JsonLinesSink<W> {
                 )?;
             }
         }
+        if let Some(predictor) = self.predictor.as_mut() {
+            let velocity = r.position.and_then(|p| p.velocity_px_s);
+            let motion = predictor.observe(r.meta.timestamp_us, Reference::Pixels, velocity);
+            if let (Some(motion), Some(p)) = (motion, r.position) {
+                let ahead_us = monotonic_now_us().saturating_sub(r.meta.monotonic_us);
+                let ahead_s = ahead_us as f32 * 1e-6;
+                let (x, y) = motion.extrapolate(p.position_px, ahead_s);
+                write!(
+                    out,
+                    ",\"predicted\":{{\"x\":{x:.3},\"y\":{y:.3},\"ahead_ms\":{:.3}}}",
+                    ahead_us as f64 * 1e-3
+                )?;
+            }
+        }
         if let Some(m) = r.marker {
             write!(out, ",\"heading_deg\":{:.2}", m.heading_deg)?;
         }
@@ -84,6 +119,16 @@ impl<W: Write> Sink for JsonLinesSink<W> {
             Some(FloorFix::BeyondHorizon) => write!(out, ",\"beyond_horizon\":true")?,
             None => {}
         }
+        if let Some(c) = r.calib {
+            write!(
+                out,
+                ",\"calib\":{{\"age_s\":{:.3},\"residual_px\":{:.3}}}",
+                c.age_s, c.residual_px
+            )?;
+            if c.stale && r.floor.is_some() {
+                write!(out, ",\"floor_stale\":true")?;
+            }
+        }
         if let Some((blob, streak)) = d.best.filter(|_| r.position.is_some()) {
             write!(
                 out,
@@ -107,6 +152,9 @@ impl<W: Write> Sink for JsonLinesSink<W> {
         }
         if r.ambiguous {
             write!(out, ",\"ambiguous\":true")?;
+        }
+        if r.markers_capped {
+            write!(out, ",\"markers_capped\":true")?;
         }
         if d.blinded {
             write!(out, ",\"blinded\":true")?;

@@ -1,5 +1,6 @@
 //! Where reports go: JSON lines or CSV on a writer (standard output by default), and position
-//! packets to the robot over a serial port ([`serial`]), side by side through a [`Tee`], and a
+//! packets to the robot over a serial port ([`serial`]) or vision positions to an autopilot
+//! ([`mavlink`]), side by side through a [`Tee`], and a
 //! live web page for aiming the camera ([`preview`]).
 //!
 //! Both text formats are written straight into the writer with `write!`, which formats numbers
@@ -8,6 +9,8 @@
 mod best_effort;
 mod csv;
 mod jsonl;
+pub mod mavlink;
+pub mod predict;
 pub mod preview;
 pub mod serial;
 mod tee;
@@ -18,6 +21,7 @@ use std::io;
 pub use best_effort::BestEffort;
 pub use csv::CsvSink;
 pub use jsonl::JsonLinesSink;
+pub use mavlink::MavlinkSink;
 pub use preview::PreviewSink;
 pub use serial::SerialSink;
 pub use tee::Tee;

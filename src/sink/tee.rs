@@ -19,6 +19,11 @@ impl<A: Sink, B: Sink> Tee<A, B> {
     pub fn new(first: A, second: B) -> Self {
         Tee { first, second }
     }
+
+    /// The two sinks again, for a caller that needs one of them by itself.
+    pub fn into_parts(self) -> (A, B) {
+        (self.first, self.second)
+    }
 }
 
 impl<A: Sink, B: Sink> Sink for Tee<A, B> {

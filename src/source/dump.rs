@@ -8,8 +8,9 @@
 use core::fmt;
 use std::io::{self, Read};
 
+use super::clock::monotonic_now_us;
 use super::{FrameMeta, FrameSource};
-use crate::frame::{Frame, FrameError, FrameSize};
+use crate::frame::{Frame, FrameError, FrameSize, PixelFormat};
 
 /// Microseconds per second.
 const US_PER_S: f64 = 1e6;
@@ -17,6 +18,9 @@ const US_PER_S: f64 = 1e6;
 /// Why a dump could not be read.
 #[derive(Debug)]
 pub enum DumpError {
+    /// The stream ended before its first byte: an empty file or standard input, which is
+    /// almost always a mistake upstream (a wrong path, a capture that never started).
+    Empty,
     /// The stream ended inside frame `frame_index`.
     Truncated {
         frame_index: u64,
@@ -25,6 +29,8 @@ pub enum DumpError {
     },
     /// Reading failed.
     Io(io::Error),
+    /// The frame buffer does not fit in memory.
+    Memory { frame_bytes: usize },
     /// The buffer is not a frame of the stated size (cannot happen for an unpadded dump; kept
     /// so a bug shows up as a message, not a panic).
     Frame(FrameError),
@@ -33,6 +39,7 @@ pub enum DumpError {
 impl fmt::Display for DumpError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
+            DumpError::Empty => write!(f, "no frames: the input is empty"),
             DumpError::Truncated {
                 frame_index,
                 trailing_bytes,
@@ -43,6 +50,9 @@ impl fmt::Display for DumpError {
                  {frame_bytes}-byte frame (is --size right?)"
             ),
             DumpError::Io(e) => write!(f, "reading input: {e}"),
+            DumpError::Memory { frame_bytes } => {
+                write!(f, "cannot allocate a frame buffer of {frame_bytes} bytes")
+            }
             DumpError::Frame(e) => write!(f, "{e}"),
         }
     }
@@ -55,18 +65,61 @@ pub struct DumpSource<R> {
     reader: R,
     buffer: Vec<u8>,
     size: FrameSize,
+    format: PixelFormat,
     frame_period_us: f64,
     next_index: u64,
     finished: bool,
 }
 
 impl<R: Read> DumpSource<R> {
-    /// A source of `size` frames at `fps` frames per second (for timestamps only).
+    /// A source of `size` YUYV frames at `fps` frames per second (for timestamps only). Aborts
+    /// like `vec!` if the frame buffer does not fit in memory; [`DumpSource::try_new`] says so
+    /// instead.
     pub fn new(reader: R, size: FrameSize, fps: f64) -> Self {
+        Self::with_format(reader, size, fps, PixelFormat::Yuyv)
+    }
+
+    /// A source of unpadded `size` frames of `format` at `fps` frames per second.
+    pub fn with_format(reader: R, size: FrameSize, fps: f64, format: PixelFormat) -> Self {
+        let buffer = vec![0; size.frame_bytes_as(format)];
+        Self::with_buffer(reader, size, fps, format, buffer)
+    }
+
+    /// [`DumpSource::new`], with an error instead of an abort when the frame buffer, whose
+    /// size comes from the command line, does not fit in memory.
+    pub fn try_new(reader: R, size: FrameSize, fps: f64) -> Result<Self, DumpError> {
+        Self::try_with_format(reader, size, fps, PixelFormat::Yuyv)
+    }
+
+    /// [`DumpSource::with_format`], with an error instead of an abort when the frame buffer
+    /// does not fit in memory.
+    pub fn try_with_format(
+        reader: R,
+        size: FrameSize,
+        fps: f64,
+        format: PixelFormat,
+    ) -> Result<Self, DumpError> {
+        let frame_bytes = size.frame_bytes_as(format);
+        let mut buffer = Vec::new();
+        buffer
+            .try_reserve_exact(frame_bytes)
+            .map_err(|_| DumpError::Memory { frame_bytes })?;
+        buffer.resize(frame_bytes, 0);
+        Ok(Self::with_buffer(reader, size, fps, format, buffer))
+    }
+
+    fn with_buffer(
+        reader: R,
+        size: FrameSize,
+        fps: f64,
+        format: PixelFormat,
+        buffer: Vec<u8>,
+    ) -> Self {
         DumpSource {
             reader,
-            buffer: vec![0; size.frame_bytes()],
+            buffer,
             size,
+            format,
             frame_period_us: US_PER_S / fps,
             next_index: 0,
             finished: false,
@@ -101,6 +154,9 @@ impl<R: Read> FrameSource for DumpSource<R> {
         let filled = self.fill().map_err(DumpError::Io)?;
         if filled == 0 {
             self.finished = true;
+            if self.next_index == 0 {
+                return Err(DumpError::Empty);
+            }
             return Ok(None);
         }
         if filled < self.buffer.len() {
@@ -118,8 +174,10 @@ impl<R: Read> FrameSource for DumpSource<R> {
             sequence: index,
             dropped: 0,
             timestamp_us: (index as f64 * self.frame_period_us).round() as u64,
+            monotonic_us: monotonic_now_us(),
         };
-        let frame = Frame::new_checked(&self.buffer, self.size, self.size.row_bytes())
+        let stride_bytes = self.size.row_bytes_as(self.format);
+        let frame = Frame::new_checked_as(&self.buffer, self.size, stride_bytes, self.format)
             .map_err(DumpError::Frame)?;
         Ok(Some((frame, meta)))
     }
@@ -148,6 +206,14 @@ mod tests {
             }) => {}
             other => panic!("expected truncation, got {other:?}"),
         }
+        assert!(source.next_frame().unwrap().is_none());
+    }
+
+    #[test]
+    fn an_empty_stream_is_an_error_not_a_quiet_end() {
+        let size = FrameSize::new(2, 1).unwrap();
+        let mut source = DumpSource::new(&[][..], size, 10.0);
+        assert!(matches!(source.next_frame(), Err(DumpError::Empty)));
         assert!(source.next_frame().unwrap().is_none());
     }
 

@@ -3,7 +3,9 @@
 //! A source lends out one frame at a time from a buffer it owns (a read buffer sized once, or a
 //! driver's mmap buffer); the frame borrows the source until the next call, so nothing is copied.
 
+pub mod clock;
 pub mod dump;
+pub mod interruptible;
 pub mod record;
 pub mod sidecar;
 pub mod stoppable;
@@ -21,6 +23,11 @@ pub struct FrameMeta {
     pub dropped: u64,
     /// Time of the end of the exposure, in microseconds since the first frame.
     pub timestamp_us: u64,
+    /// The same moment on the host's monotonic clock ([`clock::monotonic_now_us`]), which the
+    /// serial link's writer reads to tell the robot how old a position is: the driver's
+    /// timestamp for a camera; for a file or a pipe, whose capture time the host cannot know,
+    /// the moment the frame had been read.
+    pub monotonic_us: u64,
 }
 
 /// A stream of frames that lends each one out until the next call.

@@ -46,15 +46,8 @@ impl fmt::Display for RecordError {
     }
 }
 
-impl std::error::Error for RecordError {
-    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
-        match self {
-            RecordError::Io(e) => Some(e),
-            RecordError::Memory { source, .. } => Some(source),
-            _ => None,
-        }
-    }
-}
+// The messages include their cause's text, so no cause is given as a source as well.
+impl std::error::Error for RecordError {}
 
 /// Writes frames of one size to `out`, unpadded, and keeps their timing.
 pub struct DumpRecorder<W: Write> {
@@ -124,6 +117,7 @@ mod tests {
             sequence,
             dropped: 0,
             timestamp_us,
+            monotonic_us: timestamp_us,
         }
     }
 

@@ -7,14 +7,14 @@
 //!  "fps":30.0,"device":"/dev/video0","frames":[{"seq":0,"t_us":0},{"seq":2,"t_us":66671}]}
 //! ```
 //!
-//! `stride` is the dump's own row stride, always `2 × width` (rows are written unpadded);
+//! `format` is the V4L2 code of the pixels (`YUYV`, `UYVY` or `GREY`); `stride` is the dump's
+//! own row stride, always `width × bytes per pixel` (rows are written unpadded);
 //! `driver_stride` is what the camera used. `seq` is the capture's 64-bit sequence number (gaps
 //! are dropped frames) and `t_us` the driver timestamp in microseconds since the first frame.
 //! [`ReplaySource`] replays a dump with its sidecar's timing. A sidecar is checked before use:
 //! it must agree with itself and with the dump beside it, or the replay refuses to start.
 
 use core::fmt;
-use std::fs::File;
 use std::io::{self, Read, Write};
 use std::path::{Path, PathBuf};
 
@@ -22,13 +22,14 @@ use serde::{Deserialize, Serialize};
 
 use super::dump::{DumpError, DumpSource};
 use super::{FrameMeta, FrameSource};
-use crate::frame::{Frame, FrameSize, SizeError};
+use crate::frame::{Frame, FrameSize, PixelFormat, SizeError};
+use crate::small_file::{self, SmallFileError};
 
 /// The sidecar layout written by this version of glint.
 pub const SIDECAR_VERSION: u32 = 1;
 /// Appended to the dump's file name.
 pub const SIDECAR_SUFFIX: &str = ".json";
-/// The only pixel format glint records.
+/// The pixel format of dumps recorded before the sidecar named others.
 pub const FORMAT_YUYV: &str = "YUYV";
 /// Bytes a sidecar may spend per frame (a frame's entry is about 30), and on its header: a
 /// sidecar larger than that for its dump is refused before it is read into memory.
@@ -76,11 +77,13 @@ pub struct Sidecar {
 pub enum SidecarError {
     /// Reading or writing it failed.
     Io(io::Error),
+    /// It is not a regular file, or not readable as one.
+    File(SmallFileError),
     /// It is far larger than its dump could need.
     TooLarge { bytes: u64, limit_bytes: u64 },
     /// It is not the JSON described in the module documentation.
     Parse(serde_json::Error),
-    /// It was written by a newer glint.
+    /// It was written by a newer glint (or claims the version 0, which none wrote).
     Version(u32),
     /// The frames are not YUYV.
     Format(String),
@@ -120,17 +123,22 @@ impl fmt::Display for SidecarError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             SidecarError::Io(e) => write!(f, "{e}"),
+            SidecarError::File(e) => write!(f, "{e}"),
             SidecarError::TooLarge { bytes, limit_bytes } => write!(
                 f,
                 "{bytes} bytes is too large for the sidecar of this dump (at most {limit_bytes})"
             ),
             SidecarError::Parse(e) => write!(f, "not a glint sidecar: {e}"),
+            SidecarError::Version(0) => write!(
+                f,
+                "sidecar version 0 does not exist (this glint reads version {SIDECAR_VERSION})"
+            ),
             SidecarError::Version(v) => write!(
                 f,
                 "sidecar version {v} is newer than this glint reads ({SIDECAR_VERSION})"
             ),
             SidecarError::Format(format) => {
-                write!(f, "frames are {format:?}, but glint reads {FORMAT_YUYV} only")
+                write!(f, "frames are {format:?}, but glint reads YUYV, UYVY and GREY only")
             }
             SidecarError::Size(e) => write!(f, "{e}"),
             SidecarError::Stride {
@@ -181,15 +189,9 @@ impl fmt::Display for SidecarError {
     }
 }
 
-impl std::error::Error for SidecarError {
-    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
-        match self {
-            SidecarError::Io(e) => Some(e),
-            SidecarError::Parse(e) => Some(e),
-            _ => None,
-        }
-    }
-}
+// The messages include their cause's text, so no cause is given as a source as well: an
+// error chain printed whole (`{:#}`) would repeat it.
+impl std::error::Error for SidecarError {}
 
 impl Sidecar {
     /// The sidecar of unpadded YUYV frames of `size` that a camera laid out `driver_stride_bytes`
@@ -206,6 +208,25 @@ impl Sidecar {
             device: None,
             frames,
         }
+    }
+
+    /// The same sidecar for frames of `format` (unpadded rows of that format).
+    pub fn with_format(mut self, format: PixelFormat) -> Self {
+        self.format = String::from_utf8_lossy(&format.fourcc()).into_owned();
+        self.stride_bytes = self
+            .size()
+            .map_or(self.stride_bytes, |s| s.row_bytes_as(format));
+        self
+    }
+
+    /// The pixel format it states (its V4L2 four-character code).
+    pub fn pixel_format(&self) -> Result<PixelFormat, SidecarError> {
+        let fourcc: [u8; 4] = self
+            .format
+            .as_bytes()
+            .try_into()
+            .map_err(|_| SidecarError::Format(self.format.clone()))?;
+        PixelFormat::from_fourcc(fourcc).ok_or_else(|| SidecarError::Format(self.format.clone()))
     }
 
     /// Where the sidecar of `dump` lives: the dump's name with [`SIDECAR_SUFFIX`] appended.
@@ -234,16 +255,21 @@ impl Sidecar {
 
     /// Reads and checks the sidecar at `path` for a dump of `dump_bytes` bytes of `size`
     /// frames. Errors say what disagrees; `Io` with `NotFound` means there is no sidecar.
+    /// The sidecar must be a regular file (a FIFO or a device is refused without waiting).
     pub fn load_for(path: &Path, size: FrameSize, dump_bytes: u64) -> Result<Self, SidecarError> {
-        let file = File::open(path).map_err(SidecarError::Io)?;
-        let bytes = file.metadata().map_err(SidecarError::Io)?.len();
-        let frames_in_dump = dump_bytes / size.frame_bytes().max(1) as u64;
+        // The smallest frame (GREY) bounds the frame count for every format.
+        let frames_in_dump = dump_bytes / size.frame_bytes_as(PixelFormat::Grey).max(1) as u64;
         let limit_bytes = MAX_SIDECAR_HEADER_BYTES
             .saturating_add(frames_in_dump.saturating_mul(MAX_SIDECAR_BYTES_PER_FRAME));
-        if bytes > limit_bytes {
-            return Err(SidecarError::TooLarge { bytes, limit_bytes });
-        }
-        let sidecar = Self::read(io::BufReader::new(file.take(limit_bytes)))?;
+        let bytes = small_file::read_bytes(path, limit_bytes).map_err(|e| match e {
+            SmallFileError::Open(e) => SidecarError::Io(e),
+            SmallFileError::TooLarge { bytes, .. } => SidecarError::TooLarge {
+                bytes: bytes.unwrap_or(limit_bytes.saturating_add(1)),
+                limit_bytes,
+            },
+            e => SidecarError::File(e),
+        })?;
+        let sidecar = Self::read(&bytes[..])?;
         sidecar.check_against(size, dump_bytes)?;
         Ok(sidecar)
     }
@@ -268,14 +294,12 @@ impl Sidecar {
         if self.version > SIDECAR_VERSION || self.version == 0 {
             return Err(SidecarError::Version(self.version));
         }
-        if self.format != FORMAT_YUYV {
-            return Err(SidecarError::Format(self.format.clone()));
-        }
+        let format = self.pixel_format()?;
         let size = self.size()?;
-        if self.stride_bytes != size.row_bytes() {
+        if self.stride_bytes != size.row_bytes_as(format) {
             return Err(SidecarError::Stride {
                 stride_bytes: self.stride_bytes,
-                row_bytes: size.row_bytes(),
+                row_bytes: size.row_bytes_as(format),
             });
         }
         for (i, pair) in self.frames.windows(2).enumerate() {
@@ -310,7 +334,7 @@ impl Sidecar {
                 given: size,
             });
         }
-        let frame_bytes = size.frame_bytes();
+        let frame_bytes = size.frame_bytes_as(self.pixel_format()?);
         let expected = (self.frames.len() as u64).checked_mul(frame_bytes as u64);
         if expected != Some(dump_bytes) {
             return Err(SidecarError::FrameCount {
@@ -358,11 +382,19 @@ pub struct ReplaySource<R> {
 }
 
 impl<R: Read> ReplaySource<R> {
-    /// Replays `reader`, a dump of `size` frames, with `sidecar`'s timing. The sidecar is
-    /// assumed checked ([`Sidecar::load_for`]).
+    /// Replays `reader`, a dump of `size` frames in the sidecar's pixel format, with
+    /// `sidecar`'s timing. The sidecar is assumed checked ([`Sidecar::load_for`]).
     pub fn new(reader: R, size: FrameSize, sidecar: Sidecar) -> Self {
+        let format = sidecar.pixel_format().unwrap_or_default();
+        let dump = DumpSource::with_format(reader, size, UNUSED_NOMINAL_FPS, format);
+        Self::from_dump(dump, sidecar)
+    }
+
+    /// [`ReplaySource::new`] over a dump source already opened in the sidecar's pixel format
+    /// (with [`DumpSource::try_with_format`], say); its nominal frame rate is not used.
+    pub fn from_dump(dump: DumpSource<R>, sidecar: Sidecar) -> Self {
         ReplaySource {
-            dump: DumpSource::new(reader, size, UNUSED_NOMINAL_FPS),
+            dump,
             frames: sidecar.frames,
             previous_seq: None,
         }
@@ -393,6 +425,7 @@ impl<R: Read> FrameSource for ReplaySource<R> {
             sequence: timing.seq,
             dropped,
             timestamp_us: timing.t_us,
+            monotonic_us: meta.monotonic_us,
         };
         Ok(Some((frame, meta)))
     }
@@ -461,7 +494,12 @@ mod tests {
         assert!(matches!(odd.validate(), Err(SidecarError::Size(_))));
         let mut future = sidecar(vec![]);
         future.version = SIDECAR_VERSION + 1;
-        assert!(matches!(future.validate(), Err(SidecarError::Version(_))));
+        let e = future.validate().unwrap_err();
+        assert!(e.to_string().contains("is newer"), "{e}");
+        future.version = 0;
+        let e = future.validate().unwrap_err();
+        assert!(matches!(e, SidecarError::Version(0)));
+        assert!(!e.to_string().contains("newer"), "{e}");
         let mut mjpeg = sidecar(vec![]);
         mjpeg.format = "MJPG".into();
         assert!(matches!(mjpeg.validate(), Err(SidecarError::Format(_))));

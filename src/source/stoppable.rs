@@ -25,16 +25,18 @@ impl<S> Stoppable<S> {
 impl<S: FrameSource> FrameSource for Stoppable<S> {
     type Error = S::Error;
 
-    /// Checked before and after the wait: a frame that arrives after the stop is not processed.
+    /// Checked before and after the wait: a frame that arrives after the stop is not processed,
+    /// and an error that ends the wait after the stop (a reader giving up, see
+    /// [`super::interruptible`], or a half-read frame) is the stop, not a failure.
     fn next_frame(&mut self) -> Result<Option<(Frame<'_>, FrameMeta)>, S::Error> {
         if self.stop.load(Ordering::Relaxed) {
             return Ok(None);
         }
-        let next = self.inner.next_frame()?;
+        let next = self.inner.next_frame();
         if self.stop.load(Ordering::Relaxed) {
             return Ok(None);
         }
-        Ok(next)
+        next
     }
 }
 
@@ -54,5 +56,23 @@ mod tests {
         assert!(source.next_frame().unwrap().is_some());
         stop.store(true, Ordering::Relaxed);
         assert!(source.next_frame().unwrap().is_none());
+    }
+
+    #[test]
+    fn a_wait_given_up_for_the_stop_is_a_clean_end() {
+        use crate::source::interruptible::Interruptible;
+        use std::os::unix::net::UnixStream;
+
+        let size = FrameSize::new(4, 2).unwrap();
+        let (_idle_writer, quiet) = UnixStream::pair().unwrap();
+        let stop = Arc::new(AtomicBool::new(false));
+        let reader = Interruptible::new(quiet, stop.clone());
+        let mut source = Stoppable::new(DumpSource::new(reader, size, 30.0), stop.clone());
+        let setter = std::thread::spawn(move || {
+            std::thread::sleep(std::time::Duration::from_millis(50));
+            stop.store(true, Ordering::Relaxed);
+        });
+        assert!(source.next_frame().unwrap().is_none());
+        setter.join().unwrap();
     }
 }

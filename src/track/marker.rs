@@ -78,6 +78,9 @@ pub struct MarkerFinding {
     pub ambiguous: bool,
     /// Markers of any id decoded in the frame.
     pub markers_seen: usize,
+    /// The detector hit its cost cap on this frame (a cluttered frame): part of it was not
+    /// searched, so a marker missing here may only have been missed.
+    pub markers_capped: bool,
 }
 
 /// Finds one marker id frame after frame.
@@ -124,6 +127,7 @@ impl MarkerTracker {
             _ => (None, false),
         };
         let markers_seen = markers.len();
+        let markers_capped = self.detector.stats().capped;
         let Some(marker) = found else {
             self.previous = None;
             return MarkerFinding {
@@ -131,6 +135,7 @@ impl MarkerTracker {
                 pose: None,
                 ambiguous,
                 markers_seen,
+                markers_capped,
             };
         };
         let centre = marker.centre();
@@ -151,6 +156,7 @@ impl MarkerTracker {
             pose: Some(pose(&marker)),
             ambiguous: false,
             markers_seen,
+            markers_capped,
         }
     }
 }

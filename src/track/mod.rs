@@ -3,9 +3,21 @@
 //!
 //! The state is fixed-size: the last position, the velocity, a gate around the prediction, a
 //! short history ring, and a table of static distractors. Each frame the tracker picks a
-//! candidate blob (the nearest to the prediction inside the gate, else a fresh acquisition
-//! among blobs that are not known distractors), the detector analyses only that blob, and the
-//! tracker turns its streak into the current position:
+//! candidate blob, the detector analyses only that blob, and the tracker turns its streak
+//! into the current position. The choice follows a few rules:
+//!
+//! - A tracked LED is the candidate nearest its prediction inside the gate, unless that
+//!   candidate has stood still since it appeared. A tracked LED that stops stays tracked (it
+//!   is never entered among the distractors). Once its velocity is known, a tracked LED lost
+//!   for a frame is not replaced by anything outside the gate: the frame reads `found: false`
+//!   until it is back in the gate or the track expires.
+//! - Acquisition takes only what moved: a blob that appeared where nothing stood in the last
+//!   frame while something of that frame went away, or one that crept from where it first
+//!   appeared. Among several that moved (several LEDs on one robot), the largest. However
+//!   round or elongated, a blob that has stood still since it appeared is never taken, and
+//!   when several candidates stand still the frame is `ambiguous` until one moves.
+//! - A lone candidate with nothing else in view is the LED (the first frame of a run, or the
+//!   LED coming back after the track expired).
 //!
 //! - The streak's tips are where the LED was at the start and the end of the exposure. The
 //!   head is the tip farther from the previous position: after a straight move the far end is
@@ -23,7 +35,7 @@ use heapless::HistoryBuf;
 
 use crate::detect::blobs::Blob;
 use crate::detect::streak::Streak;
-use statics::Statics;
+use statics::{Known, Statics};
 
 pub use marker::{marker_heading_deg, MarkerPose, MarkerTracker};
 
@@ -36,11 +48,6 @@ pub const GATE_MIN_PX: f32 = 24.0;
 /// The gate grows with the predicted travel by this factor, covering a reversal between
 /// frames (which lands twice the travel away from the prediction).
 pub const GATE_TRAVEL_FACTOR: f32 = 2.5;
-
-/// A blob whose principal variances differ by this ratio is smeared by motion. A disk is 1;
-/// an LED of radius r smeared over L pixels is (r²/4 + L²/12) / (r²/4), so 1.5 means a streak
-/// longer than about 1.2 r.
-pub const MIN_STREAK_ELONGATION: f32 = 1.5;
 
 /// After this many frames without the LED the track is dropped and acquisition starts over.
 pub const MAX_MISSED_FRAMES: u32 = 15;
@@ -123,8 +130,8 @@ pub enum Choice {
     Blob(usize),
     /// No candidate is the LED.
     Nothing,
-    /// Several candidates, none known to be static and none tracked: the LED cannot be told
-    /// from glare until one of them moves.
+    /// Several candidates that may be the LED, none tracked and none moving: the LED cannot
+    /// be told from glare until one of them moves.
     Ambiguous,
 }
 
@@ -139,6 +146,22 @@ pub struct Tracker {
     statics: Statics,
     /// Whether the previous frame had the LED: the head needs the position just before.
     previous_found: bool,
+    /// The track was taken as the lone candidate in view and has not moved since: it may be a
+    /// lamp, and yields to the first thing that moves.
+    tentative: bool,
+    /// Where a tentative track was taken.
+    acquired_at_px: (f32, f32),
+}
+
+/// How the chosen blob came to be the LED.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Acquired {
+    /// Followed inside the gate (or nothing chosen).
+    Tracked,
+    /// Taken because it moved.
+    Moving,
+    /// Taken as the only candidate in view.
+    Alone,
 }
 
 impl Tracker {
@@ -177,10 +200,27 @@ impl Tracker {
         frame_index: u64,
         t_us: u64,
     ) -> Choice {
-        let choice = self.pick(candidates.clone(), frame_index, t_us);
+        let (choice, acquired) = self.pick(candidates.clone(), frame_index, t_us);
+        let chosen = candidates
+            .clone()
+            .find(|&(index, _)| choice == Choice::Blob(index))
+            .map(|(_, b)| b.mass_centre_px);
+        match (acquired, chosen) {
+            (Acquired::Alone, Some(at)) => {
+                self.tentative = true;
+                self.acquired_at_px = at;
+            }
+            (Acquired::Moving, _) => self.tentative = false,
+            (Acquired::Tracked, Some(at)) if dist(at, self.acquired_at_px) > statics::DRIFT_PX => {
+                self.tentative = false;
+            }
+            _ => {}
+        }
+        let led_elsewhere = matches!(choice, Choice::Blob(_));
         for (index, blob) in candidates {
             if choice != Choice::Blob(index) {
-                self.statics.observe(blob.mass_centre_px, frame_index);
+                self.statics
+                    .observe(blob.mass_centre_px, frame_index, led_elsewhere);
             }
         }
         self.statics.expire(frame_index);
@@ -192,34 +232,66 @@ impl Tracker {
         candidates: impl Iterator<Item = (usize, Blob)> + Clone,
         frame_index: u64,
         t_us: u64,
-    ) -> Choice {
+    ) -> (Choice, Acquired) {
+        let known = |b: &Blob| self.statics.known(b.mass_centre_px);
+        // What may be the LED: everything but what stood still while the LED was elsewhere.
+        let possible = candidates.filter(|(_, b)| known(b) != Known::Cleared);
+        let positions = possible.clone().map(|(_, b)| b.mass_centre_px);
+        let something_went = self.statics.any_vanished(positions, frame_index);
+        let moved = |b: &Blob| {
+            let here = b.mass_centre_px;
+            known(b) == Known::Fresh
+                && !self.statics.stood_still(here, frame_index)
+                && (something_went || self.statics.crept(here, frame_index))
+        };
+        let largest_mover = possible
+            .clone()
+            .filter(|(_, b)| moved(b))
+            .max_by_key(|(_, b)| b.area_px)
+            .map(|(index, _)| (Choice::Blob(index), Acquired::Moving));
+        let mut all = possible.clone();
+        let lone = match (all.next(), all.next()) {
+            (Some((index, blob)), None) if known(&blob) == Known::Fresh => Some(index),
+            _ => None,
+        };
         if let Some((predicted, gate_px)) = self.prediction(t_us) {
-            let nearest = candidates
+            let nearest = possible
                 .clone()
+                .filter(|(_, b)| known(b) == Known::Fresh)
                 .map(|(i, b)| (i, dist(b.mass_centre_px, predicted)))
                 .filter(|&(_, d)| d <= gate_px)
                 .min_by(|a, b| a.1.total_cmp(&b.1));
             if let Some((index, _)) = nearest {
-                return Choice::Blob(index);
+                // A track taken alone and never seen to move may be a lamp: the first thing
+                // that moves elsewhere replaces it.
+                let elsewhere = largest_mover.filter(|&(c, _)| c != Choice::Blob(index));
+                if self.tentative {
+                    if let Some(mover) = elsewhere {
+                        return mover;
+                    }
+                }
+                return (Choice::Blob(index), Acquired::Tracked);
+            }
+            // A track whose motion is known predicts well: of several things outside its
+            // gate none is taken (another LED of the same robot, a reflection), while the one
+            // thing in view is the LED back from behind an obstacle, or turned sharply.
+            let has_velocity = self
+                .history
+                .recent()
+                .is_some_and(|s| s.estimate.velocity_px_s.is_some());
+            if has_velocity {
+                return lone.map_or((Choice::Nothing, Acquired::Tracked), |index| {
+                    (Choice::Blob(index), Acquired::Tracked)
+                });
             }
         }
-        let fresh = candidates.filter(|(_, b)| !self.statics.is_distractor(b.mass_centre_px));
-        let mut all = fresh.clone();
-        match (all.next(), all.next()) {
-            (None, _) => Choice::Nothing,
-            (Some((index, _)), None) => Choice::Blob(index),
-            (Some(_), Some(_)) => {
-                // Glare neither smears nor moves: the one candidate that is a streak, or else
-                // the one that did not stand at its place in the last frame, is the LED.
-                let streaks = fresh
-                    .clone()
-                    .filter(|(_, b)| b.elongation >= MIN_STREAK_ELONGATION);
-                let movers =
-                    fresh.filter(|(_, b)| !self.statics.stood_still(b.mass_centre_px, frame_index));
-                only(streaks)
-                    .or_else(|| only(movers))
-                    .map_or(Choice::Ambiguous, Choice::Blob)
-            }
+        if let Some(mover) = largest_mover {
+            return mover;
+        }
+        match (lone, possible.clone().next()) {
+            (Some(index), _) => (Choice::Blob(index), Acquired::Alone),
+            (None, None) => (Choice::Nothing, Acquired::Tracked),
+            (None, Some(_)) => (Choice::Ambiguous, Acquired::Tracked),
         }
     }
 
@@ -307,14 +379,6 @@ impl Tracker {
     }
 }
 
-/// The index of the only item, or `None` for none or several.
-fn only(mut candidates: impl Iterator<Item = (usize, Blob)>) -> Option<usize> {
-    match (candidates.next(), candidates.next()) {
-        (Some((index, _)), None) => Some(index),
-        _ => None,
-    }
-}
-
 fn dist(a: (f32, f32), b: (f32, f32)) -> f32 {
     (a.0 - b.0).hypot(a.1 - b.1)
 }
@@ -386,31 +450,121 @@ mod tests {
     }
 
     #[test]
-    fn a_streak_among_round_glare_is_the_led_from_the_first_frame() {
+    fn a_static_streak_is_never_the_led_until_it_moves() {
         let mut t = Tracker::new(TrackerConfig::default());
-        let streak = Blob {
-            elongation: 3.0,
+        let bar = Blob {
+            elongation: 6.0,
             ..blob_at(300.0, 200.0)
         };
-        let first = [
+        let frame = [
             (0, blob_at(100.0, 100.0)),
-            (1, streak),
+            (1, bar),
             (2, blob_at(50.0, 400.0)),
         ];
-        assert_eq!(t.choose(first.into_iter(), 0, 0), Choice::Blob(1));
-        // Two streaks and nothing known: ambiguous again.
-        let mut t = Tracker::new(TrackerConfig::default());
-        let two = [
-            (0, streak),
-            (
-                1,
-                Blob {
-                    elongation: 2.0,
-                    ..blob_at(10.0, 10.0)
-                },
-            ),
+        // However elongated, a blob that stands still is not told from glare.
+        for i in 0..5 {
+            assert_eq!(
+                t.choose(frame.into_iter(), i, i * FRAME_US),
+                Choice::Ambiguous,
+                "frame {i}"
+            );
+            t.update(i * FRAME_US, None);
+        }
+        // The round one at (50, 400) moves off: that one is the LED.
+        let moved = [
+            (0, blob_at(100.0, 100.0)),
+            (1, bar),
+            (2, blob_at(58.0, 396.0)),
         ];
-        assert_eq!(t.choose(two.into_iter(), 0, 0), Choice::Ambiguous);
+        assert_eq!(
+            t.choose(moved.into_iter(), 5, 5 * FRAME_US),
+            Choice::Blob(2)
+        );
+    }
+
+    #[test]
+    fn a_lone_lamp_taken_at_the_start_yields_to_the_first_thing_that_moves() {
+        let mut t = Tracker::new(TrackerConfig::default());
+        let lamp = (0, blob_at(100.0, 100.0));
+        assert_eq!(t.choose([lamp].into_iter(), 0, 0), Choice::Blob(0));
+        t.update(0, Some(&streak((100.0, 100.0), None)));
+        assert_eq!(t.choose([lamp].into_iter(), 1, FRAME_US), Choice::Blob(0));
+        t.update(FRAME_US, Some(&streak((100.0, 100.0), None)));
+        // The LED comes into view, then moves: from then on it is the LED, and the lamp,
+        // which stood still since it appeared, is never taken again.
+        let led = |x: f32| (1, blob_at(x, 300.0));
+        assert_eq!(
+            t.choose([lamp, led(400.0)].into_iter(), 2, 2 * FRAME_US),
+            Choice::Blob(0)
+        );
+        t.update(2 * FRAME_US, Some(&streak((100.0, 100.0), None)));
+        assert_eq!(
+            t.choose([lamp, led(410.0)].into_iter(), 3, 3 * FRAME_US),
+            Choice::Blob(1)
+        );
+        t.update(3 * FRAME_US, Some(&streak((410.0, 300.0), None)));
+        for i in 4..10u64 {
+            let x = 410.0 + 10.0 * (i - 3) as f32;
+            assert_eq!(
+                t.choose([lamp, led(x)].into_iter(), i, i * FRAME_US),
+                Choice::Blob(1),
+                "frame {i}"
+            );
+            t.update(i * FRAME_US, Some(&streak((x, 300.0), None)));
+        }
+        // A track that moved since it was taken alone is proven: a mover elsewhere is not
+        // taken instead of it.
+        let mut t = Tracker::new(TrackerConfig::default());
+        for i in 0..4u64 {
+            let x = 100.0 + 5.0 * i as f32;
+            let other = (1, blob_at(300.0 + 10.0 * i as f32, 300.0));
+            let frame: &[(usize, Blob)] = if i < 2 {
+                &[(0, blob_at(x, 100.0))]
+            } else {
+                &[(0, blob_at(x, 100.0)), other]
+            };
+            assert_eq!(
+                t.choose(frame.iter().copied(), i, i * FRAME_US),
+                Choice::Blob(0)
+            );
+            t.update(i * FRAME_US, Some(&streak((x, 100.0), None)));
+        }
+    }
+
+    #[test]
+    fn of_several_that_move_the_largest_is_taken_and_kept() {
+        let mut t = Tracker::new(TrackerConfig::default());
+        let led = |x: f32, y: f32, area_px: u32| Blob {
+            area_px,
+            ..blob_at(x, y)
+        };
+        let at = |dx: f32| {
+            [
+                (0, led(100.0 + dx, 100.0, 30)),
+                (1, led(170.0 + dx, 100.0, 50)),
+            ]
+        };
+        assert_eq!(t.choose(at(0.0).into_iter(), 0, 0), Choice::Ambiguous);
+        t.update(0, None);
+        assert_eq!(t.choose(at(10.0).into_iter(), 1, FRAME_US), Choice::Blob(1));
+        t.update(FRAME_US, Some(&streak((180.0, 100.0), None)));
+        assert_eq!(
+            t.choose(at(20.0).into_iter(), 2, 2 * FRAME_US),
+            Choice::Blob(1)
+        );
+        t.update(2 * FRAME_US, Some(&streak((190.0, 100.0), None)));
+        // The tracked LED is hidden for a frame: neither of two others 70 px off is taken.
+        let hidden = [(0, led(130.0, 100.0, 30)), (2, led(260.0, 100.0, 20))];
+        assert_eq!(
+            t.choose(hidden.into_iter(), 3, 3 * FRAME_US),
+            Choice::Nothing
+        );
+        t.update(3 * FRAME_US, None);
+        assert_eq!(
+            t.choose(at(40.0).into_iter(), 4, 4 * FRAME_US),
+            Choice::Blob(1),
+            "back in the gate"
+        );
     }
 
     #[test]

@@ -1,8 +1,8 @@
 //! A counting global allocator for the tests that hold a path to zero allocations. Each such
 //! test file installs it with
 //! `#[global_allocator] static GLOBAL: Counting = Counting;` and wraps the path under test in
-//! [`allocations_during`]. Only allocations on the calling thread count: the test harness runs
-//! other threads beside it.
+//! [`allocations_during`] (or, to weigh them, [`bytes_allocated_during`]). Only allocations on
+//! the calling thread count: the test harness runs other threads beside it.
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
@@ -13,27 +13,29 @@ pub struct Counting;
 thread_local! {
     static COUNTING: Cell<bool> = const { Cell::new(false) };
     static ALLOCATIONS: Cell<u64> = const { Cell::new(0) };
+    static BYTES: Cell<u64> = const { Cell::new(0) };
 }
 
-fn note_allocation() {
+fn note_allocation(bytes: usize) {
     if COUNTING.with(Cell::get) {
         ALLOCATIONS.with(|a| a.set(a.get() + 1));
+        BYTES.with(|b| b.set(b.get() + bytes as u64));
     }
 }
 
 unsafe impl GlobalAlloc for Counting {
     unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        note_allocation();
+        note_allocation(layout.size());
         unsafe { System.alloc(layout) }
     }
 
     unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
-        note_allocation();
+        note_allocation(layout.size());
         unsafe { System.alloc_zeroed(layout) }
     }
 
     unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        note_allocation();
+        note_allocation(new_size);
         unsafe { System.realloc(ptr, layout, new_size) }
     }
 
@@ -54,4 +56,18 @@ pub fn allocations_during(f: impl FnOnce()) -> u64 {
     f();
     COUNTING.with(|c| c.set(false));
     ALLOCATIONS.with(Cell::get)
+}
+
+/// Runs `f` and returns the bytes it allocated on this thread (a reallocation counts its new
+/// size, a free nothing: an upper bound of what `f` leaves allocated).
+pub fn bytes_allocated_during(f: impl FnOnce()) -> u64 {
+    BYTES.with(|b| b.set(0));
+    COUNTING.with(|c| c.set(true));
+    drop(std::hint::black_box(vec![1u8; 10]));
+    let probe = BYTES.with(Cell::get);
+    assert_eq!(probe, 10, "the counting allocator is installed");
+    BYTES.with(|b| b.set(0));
+    f();
+    COUNTING.with(|c| c.set(false));
+    BYTES.with(Cell::get)
 }

@@ -12,6 +12,25 @@ use std::process::{Command, Output};
 use glint_tools::scene::{Scene, Truth, Visibility};
 use serde_json::Value;
 
+/// Whether the tests that need `what` were asked to be skipped by setting `var` to `1`. A skip
+/// is announced on the terminal itself, past the test harness's output capture (which swallows
+/// `eprintln!` of passing tests), once per test program, so that a skipped test never passes
+/// unseen as a plain `ok`.
+pub fn skipped(var: &str, what: &str) -> bool {
+    use std::io::Write as _;
+    static ANNOUNCED: std::sync::Once = std::sync::Once::new();
+    if std::env::var(var).is_ok_and(|v| v == "1") {
+        ANNOUNCED.call_once(|| {
+            let _ = writeln!(
+                std::io::stderr(),
+                "\n*** {var}=1: SKIPPED, {what} NOT tested ***"
+            );
+        });
+        return true;
+    }
+    false
+}
+
 /// A rendered scene written to a temporary dump file.
 pub struct Rendered {
     pub scene: Scene,
@@ -22,10 +41,14 @@ pub struct Rendered {
 
 /// Renders preset `name` into a dump file.
 pub fn render(name: &str) -> Rendered {
-    let scene = Scene::preset(name).unwrap_or_else(|| panic!("no scene preset {name}"));
+    render_scene(Scene::preset(name).unwrap_or_else(|| panic!("no scene preset {name}")))
+}
+
+/// Renders a scene into a dump file.
+pub fn render_scene(scene: Scene) -> Rendered {
     let (bytes, truths) = scene.render_dump();
     let dir = tempfile::tempdir().expect("temp dir");
-    let dump = dir.path().join(format!("{name}.yuv"));
+    let dump = dir.path().join(format!("{}.yuv", scene.name()));
     std::fs::write(&dump, bytes).expect("write dump");
     Rendered {
         scene,

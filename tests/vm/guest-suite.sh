@@ -54,13 +54,21 @@ wait_output() {
     return 1
 }
 
-# Starts feeding FILE to vivid's output node, looping; the feeder's pid is in $feeder.
+# Starts feeding FILE to vivid's output node, looping; the feeder's pid is in $feeder. Returns
+# once the feeder has queued FEED_WARM_BUFFERS buffers (v4l2-ctl prints a '>' for each), for at
+# most 20 s: the output must stream before capture starts, or capture shows noise, and a fixed
+# sleep was too short on a loaded machine under TCG.
+FEED_WARM_BUFFERS=8
 feed() {
-    v4l2-ctl -d /dev/video1 --stream-out-mmap --stream-from="$1" --stream-loop \
-        >>"$OUT/feed.log" 2>&1 &
+    log="$OUT/feed-$(basename "$1").log"
+    v4l2-ctl -d /dev/video1 --stream-out-mmap --stream-from="$1" --stream-loop >"$log" 2>&1 &
     feeder=$!
-    # The output must stream before capture starts, or capture shows noise.
-    sleep 0.5
+    for _ in $(seq 200); do
+        [ "$(tr -cd '>' <"$log" | wc -c)" -ge "$FEED_WARM_BUFFERS" ] && return 0
+        sleep 0.1
+    done
+    echo "feeder of $1 did not stream"
+    return 1
 }
 
 # 1. The default webcam input: colour bars, 640x480 YUYV, frame rate set to 10 fps.

@@ -27,7 +27,7 @@ const FLAT_TOLERANCE: f64 = 0.02;
 
 /// A pinhole camera: position (floor x, floor y, height above the floor) and the floor point it
 /// looks at, in cm; focal length in pixels.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Camera {
     pub width_px: usize,
     pub height_px: usize,
@@ -96,6 +96,12 @@ impl Camera {
 
     /// Floor point seen at an image position, or `None` at or above the horizon.
     pub fn unproject(&self, image_px: Point) -> Option<Point> {
+        self.unproject_at_height(image_px, 0.0)
+    }
+
+    /// Floor point under the point `height_cm` above the floor seen at an image position, or
+    /// `None` at or above that plane's horizon.
+    pub fn unproject_at_height(&self, image_px: Point, height_cm: f64) -> Option<Point> {
         let (right, down, forward) = self.axes();
         let (cx, cy) = self.principal_point();
         let (a, b) = (
@@ -110,7 +116,7 @@ impl Camera {
         if dir[2] <= 0.0 {
             return None;
         }
-        let t = self.position_cm[2] / dir[2];
+        let t = (self.position_cm[2] - height_cm) / dir[2];
         Some(Point::new(
             self.position_cm[0] + t * dir[0],
             self.position_cm[1] + t * dir[1],
@@ -127,7 +133,7 @@ impl Camera {
 }
 
 /// A marker lying on the floor.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PlacedMarker {
     pub dictionary: Dictionary,
     pub id: u16,
@@ -198,6 +204,33 @@ impl PlacedMarker {
     }
 }
 
+/// Reflectance at a floor point if one of `markers` or its paper (a margin of
+/// `paper_margin_cells` cells round it) covers the point.
+pub(crate) fn albedo_of(
+    markers: &[PlacedMarker],
+    paper_margin_cells: f64,
+    p: Point,
+    black: f64,
+    white: f64,
+) -> Option<f64> {
+    let mut albedo = None;
+    for m in markers {
+        if let Some(a) = m.albedo(p, black, white) {
+            return Some(a);
+        }
+        let cells = m.dictionary.marker_bits() as f64 + 2.0;
+        let margin_cm = paper_margin_cells * m.size_cm / cells;
+        let local = m.turn(p, -m.rotation_deg);
+        let (u, v) = (local.x - m.origin_cm.x, local.y - m.origin_cm.y);
+        let on_paper = (-margin_cm..m.size_cm + margin_cm).contains(&u)
+            && (-margin_cm..m.size_cm + margin_cm).contains(&v);
+        if on_paper {
+            albedo = Some(white);
+        }
+    }
+    albedo
+}
+
 /// What the floor looks like away from the markers.
 #[derive(Debug, Clone, Copy)]
 pub enum Floor {
@@ -265,22 +298,13 @@ impl MarkerScene {
 
     /// Brightness (0..1) of the floor point, shadow included.
     fn radiance(&self, p: Point) -> f64 {
-        let mut albedo = None;
-        for m in &self.markers {
-            if let Some(a) = m.albedo(p, self.black, self.white) {
-                albedo = Some(a);
-                break;
-            }
-            let cells = m.dictionary.marker_bits() as f64 + 2.0;
-            let margin_cm = self.paper_margin_cells * m.size_cm / cells;
-            let local = m.turn(p, -m.rotation_deg);
-            let (u, v) = (local.x - m.origin_cm.x, local.y - m.origin_cm.y);
-            let on_paper = (-margin_cm..m.size_cm + margin_cm).contains(&u)
-                && (-margin_cm..m.size_cm + margin_cm).contains(&v);
-            if on_paper {
-                albedo = Some(self.white);
-            }
-        }
+        let albedo = albedo_of(
+            &self.markers,
+            self.paper_margin_cells,
+            p,
+            self.black,
+            self.white,
+        );
         let albedo = albedo.unwrap_or_else(|| floor_albedo(self.floor, p));
         let light = match self.shadow {
             Some(s) => {

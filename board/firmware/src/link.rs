@@ -1,9 +1,13 @@
 //! The receiving end of the serial link: UART bytes in, decoded messages out to a control loop.
+//!
+//! The link reads the robot's clock as each chunk arrives, so a position's age (protocol
+//! version 2) reaches the control loop in the robot's own clock.
 
 use embedded_io::Read;
 use glint_protocol::{Decoder, Message, Received};
 
-use crate::control::ControlLoop;
+use crate::clock::Clock;
+use crate::control::{ArrivedAge, ControlLoop};
 
 /// Bytes read from the UART per call. Small: a frame is at most 24 bytes for positions, and a
 /// small read keeps the latency between a byte arriving and its position being used low.
@@ -16,6 +20,10 @@ pub struct LinkStats {
     pub positions: u32,
     /// Heartbeats received.
     pub heartbeats: u32,
+    /// Ages handed to the control loop (each for the position just before it).
+    pub ages: u32,
+    /// LED requests handed to the control loop.
+    pub led_requests: u32,
     /// Frames with a message id this firmware does not know (from a newer glint), skipped.
     pub unknown: u32,
     /// Frames dropped as corrupt (CRC, COBS, overflow, malformed).
@@ -24,20 +32,22 @@ pub struct LinkStats {
     pub missed: u32,
 }
 
-/// A UART carrying glint's frames, with its decoder and counters.
-pub struct Link<R: Read> {
+/// A UART carrying glint's frames, with its decoder, the robot's clock and counters.
+pub struct Link<R: Read, K: Clock> {
     uart: R,
+    clock: K,
     decoder: Decoder,
     chunk: [u8; READ_CHUNK_LEN],
     last_seq: Option<u8>,
     stats: LinkStats,
 }
 
-impl<R: Read> Link<R> {
-    /// Wraps a UART (anything implementing `embedded_io::Read`).
-    pub fn new(uart: R) -> Self {
+impl<R: Read, K: Clock> Link<R, K> {
+    /// Wraps a UART (anything implementing `embedded_io::Read`) and the robot's µs clock.
+    pub fn new(uart: R, clock: K) -> Self {
         Link {
             uart,
+            clock,
             decoder: Decoder::new(),
             chunk: [0; READ_CHUNK_LEN],
             last_seq: None,
@@ -64,6 +74,9 @@ impl<R: Read> Link<R> {
                 return Err(e);
             }
         };
+        // The chunk's bytes arrived by now: the receive latency the robot adds to glint's age
+        // is what passed since (the read returns as soon as a byte is there).
+        let received_at_us = self.clock.now_us();
         let bytes = self.chunk.get(..read).unwrap_or(&[]);
         for event in self.decoder.feed(bytes) {
             match event {
@@ -79,6 +92,22 @@ impl<R: Read> Link<R> {
                 Ok(Received::Message(Message::Heartbeat(h))) => {
                     self.stats.heartbeats += 1;
                     control.on_heartbeat(&h);
+                }
+                Ok(Received::Message(Message::Age(a))) => {
+                    // An age whose position was lost belongs to nothing this robot holds.
+                    if self.last_seq == Some(a.seq) {
+                        self.stats.ages += 1;
+                        control.on_age(&ArrivedAge {
+                            seq: a.seq,
+                            age_us: a.age_us,
+                            received_at_us,
+                            predicted: a.predicted,
+                        });
+                    }
+                }
+                Ok(Received::Message(Message::Led(r))) => {
+                    self.stats.led_requests += 1;
+                    control.on_led(&r, received_at_us);
                 }
                 Ok(Received::Unknown { .. }) => self.stats.unknown += 1,
                 Err(e) => {

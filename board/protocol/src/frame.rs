@@ -10,6 +10,8 @@ use crc::{Crc, CRC_16_IBM_3740};
 use postcard::ser_flavors::crc::CrcModifier;
 use postcard::ser_flavors::{Cobs, Slice};
 
+use crate::age::{PositionAge, AGE_ID};
+use crate::led::{LedRequest, LED_ID};
 use crate::message::{Heartbeat, Message, Position, HEARTBEAT_ID, POSITION_ID};
 
 /// The frame check: CRC-16/IBM-3740, better known as CRC-16/CCITT-FALSE. Polynomial 0x1021,
@@ -28,6 +30,17 @@ pub const DELIMITER: u8 = 0x00;
 /// Longest position update on the wire, delimiter included: id 1 + seq 1 + timestamp 4 +
 /// flags 1 + four 3-byte varints + quality 1 + CRC 2 + COBS overhead 1 + delimiter 1.
 pub const MAX_POSITION_WIRE_LEN: usize = 24;
+
+/// Longest age frame on the wire, delimiter included: id 1 + seq 1 + 5-byte varint + flags 1 +
+/// CRC 2 + COBS overhead 1 + delimiter 1.
+pub const MAX_AGE_WIRE_LEN: usize = 12;
+
+/// Longest position update with its age frame, as version 2 sends them in one write.
+pub const MAX_UPDATE_WIRE_LEN: usize = MAX_POSITION_WIRE_LEN + MAX_AGE_WIRE_LEN;
+
+/// Longest LED request on the wire, delimiter included: id 1 + robot 1 + request 1 + at 4 +
+/// two 5-byte varints + CRC 2 + COBS overhead 1 + delimiter 1.
+pub const MAX_LED_WIRE_LEN: usize = 21;
 
 /// Longest frame any protocol version may send, counting the COBS bytes between two delimiters
 /// (the delimiter itself not included). Decoders hold this much and discard longer frames; future
@@ -63,6 +76,8 @@ pub fn encode<'a>(message: &Message, out: &'a mut [u8]) -> Result<&'a [u8], Enco
     let written = match message {
         Message::Position(p) => postcard::serialize_with_flavor(&(POSITION_ID, p), flavor),
         Message::Heartbeat(h) => postcard::serialize_with_flavor(&(HEARTBEAT_ID, h), flavor),
+        Message::Age(a) => postcard::serialize_with_flavor(&(AGE_ID, a), flavor),
+        Message::Led(r) => postcard::serialize_with_flavor(&(LED_ID, r), flavor),
     };
     // The only way these serde types can fail to serialise is running out of buffer.
     written
@@ -119,6 +134,8 @@ pub fn parse_payload(payload: &[u8]) -> Result<Received, PayloadError> {
     let message = match id {
         POSITION_ID => Message::Position(parse_exact::<Position>(body).ok_or(malformed)?),
         HEARTBEAT_ID => Message::Heartbeat(parse_exact::<Heartbeat>(body).ok_or(malformed)?),
+        AGE_ID => Message::Age(parse_exact::<PositionAge>(body).ok_or(malformed)?),
+        LED_ID => Message::Led(parse_exact::<LedRequest>(body).ok_or(malformed)?),
         _ => return Ok(Received::Unknown { id }),
     };
     Ok(Received::Message(message))

@@ -1,7 +1,9 @@
 //! glint-protocol: the serial wire format between glint and the robot's microcontroller.
 //!
-//! glint sends a [`Position`] update per processed frame and a [`Heartbeat`] about once a
-//! second. Each message is one frame on the UART:
+//! glint sends a [`Position`] update per processed frame, each followed by its [`PositionAge`]
+//! (how old the position is when it arrives), a [`Heartbeat`] about once a second, and on
+//! request a [`LedRequest`] (switch the LED off for a while). Each message is one frame on the
+//! UART:
 //!
 //! ```text
 //! COBS( id:u8 ‖ postcard body ‖ CRC-16/CCITT-FALSE, little-endian ) ‖ 0x00
@@ -34,16 +36,21 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
+mod age;
 mod decoder;
 mod frame;
+mod led;
 mod message;
 mod quantise;
 
+pub use age::{InvalidAgeFlags, PositionAge, AGE_ID};
 pub use decoder::{DecodeError, Decoder, Frames};
 pub use frame::{
     encode, parse_payload, EncodeError, PayloadError, Received, CRC_LEN, DELIMITER, FRAME_CRC,
-    ID_LEN, MAX_ENCODED_LEN, MAX_POSITION_WIRE_LEN,
+    ID_LEN, MAX_AGE_WIRE_LEN, MAX_ENCODED_LEN, MAX_LED_WIRE_LEN, MAX_POSITION_WIRE_LEN,
+    MAX_UPDATE_WIRE_LEN,
 };
+pub use led::{LedRequest, EVERY_ROBOT, LED_ID};
 pub use message::{
     Heartbeat, InvalidField, Message, Position, Status, TrackerState, Units, HEARTBEAT_ID,
     POSITION_ID, PROTOCOL_VERSION, QUANTA_PER_MM, QUANTA_PER_PX,

@@ -9,10 +9,13 @@ use core::fmt;
 
 use serde::{Deserialize, Serialize};
 
-/// Version of this wire format, sent in every [`Heartbeat`]. Bumped when an existing message's
-/// layout changes; adding a message with a new id does not need a bump, since old decoders skip
-/// ids they do not know.
-pub const PROTOCOL_VERSION: u8 = 1;
+use crate::age::PositionAge;
+use crate::led::LedRequest;
+
+/// Version of this wire format, sent in every [`Heartbeat`]. Version 2 added the
+/// [`PositionAge`] and [`LedRequest`] messages under new ids, which version 1 decoders skip;
+/// an existing id's layout only changes with a new version.
+pub const PROTOCOL_VERSION: u8 = 2;
 
 /// Message id of a [`Position`] update.
 pub const POSITION_ID: u8 = 0x01;
@@ -265,6 +268,10 @@ pub enum Message {
     Position(Position),
     /// A heartbeat (id [`HEARTBEAT_ID`]).
     Heartbeat(Heartbeat),
+    /// The age of the position update just before it (id [`AGE_ID`](crate::AGE_ID)).
+    Age(PositionAge),
+    /// A request to switch a robot's LED off (id [`LED_ID`](crate::LED_ID)).
+    Led(LedRequest),
 }
 
 impl Message {
@@ -273,6 +280,8 @@ impl Message {
         match self {
             Message::Position(_) => POSITION_ID,
             Message::Heartbeat(_) => HEARTBEAT_ID,
+            Message::Age(_) => crate::age::AGE_ID,
+            Message::Led(_) => crate::led::LED_ID,
         }
     }
 }
@@ -286,5 +295,17 @@ impl From<Position> for Message {
 impl From<Heartbeat> for Message {
     fn from(h: Heartbeat) -> Self {
         Message::Heartbeat(h)
+    }
+}
+
+impl From<PositionAge> for Message {
+    fn from(a: PositionAge) -> Self {
+        Message::Age(a)
+    }
+}
+
+impl From<LedRequest> for Message {
+    fn from(r: LedRequest) -> Self {
+        Message::Led(r)
     }
 }

@@ -2,6 +2,9 @@
 //! C++) and run against the SPEC's test vectors and against long streams that the Rust encoder
 //! produced and then corrupted: its output must match the Rust decoder's event for event.
 //!
+//! A frozen copy of the version 1 header (`tests/c/v1/glint.h`) is run on version 2 streams too:
+//! the SPEC promises that old decoders skip what they do not know and still get every position.
+//!
 //! Needs gcc and g++ on the PATH (Debian: `apt-get install gcc g++`); the test fails, with that
 //! message, if they are missing.
 
@@ -25,9 +28,18 @@ struct Driver {
     binary: PathBuf,
 }
 
+/// Where the current header lives, relative to this crate.
+const HEADER_DIR: &str = "../arduino";
+/// Where the frozen version 1 header lives.
+const V1_HEADER_DIR: &str = "tests/c/v1";
+
 fn compile(name: &'static str, compiler: &str, extra: &[&str]) -> Driver {
+    compile_with(name, HEADER_DIR, compiler, extra)
+}
+
+fn compile_with(name: &'static str, header_dir: &str, compiler: &str, extra: &[&str]) -> Driver {
     let source = Path::new(MANIFEST_DIR).join("tests/c/decode_stdin.c");
-    let include = Path::new(MANIFEST_DIR).join("../arduino");
+    let include = Path::new(MANIFEST_DIR).join(header_dir);
     let binary = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("glint_{name}"));
     let output = Command::new(compiler)
         .args(extra)
@@ -196,4 +208,45 @@ fn c_decoder_matches_the_rust_decoder_on_hostile_streams() {
     }
     let small = rust_events(Decoder::<23>::with_capacity(), &stream);
     assert_same_events(&run(&drivers()[2], &stream), &small, "23-byte buffers");
+}
+
+/// What a version 1 decoder reports for an event of the version 2 decoder: the new ids, well
+/// formed or not (version 1 does not know their layout), are unknown ids; the rest is the same.
+fn as_version_1(event: &str) -> String {
+    if event.starts_with("age ") || event == "error malformed id=0x03" {
+        "unknown id=0x03".to_string()
+    } else if event.starts_with("led ") || event == "error malformed id=0x04" {
+        "unknown id=0x04".to_string()
+    } else {
+        event.to_string()
+    }
+}
+
+/// The version 1 decoder on a version 2 stream: every position (and heartbeat) exactly as the
+/// version 2 decoder sees it, and the new messages skipped as unknown ids, nothing dropped.
+#[test]
+fn a_version_1_decoder_still_decodes_version_2_updates() {
+    let v1 = compile_with(
+        "v1_c99",
+        V1_HEADER_DIR,
+        "gcc",
+        &["-std=c99", "-O1", "-g", "-fsanitize=address,undefined"],
+    );
+    let stream = hostile_stream(0x7632_7631, 3_000);
+    let v2_events = rust_events(Decoder::new(), &stream);
+    let expected: Vec<String> = v2_events.iter().map(|e| as_version_1(e)).collect();
+    for kind in ["age ", "led ", "position ", "heartbeat "] {
+        assert!(
+            v2_events.iter().any(|e| e.starts_with(kind)),
+            "stream has no `{kind}` event"
+        );
+    }
+    assert_same_events(&run(&v1, &stream), &expected, "version 1 header");
+
+    // The SPEC's own vectors of version 2 traffic, through the version 1 header.
+    for v in spec_vectors().iter().filter(|v| v.name.starts_with("v2-")) {
+        let got = run(&v1, &v.wire);
+        let want: Vec<String> = v.decodes.iter().map(|d| as_version_1(d)).collect();
+        assert_eq!(got, want, "version 1 header on {}", v.name);
+    }
 }

@@ -1,8 +1,9 @@
 //! The position update's worst case on the wire: at most 24 bytes, framing and CRC included.
 
 use glint_protocol::{
-    encode, Heartbeat, Message, Position, Status, TrackerState, Units, MAX_ENCODED_LEN,
-    MAX_POSITION_WIRE_LEN,
+    encode, Heartbeat, LedRequest, Message, Position, PositionAge, Status, TrackerState, Units,
+    MAX_AGE_WIRE_LEN, MAX_ENCODED_LEN, MAX_LED_WIRE_LEN, MAX_POSITION_WIRE_LEN,
+    MAX_UPDATE_WIRE_LEN,
 };
 use proptest::prelude::*;
 
@@ -66,6 +67,50 @@ fn heartbeat_fits_the_frame_limit_at_its_largest() {
         tracker_state: TrackerState::Coasting,
     };
     assert_eq!(wire_len(&Message::Heartbeat(h)), 15);
+}
+
+/// Values at the edges of each u32 varint length.
+const U32_EDGES: [u32; 6] = [0, 127, 128, 16_383, 1 << 28, u32::MAX];
+
+#[test]
+fn age_and_led_frames_fit_their_bounds_and_the_worst_reach_them() {
+    let mut longest_age = 0;
+    for &age_us in &U32_EDGES {
+        for predicted in [false, true] {
+            for seq in [0u8, 255] {
+                let a = PositionAge {
+                    seq,
+                    age_us,
+                    predicted,
+                };
+                longest_age = longest_age.max(wire_len(&Message::Age(a)));
+            }
+        }
+    }
+    assert_eq!(longest_age, MAX_AGE_WIRE_LEN);
+    assert_eq!(
+        MAX_UPDATE_WIRE_LEN,
+        MAX_POSITION_WIRE_LEN + MAX_AGE_WIRE_LEN
+    );
+
+    let mut longest_led = 0;
+    for &delay_us in &U32_EDGES {
+        for &off_us in &U32_EDGES {
+            for at_us in [0, u32::MAX] {
+                let r = LedRequest {
+                    robot: 255,
+                    request: 255,
+                    at_us,
+                    delay_us,
+                    off_us,
+                };
+                longest_led = longest_led.max(wire_len(&Message::Led(r)));
+            }
+        }
+    }
+    assert_eq!(longest_led, MAX_LED_WIRE_LEN);
+    // Every message stays inside the decoders' 64-byte buffer.
+    const { assert!(MAX_LED_WIRE_LEN - 1 <= MAX_ENCODED_LEN) };
 }
 
 fn any_position() -> impl Strategy<Value = Position> {

@@ -1,4 +1,5 @@
-//! The saturation threshold: luma bytes of a YUYV frame to a bit-packed mask, in place.
+//! The saturation threshold: luma bytes of a frame (YUYV, UYVY or GREY) to a bit-packed mask,
+//! in place.
 //!
 //! A saturated LED is the brightest thing in a short-exposure frame, but "saturated" is not a
 //! fixed number: full-range cameras clip at Y = 255, studio-range ones (most UVC webcams) near
@@ -6,13 +7,16 @@
 //! refuses to call anything saturated when that top level is too dark to be a clipped LED.
 //!
 //! The luma bytes are read straight out of the packed frame, 64 pixels to a mask word; the
-//! automatic level costs one full pass plus a re-cut of the few rows near the LED.
+//! automatic level costs one full pass at the lowest level it can have, plus a re-cut of the
+//! few bright pixels, blob by blob ([`blob_level`]): each bright thing is cut at its own top
+//! level, so neither a hot pixel nor a window can lift the level above a dimmer LED.
 
 use core::fmt;
 
 use super::bitimage::BitImage;
 use crate::frame::Frame;
 
+pub mod blob_level;
 mod kernels;
 
 /// The lowest top luma level that can be a clipped sensor. Studio range clips at 235, so
@@ -53,15 +57,16 @@ pub struct Levels {
 }
 
 /// The level the first, fused pass cuts at: the lowest automatic threshold there can be.
-const AUTO_FIRST_PASS_LUMA: u8 = MIN_CLIP_LUMA - AUTO_MARGIN_LUMA;
+pub const AUTO_FIRST_PASS_LUMA: u8 = MIN_CLIP_LUMA - AUTO_MARGIN_LUMA;
 
 /// Writes one bit per pixel into `mask`, set where luma ≥ `threshold_luma`, and returns how
 /// many pixels were set. `mask` must have the frame's dimensions.
 pub fn threshold_into(frame: &Frame<'_>, threshold_luma: u8, mask: &mut BitImage) -> usize {
+    let format = frame.format();
     frame
         .rows()
         .enumerate()
-        .map(|(y, row)| kernels::row_threshold(row, threshold_luma, mask.row_mut(y)))
+        .map(|(y, row)| kernels::row_threshold(format, row, threshold_luma, mask.row_mut(y)))
         .sum()
 }
 
@@ -80,36 +85,60 @@ pub fn apply(frame: &Frame<'_>, threshold: Threshold, mask: &mut BitImage) -> (L
         };
         return (levels, threshold_into(frame, level, mask));
     }
+    let (top_luma, count) = first_cut(frame, mask);
+    if top_luma < MIN_CLIP_LUMA {
+        return (
+            Levels {
+                top_luma,
+                threshold_luma: None,
+            },
+            0,
+        );
+    }
+    let level = top_luma - AUTO_MARGIN_LUMA;
+    let levels = Levels {
+        top_luma,
+        threshold_luma: Some(level),
+    };
+    (levels, recut_rows(frame, level, mask, count))
+}
+
+/// The first pass of the automatic threshold: cuts `frame` into `mask` at
+/// [`AUTO_FIRST_PASS_LUMA`] while measuring the frame's top luma. Returns the top and the
+/// count of set pixels; when the top is below [`MIN_CLIP_LUMA`] nothing can be saturated and
+/// the mask is cleared (count 0).
+pub fn first_cut(frame: &Frame<'_>, mask: &mut BitImage) -> (u8, usize) {
+    let format = frame.format();
     let mut top_luma = 0;
     let mut count = 0;
     for (y, row) in frame.rows().enumerate() {
-        let (n, top) = kernels::row_threshold_max(row, AUTO_FIRST_PASS_LUMA, mask.row_mut(y));
+        let words = mask.row_mut(y);
+        let (n, top) = kernels::row_threshold_max(format, row, AUTO_FIRST_PASS_LUMA, words);
         count += n;
         top_luma = top_luma.max(top);
     }
     if top_luma < MIN_CLIP_LUMA {
         mask.clear_all();
-        let levels = Levels {
-            top_luma,
-            threshold_luma: None,
-        };
-        return (levels, 0);
+        return (top_luma, 0);
     }
-    let level = top_luma - AUTO_MARGIN_LUMA;
-    if level > AUTO_FIRST_PASS_LUMA {
-        count = 0;
-        for (y, row) in frame.rows().enumerate() {
-            let words = mask.row_mut(y);
-            if words.iter().any(|&w| w != 0) {
-                count += kernels::row_threshold(row, level, words);
-            }
+    (top_luma, count)
+}
+
+/// Cuts again, at `level`, the rows of a first cut (holding `count` pixels) that have any
+/// pixel set: one level for the whole frame. Returns the new count.
+pub fn recut_rows(frame: &Frame<'_>, level: u8, mask: &mut BitImage, count: usize) -> usize {
+    if level <= AUTO_FIRST_PASS_LUMA {
+        return count;
+    }
+    let format = frame.format();
+    let mut count = 0;
+    for (y, row) in frame.rows().enumerate() {
+        let words = mask.row_mut(y);
+        if words.iter().any(|&w| w != 0) {
+            count += kernels::row_threshold(format, row, level, words);
         }
     }
-    let levels = Levels {
-        top_luma,
-        threshold_luma: Some(level),
-    };
-    (levels, count)
+    count
 }
 
 #[cfg(test)]

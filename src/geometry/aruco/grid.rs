@@ -72,6 +72,14 @@ pub fn read_bits(
         }
     }
     let raw = &raw[..cells * cells];
+    // No split of cells this flat can reach the contrast asked for below: stop before sampling
+    // the margin (most candidates in a cluttered frame are flat dark shapes).
+    let (lo, hi) = raw
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(lo, hi), &v| (lo.min(v), hi.max(v)));
+    if hi - lo < MIN_CELL_CONTRAST {
+        return Err(GridRejection::LowContrast);
+    }
     let mut normalised = [0.0f64; MAX_GRID_CELLS * MAX_GRID_CELLS];
     let normalised = &mut normalised[..cells * cells];
     if !normalise_by_margin(raw, cells, &cell_mean, normalised) {
@@ -201,11 +209,9 @@ pub fn luma_bilinear(frame: &Frame<'_>, x: f64, y: f64) -> Option<f64> {
     }
     let (x0, y0) = (x as usize, y as usize);
     let (fx, fy) = (x - x0 as f64, y - y0 as f64);
-    let top = frame.row(y0)?;
-    let bottom = frame.row(y0 + 1)?;
-    let l = |row: &[u8], xi: usize| row.get(2 * xi).map(|&v| f64::from(v));
-    let (a, b) = (l(top, x0)?, l(top, x0 + 1)?);
-    let (c, d) = (l(bottom, x0)?, l(bottom, x0 + 1)?);
+    let l = |xi: usize, yi: usize| frame.luma(xi, yi).map(f64::from);
+    let (a, b) = (l(x0, y0)?, l(x0 + 1, y0)?);
+    let (c, d) = (l(x0, y0 + 1)?, l(x0 + 1, y0 + 1)?);
     Some((a + (b - a) * fx) * (1.0 - fy) + (c + (d - c) * fx) * fy)
 }
 

@@ -1,12 +1,18 @@
 //! ArUco / AprilTag marker detection on the luma plane of YUYV frames, with sub-pixel corners.
 //!
 //! Stages, one file each, called in order by [`Detector::detect`]:
-//! 1. [`threshold`]: adaptive threshold of the region of interest into a mask;
+//! 1. [`threshold`]: adaptive threshold of the region of interest into a mask, once for each of
+//!    OpenCV's three window sizes (a marker missed by one window is caught by another);
 //! 2. [`contour`]: outer borders of the mask's dark regions;
 //! 3. [`quad`]: borders with four straight sides become candidates;
-//! 4. [`grid`]: each candidate's cell grid is sampled through its perspective;
+//! 4. [`grid`]: each candidate's cell grid is sampled through its perspective, longest
+//!    candidates first, each outline once;
 //! 5. [`dictionary`]: the bits are decoded in all four rotations, with error correction;
 //! 6. [`refine`]: the corners of decoded markers are refined to sub-pixel by edge-line fits.
+//!
+//! The cost per frame is bounded whatever the frame shows: contour tracing has a step budget
+//! per frame, at most [`MAX_CANDIDATES`] candidates are kept (the longest) and at most
+//! [`MAX_DECODES`] grids are read. When a cap is hit, [`DetectionStats::capped`] says so.
 //!
 //! Corners come as OpenCV gives them: top-left, top-right, bottom-right, bottom-left of the
 //! marker as printed, pixel centres at integer coordinates.
@@ -33,23 +39,50 @@ pub const MAX_MARKERS: usize = 32;
 /// Closest a candidate's border may come to the edge of the frame or region, in pixels (as
 /// OpenCV's `minDistanceToBorder`): a marker cut off by the edge has no trustworthy corners.
 pub const MIN_EDGE_DISTANCE_PX: i32 = 3;
-/// Two detections of one id whose centres are closer than this (pixels) are one marker seen
-/// twice (e.g. by a second trace of the same border).
-const DUPLICATE_CENTRE_PX: f64 = 4.0;
+/// Most quadrilateral candidates kept per frame, the longest first: a frame full of squares
+/// (tiles, a checkerboard, printed text) has thousands, and each costs a grid read.
+pub const MAX_CANDIDATES: usize = 128;
+/// Most candidates whose grid is read per frame (each reads about a thousand samples).
+pub const MAX_DECODES: usize = 64;
+/// Threshold passes per frame (OpenCV's window sizes).
+pub const PASSES: usize = 3;
+/// Two candidates whose corners lie this close on average (pixels) are one outline found twice
+/// (by two threshold passes): it is decoded once.
+const SAME_CANDIDATE_PX: f64 = 2.0;
+
+/// One adaptive-threshold pass: its window and whether its ratio test is on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ThresholdPass {
+    /// Half the side of the window, in pixels (the window is `2 × radius + 1` square).
+    pub radius_px: usize,
+    /// A dark pixel is also below this share of the window mean, in percent
+    /// ([`threshold::NO_RATIO_PCT`] for none).
+    pub ratio_pct: u32,
+}
 
 /// Detector settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DetectorConfig {
     /// The dictionary markers are decoded against.
     pub dictionary: Dictionary,
-    /// Half the side of the adaptive threshold's window, in pixels.
-    pub threshold_radius_px: usize,
+    /// The threshold passes, each traced for candidates. By default OpenCV's windows (3, 13 and
+    /// 23 pixels: small markers need a small window, thick borders under blur a large one) with
+    /// the margin alone, as OpenCV does, so that grey ink is found. The ratio test
+    /// ([`threshold::MAX_DARK_RATIO_PCT`]) keeps black ink's outline apart from a hard shadow's
+    /// edge even in a wide window, at the cost of grey ink.
+    pub threshold_passes: [ThresholdPass; PASSES],
     /// How much darker than the window mean a pixel must be to count as dark (luma levels).
     pub threshold_offset: u8,
-    /// Shortest marker side accepted, in pixels.
-    pub min_side_px: f64,
+    /// Shortest marker outline accepted, as a share of the frame's larger side (OpenCV's
+    /// `minMarkerPerimeterRate`).
+    pub min_perimeter_rate: f64,
     /// Longest marker border traced, in pixels (bounds the work on huge regions).
     pub max_perimeter_px: usize,
+    /// Most contour-tracing steps per frame, over all threshold passes (each pixel on a border
+    /// is about one a pass): bounds the time spent on frames with borders everywhere (speckle,
+    /// mazes). At 640×480 a textured floor takes about 82 000, OpenCV's tutorial photo 36 000
+    /// and its photo of a ChArUco board (a chessboard with text around it) 169 000.
+    pub max_trace_steps: usize,
     /// Whether corners are refined to sub-pixel (costs a little time per marker found).
     pub refine: bool,
 }
@@ -57,12 +90,17 @@ pub struct DetectorConfig {
 impl DetectorConfig {
     /// Defaults for a dictionary, suited to 640×480 webcams.
     pub fn new(dictionary: Dictionary) -> Self {
+        let margin_only = |radius_px| ThresholdPass {
+            radius_px,
+            ratio_pct: threshold::NO_RATIO_PCT,
+        };
         DetectorConfig {
             dictionary,
-            threshold_radius_px: 7,
+            threshold_passes: [margin_only(1), margin_only(6), margin_only(11)],
             threshold_offset: 7,
-            min_side_px: 12.0,
+            min_perimeter_rate: 0.03,
             max_perimeter_px: 4000,
+            max_trace_steps: 200_000,
             refine: true,
         }
     }
@@ -84,30 +122,47 @@ pub struct Marker {
 impl Marker {
     /// Centre: where the diagonals cross (exact under perspective, unlike the corners' mean).
     pub fn centre(&self) -> Point {
-        let [a, b, c, d] = self.corners;
-        let (r, s) = (c - a, d - b);
-        let denom = r.perp(&s);
-        if denom.abs() < f64::EPSILON {
-            return Point::from((a.coords + b.coords + c.coords + d.coords) / 4.0);
-        }
-        let t = (b - a).perp(&s) / denom;
-        a + r * t
+        diagonals_cross(&self.corners)
     }
+}
+
+/// Where a quadrilateral's diagonals cross (the corners' mean if they are parallel).
+fn diagonals_cross(corners: &[Point; 4]) -> Point {
+    let [a, b, c, d] = *corners;
+    let (r, s) = (c - a, d - b);
+    let denom = r.perp(&s);
+    if denom.abs() < f64::EPSILON {
+        return Point::from((a.coords + b.coords + c.coords + d.coords) / 4.0);
+    }
+    let t = (b - a).perp(&s) / denom;
+    a + r * t
+}
+
+/// Whether `p` lies inside the convex quadrilateral `q` (clockwise on screen).
+fn inside_quad(q: &[Point; 4], p: Point) -> bool {
+    (0..4).all(|k| (q[(k + 1) % 4] - q[k]).perp(&(p - q[k])) >= 0.0)
 }
 
 /// What the last detection saw, for diagnostics (why a marker was not found).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct DetectionStats {
-    /// Outer borders long enough to be a marker.
+    /// Outer borders long enough to be a marker, over all threshold passes.
     pub borders: u32,
     /// Borders that were quadrilaterals.
     pub quads: u32,
     /// Borders that touched the frame or region edge (a marker may be cut off).
     pub touching_edge: u32,
+    /// Contour-tracing steps taken, over all threshold passes.
+    pub trace_steps: u32,
+    /// Candidates whose grid was read.
+    pub read: u32,
     /// Quadrilaterals decoded as markers.
     pub decoded: u32,
     /// Markers beyond [`MAX_MARKERS`], not reported.
     pub dropped: u32,
+    /// A cost cap was hit (tracing steps, [`MAX_CANDIDATES`] or [`MAX_DECODES`]): some of the
+    /// frame was not searched, and a marker there may have been missed.
+    pub capped: bool,
 }
 
 /// Why detection could not run.
@@ -137,6 +192,30 @@ impl fmt::Display for DetectError {
 
 impl std::error::Error for DetectError {}
 
+/// A quadrilateral candidate, ordered by the length of its traced border.
+#[derive(Debug, Clone, Copy)]
+struct Candidate {
+    border_px: usize,
+    corners: [Point; 4],
+}
+
+impl PartialEq for Candidate {
+    fn eq(&self, other: &Self) -> bool {
+        self.border_px == other.border_px
+    }
+}
+impl Eq for Candidate {}
+impl PartialOrd for Candidate {
+    fn partial_cmp(&self, other: &Self) -> Option<core::cmp::Ordering> {
+        Some(self.cmp(other))
+    }
+}
+impl Ord for Candidate {
+    fn cmp(&self, other: &Self) -> core::cmp::Ordering {
+        self.border_px.cmp(&other.border_px)
+    }
+}
+
 /// A marker detector for one frame size, with all its scratch.
 #[derive(Debug)]
 pub struct Detector {
@@ -145,6 +224,12 @@ pub struct Detector {
     thresholder: threshold::Thresholder,
     contour: Vec<(i32, i32)>,
     edge_samples: Vec<refine::EdgeSample>,
+    /// The longest candidates so far (a min-heap, so the shortest is dropped first).
+    candidates: heapless::BinaryHeap<Candidate, heapless::binary_heap::Min, MAX_CANDIDATES>,
+    /// The candidates in decoding order, longest first.
+    ordered: heapless::Vec<Candidate, MAX_CANDIDATES>,
+    /// Outlines already read this frame.
+    read: heapless::Vec<[Point; 4], MAX_DECODES>,
     markers: heapless::Vec<Marker, MAX_MARKERS>,
     stats: DetectionStats,
 }
@@ -159,6 +244,9 @@ impl Detector {
             contour: Vec::with_capacity(config.max_perimeter_px.max(4)),
             // One profile every half pixel along the longest side a traced border allows.
             edge_samples: Vec::with_capacity(config.max_perimeter_px.max(4)),
+            candidates: heapless::BinaryHeap::new(),
+            ordered: heapless::Vec::new(),
+            read: heapless::Vec::new(),
             markers: heapless::Vec::new(),
             stats: DetectionStats::default(),
         }
@@ -189,46 +277,113 @@ impl Detector {
         }
         let roi = clip_roi(roi, self.size)?;
         self.markers.clear();
+        self.candidates.clear();
+        self.ordered.clear();
+        self.read.clear();
         self.stats = DetectionStats::default();
         let cfg = self.config;
-        self.thresholder
-            .run(frame, roi, cfg.threshold_radius_px, cfg.threshold_offset);
-        let (mask, w, h) = self.thresholder.mask_mut();
-        let limits = quad::QuadLimits {
-            min_side_px: cfg.min_side_px,
-            min_edge_distance_px: MIN_EDGE_DISTANCE_PX,
-            width_px: w as i32,
-            height_px: h as i32,
-        };
-        let min_border_len = (4.0 * cfg.min_side_px) as usize;
+        let frame_side_px = self.size.width().max(self.size.height()) as f64;
+        let min_border_len =
+            (cfg.min_perimeter_rate * frame_side_px).max(4.0 * quad::MIN_SIDE_PX) as usize;
         let origin = nalgebra::Vector2::new(roi.x_px as f64, roi.y_px as f64);
-        let markers = &mut self.markers;
-        let stats = &mut self.stats;
-        let edge_samples = &mut self.edge_samples;
-        contour::trace_borders(mask, w, h, min_border_len, &mut self.contour, |border| {
-            stats.borders += 1;
-            let quad = match quad::fit_quad(border, &limits) {
-                Ok(q) => q,
-                Err(quad::Rejection::TouchesEdge) => {
-                    stats.touching_edge += 1;
-                    return;
-                }
-                Err(_) => return,
+        self.thresholder.load(frame, roi);
+        let mut steps_left = cfg.max_trace_steps;
+        for pass in cfg.threshold_passes {
+            if steps_left == 0 {
+                // The tracing budget is spent: a further pass would find no border.
+                self.stats.capped = true;
+                break;
+            }
+            self.thresholder
+                .run(pass.radius_px, cfg.threshold_offset, pass.ratio_pct);
+            let (mask, w, h) = self.thresholder.mask_mut();
+            let limits = quad::QuadLimits {
+                min_edge_distance_px: MIN_EDGE_DISTANCE_PX,
+                width_px: w as i32,
+                height_px: h as i32,
             };
-            stats.quads += 1;
-            let corners = quad.map(|p| p + origin);
-            if let Some(marker) = decode_candidate(frame, &corners, &cfg, edge_samples) {
-                stats.decoded += 1;
-                let duplicate = markers.iter().any(|m| {
-                    m.id == marker.id && (m.centre() - marker.centre()).norm() < DUPLICATE_CENTRE_PX
-                });
-                if !duplicate && markers.push(marker).is_err() {
-                    stats.dropped += 1;
+            let stats = &mut self.stats;
+            let candidates = &mut self.candidates;
+            let complete = contour::trace_borders(
+                mask,
+                w,
+                h,
+                min_border_len,
+                &mut self.contour,
+                &mut steps_left,
+                |border| {
+                    stats.borders += 1;
+                    // With the heap full, a border no longer than its shortest candidate would
+                    // be dropped even as a quadrilateral: don't fit it.
+                    let shortest = candidates.peek().map_or(0, |c| c.border_px);
+                    if candidates.len() == MAX_CANDIDATES && border.len() <= shortest {
+                        stats.capped = true;
+                        return;
+                    }
+                    let quad = match quad::fit_quad(border, &limits) {
+                        Ok(q) => q,
+                        Err(quad::Rejection::TouchesEdge) => {
+                            stats.touching_edge += 1;
+                            return;
+                        }
+                        Err(_) => return,
+                    };
+                    stats.quads += 1;
+                    let candidate = Candidate {
+                        border_px: border.len(),
+                        corners: quad.map(|p| p + origin),
+                    };
+                    if let Err(c) = candidates.push(candidate) {
+                        stats.capped = true;
+                        // Full: the shortest candidate makes way for a longer one.
+                        if candidates.peek().is_some_and(|shortest| c > *shortest) {
+                            candidates.pop();
+                            let _ = candidates.push(c);
+                        }
+                    }
+                },
+            );
+            self.stats.capped |= !complete;
+        }
+        let steps = cfg.max_trace_steps - steps_left;
+        self.stats.trace_steps = u32::try_from(steps).unwrap_or(u32::MAX);
+        // Longest first: a marker is larger than most of the clutter around it.
+        while let Some(c) = self.candidates.pop() {
+            let _ = self.ordered.push(c);
+        }
+        self.ordered.reverse();
+        for c in &self.ordered {
+            let centre = diagonals_cross(&c.corners);
+            if self.markers.iter().any(|m| inside_quad(&m.corners, centre))
+                || self.read.iter().any(|r| same_outline(r, &c.corners))
+            {
+                continue;
+            }
+            if self.read.push(c.corners).is_err() {
+                self.stats.capped = true;
+                break;
+            }
+            self.stats.read += 1;
+            if let Some(marker) = decode_candidate(frame, &c.corners, &cfg, &mut self.edge_samples)
+            {
+                self.stats.decoded += 1;
+                if self.markers.push(marker).is_err() {
+                    self.stats.dropped += 1;
                 }
             }
-        });
+        }
         Ok(&self.markers)
     }
+}
+
+/// Whether two clockwise outlines are the same one, whichever corner each starts at.
+fn same_outline(a: &[Point; 4], b: &[Point; 4]) -> bool {
+    (0..4).any(|shift| {
+        (0..4)
+            .map(|k| (a[k] - b[(k + shift) % 4]).norm())
+            .sum::<f64>()
+            < 4.0 * SAME_CANDIDATE_PX
+    })
 }
 
 /// Samples, decodes and (if configured) refines one candidate.

@@ -16,12 +16,14 @@ pub const APPROX_ACCURACY_RATE: f64 = 0.03;
 const MIN_TOLERANCE_PX: f64 = 1.5;
 /// Least sine of the turn at a corner: a flatter "corner" is a point on a straight side.
 const MIN_TURN_SINE: f64 = 0.2;
+/// Shortest side, as a share of the traced border's length (OpenCV's `minCornerDistanceRate`).
+pub const MIN_SIDE_RATE: f64 = 0.05;
+/// Shortest side in pixels, whatever the border's length: a grid of cells needs a few pixels.
+pub const MIN_SIDE_PX: f64 = 4.0;
 
 /// Limits a candidate must satisfy.
 #[derive(Debug, Clone, Copy)]
 pub struct QuadLimits {
-    /// Shortest side, in pixels.
-    pub min_side_px: f64,
     /// Closest a border pixel may come to the region's edge, in pixels.
     pub min_edge_distance_px: i32,
     /// Region size, in pixels.
@@ -45,7 +47,15 @@ pub fn fit_quad(border: &[(i32, i32)], limits: &QuadLimits) -> Result<[Point; 4]
     let n = border.len();
     let first = *border.first().ok_or(Rejection::NotQuad)?;
     let pt = |i: usize| {
-        let (x, y) = border.get(i % n).copied().unwrap_or(first);
+        // Indices run at most one lap past the end; a subtraction is cheaper than a division.
+        let i = if i < n {
+            i
+        } else if i < 2 * n {
+            i - n
+        } else {
+            i % n
+        };
+        let (x, y) = border.get(i).copied().unwrap_or(first);
         Point::new(f64::from(x), f64::from(y))
     };
     let m = limits.min_edge_distance_px;
@@ -96,7 +106,8 @@ pub fn fit_quad(border: &[(i32, i32)], limits: &QuadLimits) -> Result<[Point; 4]
             return Err(Rejection::NotQuad);
         }
     }
-    if (0..4).any(|k| (out[(k + 1) % 4] - out[k]).norm() < limits.min_side_px) {
+    let min_side_px = (MIN_SIDE_RATE * n as f64).max(MIN_SIDE_PX);
+    if (0..4).any(|k| (out[(k + 1) % 4] - out[k]).norm() < min_side_px) {
         return Err(Rejection::TooSmall);
     }
     Ok(out)
@@ -144,7 +155,6 @@ mod tests {
 
     fn limits() -> QuadLimits {
         QuadLimits {
-            min_side_px: 4.0,
             min_edge_distance_px: 2,
             width_px: 100,
             height_px: 100,

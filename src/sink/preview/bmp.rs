@@ -5,6 +5,7 @@
 //! cut) are tinted [`MASK_TINT`], keeping a trace of their luma so edges stay visible.
 
 use super::Snapshot;
+use crate::frame::FrameSize;
 
 /// File header (14 bytes) plus BITMAPINFOHEADER (40 bytes).
 const HEADER_BYTES: usize = 54;
@@ -19,35 +20,56 @@ const PX_PER_M: u32 = 2835;
 pub const MASK_TINT: [u8; 3] = [255, 0, 0];
 const TINT_LUMA_SHIFT: u32 = 2;
 
-/// Encodes the snapshot's frame into `out` (cleared first).
-pub fn encode(snapshot: &Snapshot, out: &mut Vec<u8>) {
-    let width = snapshot.size.width();
-    let height = snapshot.size.height();
-    let row_bytes = (width * PIXEL_BYTES).div_ceil(ROW_ALIGN) * ROW_ALIGN;
+/// Bytes of one row, padded.
+fn row_bytes(width: usize) -> usize {
+    (width * PIXEL_BYTES).div_ceil(ROW_ALIGN) * ROW_ALIGN
+}
+
+/// Bytes of the whole file for a frame of `size`: what [`encode`] writes.
+pub fn file_bytes(size: FrameSize) -> usize {
+    HEADER_BYTES + row_bytes(size.width()) * size.height()
+}
+
+/// Encodes the snapshot's frame into `out`, which should be [`file_bytes`] long (a shorter
+/// one gets what fits, a longer one is written up to that length).
+pub fn encode(snapshot: &Snapshot, out: &mut [u8]) {
+    let width = snapshot.seen.size.width();
+    let height = snapshot.seen.size.height();
+    let row_bytes = row_bytes(width);
     let image_bytes = row_bytes * height;
-    let file_bytes = HEADER_BYTES + image_bytes;
     let u32_of = |n: usize| u32::try_from(n).unwrap_or(u32::MAX);
-    out.clear();
-    out.reserve(file_bytes);
-    out.extend_from_slice(b"BM");
-    out.extend_from_slice(&u32_of(file_bytes).to_le_bytes());
-    out.extend_from_slice(&[0; 4]);
-    out.extend_from_slice(&u32_of(HEADER_BYTES).to_le_bytes());
-    out.extend_from_slice(&INFO_HEADER_BYTES.to_le_bytes());
-    out.extend_from_slice(&u32_of(width).to_le_bytes());
-    // Positive height: rows bottom-up, which every reader supports.
-    out.extend_from_slice(&u32_of(height).to_le_bytes());
-    out.extend_from_slice(&1u16.to_le_bytes()); // planes
-    out.extend_from_slice(&24u16.to_le_bytes()); // bits per pixel
-    out.extend_from_slice(&0u32.to_le_bytes()); // no compression
-    out.extend_from_slice(&u32_of(image_bytes).to_le_bytes());
-    out.extend_from_slice(&PX_PER_M.to_le_bytes());
-    out.extend_from_slice(&PX_PER_M.to_le_bytes());
-    out.extend_from_slice(&[0; 8]); // palette sizes
-    let padding = row_bytes - width * PIXEL_BYTES;
-    let threshold = snapshot.threshold_luma;
-    for row in snapshot.luma.chunks_exact(width).rev() {
-        for &y in row {
+    let mut header = [0u8; HEADER_BYTES];
+    let fields: [&[u8]; 14] = [
+        b"BM",
+        &u32_of(file_bytes(snapshot.seen.size)).to_le_bytes(),
+        &[0; 4],
+        &u32_of(HEADER_BYTES).to_le_bytes(),
+        &INFO_HEADER_BYTES.to_le_bytes(),
+        &u32_of(width).to_le_bytes(),
+        // Positive height: rows bottom-up, which every reader supports.
+        &u32_of(height).to_le_bytes(),
+        &1u16.to_le_bytes(),  // planes
+        &24u16.to_le_bytes(), // bits per pixel
+        &0u32.to_le_bytes(),  // no compression
+        &u32_of(image_bytes).to_le_bytes(),
+        &PX_PER_M.to_le_bytes(),
+        &PX_PER_M.to_le_bytes(),
+        &[0; 8], // palette sizes
+    ];
+    let mut at = 0;
+    for field in fields {
+        for (dst, src) in header.iter_mut().skip(at).zip(field) {
+            *dst = *src;
+        }
+        at += field.len();
+    }
+    let (head, image) = out.split_at_mut(HEADER_BYTES.min(out.len()));
+    head.copy_from_slice(header.get(..head.len()).unwrap_or_default());
+    let threshold = snapshot.seen.threshold_luma;
+    let rows = snapshot.luma.chunks_exact(width).rev();
+    for (dst, row) in image.chunks_mut(row_bytes).zip(rows) {
+        let (pixels, padding) = dst.split_at_mut((width * PIXEL_BYTES).min(dst.len()));
+        for (px, &y) in pixels.chunks_exact_mut(PIXEL_BYTES).zip(row) {
             let [r, g, b] = match threshold {
                 Some(t) if y >= t => {
                     let trace = y >> TINT_LUMA_SHIFT;
@@ -55,16 +77,15 @@ pub fn encode(snapshot: &Snapshot, out: &mut Vec<u8>) {
                 }
                 _ => [y, y, y],
             };
-            out.extend_from_slice(&[b, g, r]);
+            px.copy_from_slice(&[b, g, r]);
         }
-        out.extend(core::iter::repeat_n(0, padding));
+        padding.fill(0);
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::frame::FrameSize;
 
     /// Reads pixel (x, y) (top-down) of a BMP written by `encode`, as RGB.
     fn pixel(bmp: &[u8], width: usize, height: usize, x: usize, y: usize) -> [u8; 3] {
@@ -78,11 +99,21 @@ mod tests {
         // 2×2, so each 6-byte row carries 2 bytes of padding.
         let mut snapshot = Snapshot::new(FrameSize::new(2, 2).unwrap());
         snapshot.luma = vec![10, 200, 255, 199];
-        snapshot.threshold_luma = Some(200);
-        let mut bmp = Vec::new();
+        snapshot.seen.threshold_luma = Some(200);
+        let mut bmp = vec![1; file_bytes(snapshot.seen.size)];
         encode(&snapshot, &mut bmp);
         assert_eq!(&bmp[..2], b"BM");
         assert_eq!(bmp.len(), HEADER_BYTES + 2 * 8);
+        assert_eq!(
+            &bmp[10..14],
+            &54u32.to_le_bytes(),
+            "pixels after the headers"
+        );
+        assert_eq!(&bmp[18..26], &[2, 0, 0, 0, 2, 0, 0, 0], "width and height");
+        assert_eq!(&bmp[28..30], &24u16.to_le_bytes(), "bits per pixel");
+        assert_eq!(&bmp[50..54], &[0; 4], "the last header field");
+        // Row padding is written, whatever the buffer held.
+        assert_eq!(&bmp[HEADER_BYTES + 6..HEADER_BYTES + 8], &[0, 0]);
         let size = u32::from_le_bytes(bmp[2..6].try_into().unwrap());
         assert_eq!(size as usize, bmp.len());
         assert_eq!(pixel(&bmp, 2, 2, 0, 0), [10, 10, 10]);
@@ -90,8 +121,17 @@ mod tests {
         assert_eq!(pixel(&bmp, 2, 2, 0, 1), [255, 63, 63]);
         assert_eq!(pixel(&bmp, 2, 2, 1, 1), [199, 199, 199]);
         // Without a threshold nothing is masked.
-        snapshot.threshold_luma = None;
+        snapshot.seen.threshold_luma = None;
         encode(&snapshot, &mut bmp);
         assert_eq!(pixel(&bmp, 2, 2, 0, 1), [255, 255, 255]);
+        // A short buffer gets what fits, and nothing panics.
+        let mut short = vec![0; HEADER_BYTES + 3];
+        encode(&snapshot, &mut short);
+        assert_eq!(&short[..2], b"BM");
+        assert_eq!(
+            &short[HEADER_BYTES..],
+            &[255, 255, 255],
+            "the bottom row's first pixel"
+        );
     }
 }

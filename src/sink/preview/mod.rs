@@ -6,8 +6,16 @@
 //! at most every [`COPY_PERIOD`], and only if the server is not reading the buffer at that
 //! moment (`try_lock`: tracking never waits). Encoding and serving happen on other threads
 //! ([`http`]); a slow or vanished client only ever holds up its own connection's thread.
+//!
+//! The outside world cannot starve it either: the server bounds the whole time a client may
+//! take to send its request and to take the answer, the connections per client address and in
+//! all (the oldest are shed for newcomers, [`clients`]), and the size of a request head. Every
+//! viewer of a copied frame is sent the same encoded image ([`encoded`]): memory does not grow
+//! with the number of viewers, and an image nobody is being sent is freed.
 
 mod bmp;
+mod clients;
+mod encoded;
 mod http;
 
 use std::io;
@@ -30,15 +38,28 @@ const VIEWER_PATIENCE: Duration = Duration::from_secs(5);
 pub const TRACK_POINTS: usize = 128;
 /// What the page draws: an image position in pixels.
 pub type Px = (f32, f32);
+/// Connections one client address may hold open; a newer one sheds its oldest.
+pub const CONNECTIONS_PER_CLIENT: usize = clients::PER_CLIENT;
+/// How long a client has, from its connection being accepted, to send a whole request head.
+pub const REQUEST_TIME: Duration = http::REQUEST_TIME;
+/// Longest request head read (request line and headers); a longer one is refused with 431.
+pub const MAX_HEAD_BYTES: usize = http::MAX_HEAD_BYTES;
 
 /// The last copied frame and what was found in it: what the server encodes.
-#[derive(Debug, Clone)]
+#[derive(Debug)]
 struct Snapshot {
-    size: FrameSize,
     /// One luma byte per pixel, rows top to bottom; allocated once in [`PreviewSink::start`].
     luma: Vec<u8>,
-    /// Whether `luma` holds a frame yet.
-    captured: bool,
+    /// Everything but the pixels: small, so a request for the state copies only this.
+    seen: Seen,
+}
+
+/// What the page draws and prints about the copied frame.
+#[derive(Debug, Clone)]
+struct Seen {
+    size: FrameSize,
+    /// Copies made so far: which frame an encoded image shows. 0: `luma` holds no frame yet.
+    copies: u64,
     index: u64,
     t_s: f64,
     threshold_luma: Option<u8>,
@@ -54,44 +75,48 @@ struct Snapshot {
 impl Snapshot {
     fn new(size: FrameSize) -> Self {
         Snapshot {
-            size,
             luma: vec![0; size.pixels()],
-            captured: false,
-            index: 0,
-            t_s: 0.0,
-            threshold_luma: None,
-            position_px: None,
-            mid_px: None,
-            ends_px: None,
-            marker_px: None,
-            track_px: BoundedVec::new(),
-            fps: None,
+            seen: Seen {
+                size,
+                copies: 0,
+                index: 0,
+                t_s: 0.0,
+                threshold_luma: None,
+                position_px: None,
+                mid_px: None,
+                ends_px: None,
+                marker_px: None,
+                track_px: BoundedVec::new(),
+                fps: None,
+            },
         }
     }
 
-    /// Copies the frame's luma (the even bytes of each YUYV row) and the report. A frame of
+    /// Copies the frame's luma (whatever its pixel format) and the report. A frame of
     /// another size fills what overlaps.
     fn fill(&mut self, frame: &Frame<'_>, report: &FrameReport, track: &Deque<Px, TRACK_POINTS>) {
-        let width = self.size.width();
-        for (dst, row) in self.luma.chunks_exact_mut(width).zip(frame.rows()) {
-            for (d, y) in dst.iter_mut().zip(row.iter().step_by(2)) {
+        let width = self.seen.size.width();
+        let step = frame.luma_step();
+        for (dst, row) in self.luma.chunks_exact_mut(width).zip(frame.luma_rows()) {
+            for (d, y) in dst.iter_mut().zip(row.iter().step_by(step)) {
                 *d = *y;
             }
         }
-        self.captured = true;
-        self.index = report.meta.index;
-        self.t_s = report.t_s();
-        self.threshold_luma = report.detection.levels.threshold_luma;
-        self.position_px = report.position.map(|p| p.position_px);
-        self.mid_px = report.position.map(|p| p.mid_px);
-        self.ends_px = report.detection.best.map(|(_, streak)| streak.ends_px);
-        self.marker_px = report
+        let seen = &mut self.seen;
+        seen.copies = seen.copies.saturating_add(1);
+        seen.index = report.meta.index;
+        seen.t_s = report.t_s();
+        seen.threshold_luma = report.detection.levels.threshold_luma;
+        seen.position_px = report.position.map(|p| p.position_px);
+        seen.mid_px = report.position.map(|p| p.mid_px);
+        seen.ends_px = report.detection.best.map(|(_, streak)| streak.ends_px);
+        seen.marker_px = report
             .marker
             .map(|m| m.corners_px.map(|corner| (corner.x, corner.y)));
-        self.track_px.clear();
+        seen.track_px.clear();
         for p in track {
             // Both hold TRACK_POINTS: never full here.
-            let _ = self.track_px.push(*p);
+            let _ = seen.track_px.push(*p);
         }
     }
 }
@@ -104,6 +129,8 @@ struct Shared {
     /// Milliseconds after `epoch` of the last request, plus one; 0: none yet.
     last_request_ms: AtomicU64,
     snapshot: Mutex<Snapshot>,
+    /// The copied frame as an image, shared by every viewer being sent it (server threads only).
+    encoded: encoded::Encoded,
     /// The calibration markers' corners (TL, TR, BR, BL), fixed for the whole run: drawn so
     /// the user sees whether the camera still looks where it was calibrated.
     calibration_markers_px: Vec<[Px; 4]>,
@@ -127,11 +154,13 @@ impl Shared {
         }
     }
 
-    /// A copy of the snapshot, taken under the lock (on a server thread).
-    fn snapshot(&self) -> Snapshot {
+    /// A copy of what was seen in the last copied frame, without its pixels (on a server
+    /// thread).
+    fn seen(&self) -> Seen {
         self.snapshot
             .lock()
             .unwrap_or_else(PoisonError::into_inner)
+            .seen
             .clone()
     }
 }
@@ -163,6 +192,7 @@ impl PreviewSink {
             epoch: Instant::now(),
             last_request_ms: AtomicU64::new(0),
             snapshot: Mutex::new(Snapshot::new(size)),
+            encoded: encoded::Encoded::new(),
             calibration_markers_px,
         });
         http::spawn(listener, Arc::clone(&shared))?;
@@ -210,7 +240,7 @@ impl Sink for PreviewSink {
             return Ok(());
         };
         snapshot.fill(frame, report, &self.track);
-        snapshot.fps = since.map(|s| self.frames_since_copy as f64 / s.as_secs_f64());
+        snapshot.seen.fps = since.map(|s| self.frames_since_copy as f64 / s.as_secs_f64());
         self.last_copy = Some(now);
         self.frames_since_copy = 0;
         Ok(())

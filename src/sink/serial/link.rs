@@ -1,7 +1,9 @@
 //! The writer thread: owns the serial port, sends what the mailbox hands it, and survives the
 //! port vanishing.
 //!
-//! Each batch (heartbeat, then position) goes out in one `write`. After a write the thread waits
+//! Each batch (heartbeat, LED request, then position update and its age) goes out in one
+//! `write`; the update's age and the request's host time are stamped just before it (see
+//! `stamp`). After a write the thread waits
 //! until the UART's output queue has drained before taking the next batch, so the kernel never
 //! holds a backlog of stale positions either: when the line is slower than the frame rate,
 //! the mailbox drops the stale ones and the next write carries the newest.
@@ -15,14 +17,19 @@
 use std::io::{self, Write};
 use std::os::unix::io::AsRawFd;
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex, PoisonError};
 use std::time::{Duration, Instant};
 
-use glint_protocol::DELIMITER;
+use glint_protocol::{DELIMITER, MAX_LED_WIRE_LEN, MAX_UPDATE_WIRE_LEN};
 use nix::fcntl::{fcntl, FcntlArg, OFlag};
 use serialport::{DataBits, FlowControl, Parity, SerialPort, StopBits, TTYPort};
 
 use super::mailbox::{Batch, Mailbox, Take, SLOT_BYTES};
+use super::stamp::{encode_led, encode_update, SentLed};
+use crate::source::clock::monotonic_now_us;
+
+/// Bytes of the longest write: a delimiter, a heartbeat, a LED request, an update and its age.
+const OUT_BYTES: usize = 1 + SLOT_BYTES + MAX_LED_WIRE_LEN + MAX_UPDATE_WIRE_LEN;
 
 /// How long one batch may wait for room in the output queue (a receiver that stopped reading a
 /// pty, a stuck line) before it is given up as unsent.
@@ -61,6 +68,15 @@ pub struct Counters {
     pub losses: AtomicU64,
     /// Times it was reopened.
     pub reopens: AtomicU64,
+    /// The last LED request handed to the kernel, with the frame time it left at.
+    pub last_led: Mutex<Option<SentLed>>,
+}
+
+impl Counters {
+    /// The last LED request sent, if any.
+    pub fn last_led(&self) -> Option<SentLed> {
+        *self.last_led.lock().unwrap_or_else(PoisonError::into_inner)
+    }
 }
 
 /// Opens `path` as 8N1 without flow control, non-blocking: serialport waits for room with
@@ -96,8 +112,8 @@ pub struct Link {
     /// The receiver may hold a partial frame (a write timed out part-way, or the port was just
     /// opened): the next write starts with a delimiter.
     needs_delimiter: bool,
-    /// One write: a delimiter, a heartbeat and a position.
-    out: [u8; 1 + 2 * SLOT_BYTES],
+    /// One write: a delimiter, a heartbeat, a LED request, a position and its age.
+    out: [u8; OUT_BYTES],
     counters: Arc<Counters>,
 }
 
@@ -110,7 +126,7 @@ impl Link {
             port: Some(port),
             outage: None,
             needs_delimiter: true,
-            out: [0; 1 + 2 * SLOT_BYTES],
+            out: [0; OUT_BYTES],
             counters,
         };
         link.send_delimiter();
@@ -148,19 +164,39 @@ impl Link {
             return;
         }
         let mut len = 0;
-        let parts: [&[u8]; 3] = [
+        let parts: [&[u8]; 2] = [
             if self.needs_delimiter {
                 &[DELIMITER]
             } else {
                 &[]
             },
             batch.heartbeat.as_bytes(),
-            batch.position.as_bytes(),
         ];
         for part in parts {
             if let Some(dst) = self.out.get_mut(len..len + part.len()) {
                 dst.copy_from_slice(part);
                 len += part.len();
+            }
+        }
+        // Stamped now, as late as can be: the write follows at once.
+        let now_us = monotonic_now_us();
+        let mut sent_led = None;
+        if let Some(led) = &batch.led {
+            let out = self.out.get_mut(len..).unwrap_or(&mut []);
+            match encode_led(led, now_us, len, self.baud, out) {
+                Ok((n, sent)) => {
+                    len += n;
+                    sent_led = Some(sent);
+                }
+                // Cannot happen: the buffer holds the longest write.
+                Err(e) => log::error!("serial: {e}"),
+            }
+        }
+        if let Some(update) = &batch.update {
+            let out = self.out.get_mut(len..).unwrap_or(&mut []);
+            match encode_update(update, now_us, len, self.baud, out) {
+                Ok((n, _)) => len += n,
+                Err(e) => log::error!("serial: {e}"),
             }
         }
         let Some(port) = self.port.as_mut() else {
@@ -170,6 +206,13 @@ impl Link {
             Ok(()) => {
                 self.needs_delimiter = false;
                 self.counters.sent.fetch_add(frames, Ordering::Relaxed);
+                if sent_led.is_some() {
+                    *self
+                        .counters
+                        .last_led
+                        .lock()
+                        .unwrap_or_else(PoisonError::into_inner) = sent_led;
+                }
                 drain(port, self.baud);
             }
             Err(e) if is_timeout(&e) => {

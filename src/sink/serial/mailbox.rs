@@ -1,16 +1,22 @@
 //! The hand-over between the capture thread and the serial writer: one slot per message kind,
 //! newest wins.
 //!
-//! The capture thread must never wait for the UART. It copies each encoded frame into its slot
-//! and moves on; if the writer has not taken the previous one yet, that one is stale and is
+//! The capture thread must never wait for the UART. It copies each message into its slot and
+//! moves on; if the writer has not taken the previous one yet, that one is stale and is
 //! overwritten (and counted), never queued behind. The lock is only ever held to copy a few
 //! dozen bytes, by either side, so posting costs a copy and at most a futex wake.
+//!
+//! Heartbeats travel encoded. Position updates and LED requests travel as values, because part
+//! of them is only known when the writer writes them: how old the position is by then (and, with
+//! prediction, where the light is by then), and the host time of the request.
 
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Condvar, Mutex, MutexGuard, PoisonError};
 use std::time::Duration;
 
 use glint_protocol::MAX_ENCODED_LEN;
+
+use super::stamp::{PendingLed, PendingUpdate};
 
 /// Bytes of one slot: the longest frame any protocol version sends, plus its delimiter.
 pub const SLOT_BYTES: usize = MAX_ENCODED_LEN + 1;
@@ -54,29 +60,35 @@ impl Slot {
     }
 }
 
-/// Which slot a frame goes to. A heartbeat and a position are independent: a new position does
-/// not make a pending heartbeat stale.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Kind {
-    /// A heartbeat.
-    Heartbeat,
-    /// A position update.
-    Position,
+/// What is posted: one per slot. The slots are independent: a new position does not make a
+/// pending heartbeat or LED request stale.
+#[derive(Debug, Clone, Copy)]
+pub enum Post<'a> {
+    /// An encoded heartbeat frame.
+    Heartbeat(&'a [u8]),
+    /// A position update, stamped with its age when written.
+    Update(PendingUpdate),
+    /// A LED request, stamped with the host time when written.
+    Led(PendingLed),
 }
 
-/// Frames taken for sending, heartbeat first.
+/// Messages taken for sending, in the order they go out: heartbeat, LED request, update.
 #[derive(Debug, Clone, Copy)]
 pub struct Batch {
     /// The newest heartbeat, if one was posted.
     pub heartbeat: Slot,
+    /// The newest LED request, if one was posted.
+    pub led: Option<PendingLed>,
     /// The newest position update, if one was posted.
-    pub position: Slot,
+    pub update: Option<PendingUpdate>,
 }
 
 impl Batch {
-    /// Frames in the batch.
+    /// Messages in the batch (an update and its age count as one).
     pub fn frames(&self) -> u64 {
-        u64::from(!self.heartbeat.is_empty()) + u64::from(!self.position.is_empty())
+        u64::from(!self.heartbeat.is_empty())
+            + u64::from(self.led.is_some())
+            + u64::from(self.update.is_some())
     }
 }
 
@@ -94,8 +106,15 @@ pub enum Take {
 #[derive(Debug)]
 struct State {
     heartbeat: Slot,
-    position: Slot,
+    led: Option<PendingLed>,
+    update: Option<PendingUpdate>,
     closing: bool,
+}
+
+impl State {
+    fn is_empty(&self) -> bool {
+        self.heartbeat.is_empty() && self.led.is_none() && self.update.is_none()
+    }
 }
 
 /// The two slots, a wake-up for the writer, and the count of frames overwritten unsent.
@@ -111,7 +130,8 @@ impl Default for Mailbox {
         Mailbox {
             state: Mutex::new(State {
                 heartbeat: Slot::EMPTY,
-                position: Slot::EMPTY,
+                led: None,
+                update: None,
                 closing: false,
             }),
             posted: Condvar::new(),
@@ -126,19 +146,19 @@ impl Mailbox {
         Mailbox::default()
     }
 
-    /// Replaces the `kind` slot with `frame` and wakes the writer. A frame still in the slot was
-    /// never taken: it is stale now, and counted in [`Mailbox::superseded`]. A frame longer than
-    /// a slot is refused (returns `false`); no message of the protocol is.
-    pub fn post(&self, kind: Kind, frame: &[u8]) -> bool {
+    /// Replaces the message's slot with it and wakes the writer. A message still in the slot
+    /// was never taken: it is stale now, and counted in [`Mailbox::superseded`]. A heartbeat
+    /// frame longer than a slot is refused (returns `false`); no message of the protocol is.
+    pub fn post(&self, post: Post<'_>) -> bool {
         let mut state = self.lock();
-        let slot = match kind {
-            Kind::Heartbeat => &mut state.heartbeat,
-            Kind::Position => &mut state.position,
+        let (replaced, filled) = match post {
+            Post::Heartbeat(frame) => (!state.heartbeat.is_empty(), state.heartbeat.fill(frame)),
+            Post::Update(u) => (state.update.replace(u).is_some(), true),
+            Post::Led(l) => (state.led.replace(l).is_some(), true),
         };
-        if !slot.is_empty() {
+        if replaced {
             self.superseded.fetch_add(1, Ordering::Relaxed);
         }
-        let filled = slot.fill(frame);
         drop(state);
         self.posted.notify_one();
         filled
@@ -148,7 +168,7 @@ impl Mailbox {
     /// everything posted. After [`Mailbox::close`], pending frames are still handed out once;
     /// then it reports [`Take::Closed`].
     pub fn take(&self, timeout: Option<Duration>) -> Take {
-        let idle = |s: &mut State| s.heartbeat.is_empty() && s.position.is_empty() && !s.closing;
+        let idle = |s: &mut State| s.is_empty() && !s.closing;
         let mut state = self.lock();
         state = match timeout {
             None => self
@@ -164,7 +184,8 @@ impl Mailbox {
         };
         let batch = Batch {
             heartbeat: core::mem::replace(&mut state.heartbeat, Slot::EMPTY),
-            position: core::mem::replace(&mut state.position, Slot::EMPTY),
+            led: state.led.take(),
+            update: state.update.take(),
         };
         if batch.frames() > 0 {
             Take::Work(batch)
@@ -186,8 +207,8 @@ impl Mailbox {
         self.superseded.load(Ordering::Relaxed)
     }
 
-    /// The state, even if a thread panicked while holding it: it is two byte arrays and a
-    /// flag, always consistent.
+    /// The state, even if a thread panicked while holding it: it is plain values and a flag,
+    /// always consistent.
     fn lock(&self) -> MutexGuard<'_, State> {
         self.state.lock().unwrap_or_else(PoisonError::into_inner)
     }
@@ -196,24 +217,27 @@ impl Mailbox {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sink::serial::stamp::tests::{led, update};
     use std::sync::Arc;
 
     #[test]
-    fn newest_wins_and_stale_frames_are_counted() {
+    fn newest_wins_and_stale_messages_are_counted() {
         let m = Mailbox::new();
-        assert!(m.post(Kind::Position, &[1, 2, 0]));
-        assert!(m.post(Kind::Position, &[3, 4, 0]));
-        assert!(m.post(Kind::Heartbeat, &[9, 0]));
-        assert!(m.post(Kind::Position, &[5, 6, 0]));
+        assert!(m.post(Post::Update(update(1))));
+        assert!(m.post(Post::Update(update(2))));
+        assert!(m.post(Post::Heartbeat(&[9, 0])));
+        assert!(m.post(Post::Led(led(7))));
+        assert!(m.post(Post::Update(update(3))));
         assert_eq!(m.superseded(), 2);
         let Take::Work(batch) = m.take(None) else {
             panic!("expected work");
         };
-        assert_eq!(batch.position.as_bytes(), [5, 6, 0]);
+        assert_eq!(batch.update.map(|u| u.measured.seq), Some(3));
+        assert_eq!(batch.led.map(|l| l.request.request), Some(7));
         assert_eq!(batch.heartbeat.as_bytes(), [9, 0]);
-        assert_eq!(batch.frames(), 2);
+        assert_eq!(batch.frames(), 3);
         // Taken slots are empty: the next post replaces nothing.
-        assert!(m.post(Kind::Position, &[7, 0]));
+        assert!(m.post(Post::Update(update(4))));
         assert_eq!(m.superseded(), 2);
     }
 
@@ -221,16 +245,16 @@ mod tests {
     fn idle_after_timeout_and_closed_after_pending_work() {
         let m = Mailbox::new();
         assert!(matches!(m.take(Some(Duration::from_millis(1))), Take::Idle));
-        m.post(Kind::Position, &[1, 0]);
+        m.post(Post::Update(update(1)));
         m.close();
-        assert!(matches!(m.take(None), Take::Work(b) if b.position.as_bytes() == [1, 0]));
+        assert!(matches!(m.take(None), Take::Work(b) if b.frames() == 1));
         assert!(matches!(m.take(None), Take::Closed));
     }
 
     #[test]
     fn oversized_frame_is_refused() {
         let m = Mailbox::new();
-        assert!(!m.post(Kind::Position, &[1; SLOT_BYTES + 1]));
+        assert!(!m.post(Post::Heartbeat(&[1; SLOT_BYTES + 1])));
         assert!(matches!(m.take(Some(Duration::from_millis(1))), Take::Idle));
     }
 
@@ -240,11 +264,11 @@ mod tests {
         let writer = {
             let m = Arc::clone(&m);
             std::thread::spawn(move || match m.take(None) {
-                Take::Work(b) => b.position.as_bytes().to_vec(),
+                Take::Work(b) => b.update.map(|u| u.measured.seq),
                 other => panic!("expected work, got {other:?}"),
             })
         };
-        m.post(Kind::Position, &[42, 0]);
-        assert_eq!(writer.join().unwrap(), [42, 0]);
+        m.post(Post::Update(update(42)));
+        assert_eq!(writer.join().unwrap(), Some(42));
     }
 }

@@ -1,7 +1,11 @@
 //! The serial link to the robot: a position update per frame and a heartbeat about once a
 //! second, in the `glint-protocol` wire format (`board/protocol/SPEC.md`), over a UART.
 //!
-//! The capture thread only encodes (into a stack buffer) and posts into a one-slot
+//! Every update is followed by its age on arrival (protocol version 2): how old the position is
+//! when the last byte leaves the host, stamped by the writer as it writes (`stamp`). On request
+//! ([`SerialSink::request_led`]) a LED request goes out too.
+//!
+//! The capture thread only builds messages (on the stack) and posts them into a one-slot-per-kind
 //! `mailbox`; a writer thread owns the port and does the blocking I/O. A slow line therefore
 //! never slows tracking: the newest position replaces a stale one still waiting, and the count
 //! of replaced, timed-out and port-down frames is reported in [`SerialStats`]. A port that
@@ -15,6 +19,7 @@
 
 mod link;
 mod mailbox;
+mod stamp;
 mod updates;
 
 use core::fmt;
@@ -23,18 +28,25 @@ use std::sync::atomic::Ordering;
 use std::sync::Arc;
 use std::thread::JoinHandle;
 
-use glint_protocol::{encode, Message};
+use glint_protocol::{encode, LedRequest, Message};
 
 pub use link::{
     line_time, BITS_PER_BYTE, DRAIN_LIMIT, REOPEN_BACKOFF_MAX, REOPEN_BACKOFF_MIN, WRITE_TIMEOUT,
 };
+pub use stamp::SentLed;
 pub use updates::{Located, Updates, HEARTBEAT_INTERVAL_US};
+// The MAVLink sink (`super::mavlink`) opens its port the same way.
+pub use link::open_port;
 
 use super::Sink;
 use crate::pipeline::FrameReport;
+use crate::source::clock::monotonic_now_us;
 use crate::source::FrameMeta;
 use link::{Counters, Link};
-use mailbox::{Kind, Mailbox, SLOT_BYTES};
+use mailbox::{Mailbox, Post, SLOT_BYTES};
+use stamp::{PendingLed, PendingUpdate, Prediction};
+
+use super::predict::Predictor;
 
 /// The line rate when none is given: fast enough for a 24-byte update per frame at 240 fps,
 /// and supported by every USB-serial adapter and microcontroller UART.
@@ -65,24 +77,21 @@ impl fmt::Display for SerialError {
     }
 }
 
-impl std::error::Error for SerialError {
-    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
-        match self {
-            SerialError::Open { source, .. } => Some(source),
-            SerialError::Thread(e) => Some(e),
-        }
-    }
-}
+// The messages include the OS's text, so it is not also given as a source: an error chain
+// printed whole (`{:#}`) would say it twice ("Not a typewriter: Not a typewriter").
+impl std::error::Error for SerialError {}
 
-/// What the link did over a run. Once the sink has finished, every frame posted (`updates` +
-/// `heartbeats`) is counted in exactly one of `sent`, `superseded`, `timed_out` and
-/// `port_down`.
+/// What the link did over a run. Once the sink has finished, every message posted (`updates` +
+/// `heartbeats` + `led_requests`; an update and its age count as one) is counted in exactly one
+/// of `sent`, `superseded`, `timed_out` and `port_down`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct SerialStats {
     /// Position updates posted (one per frame).
     pub updates: u64,
     /// Heartbeats posted.
     pub heartbeats: u64,
+    /// LED requests posted.
+    pub led_requests: u64,
     /// Frames (updates and heartbeats) handed to the kernel.
     pub sent: u64,
     /// Frames replaced by a newer one before the writer took them: the line was slower than
@@ -110,10 +119,11 @@ impl fmt::Display for SerialStats {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(
             f,
-            "updates={} heartbeats={} sent={} dropped={} stale={} timed_out={} port_down={} \
-             losses={} reopens={}",
+            "updates={} heartbeats={} led_requests={} sent={} dropped={} stale={} timed_out={} \
+             port_down={} losses={} reopens={}",
             self.updates,
             self.heartbeats,
+            self.led_requests,
             self.sent,
             self.dropped(),
             self.superseded,
@@ -134,6 +144,13 @@ pub struct SerialSink {
     writer: Option<JoinHandle<()>>,
     posted_updates: u64,
     posted_heartbeats: u64,
+    posted_led_requests: u64,
+    /// Number of the next LED request.
+    next_led_request: u8,
+    /// The frame clock's origin on the monotonic clock, from the latest frame.
+    frame_clock_origin_us: Option<i64>,
+    /// With `--predict arrival`: the motion each update is moved on by, at write time.
+    predictor: Option<Predictor>,
     clamp_warned: bool,
 }
 
@@ -164,8 +181,19 @@ impl SerialSink {
             writer: Some(writer),
             posted_updates: 0,
             posted_heartbeats: 0,
+            posted_led_requests: 0,
+            next_led_request: 0,
+            frame_clock_origin_us: None,
+            predictor: None,
             clamp_warned: false,
         })
+    }
+
+    /// Sends every found position extrapolated to its arrival (`--predict arrival`): moved on
+    /// by the age it is sent with, flagged as predicted in its age frame.
+    pub fn predicting(mut self) -> Self {
+        self.predictor = Some(Predictor::new());
+        self
     }
 
     /// Posts the frame's position update (found with `located`, lost without) and, when due,
@@ -182,10 +210,54 @@ impl SerialSink {
         }
         if let Some(heartbeat) = self.updates.heartbeat(meta) {
             self.posted_heartbeats += 1;
-            self.post(Kind::Heartbeat, &Message::Heartbeat(heartbeat));
+            self.post_heartbeat(&Message::Heartbeat(heartbeat));
         }
+        self.frame_clock_origin_us = Some(frame_clock_origin_us(meta));
         self.posted_updates += 1;
-        self.post(Kind::Position, &Message::Position(quantised.position));
+        let prediction = self.predictor.as_mut().and_then(|predictor| {
+            // A lost frame observes no velocity, which ends the bend being measured.
+            let velocity = located.and_then(|l| l.velocity_per_s.zip(l.velocity_method));
+            let units = quantised.position.units;
+            let motion = predictor.observe(meta.timestamp_us, units, velocity)?;
+            Some(Prediction {
+                from: located?.position,
+                motion,
+            })
+        });
+        self.mailbox.post(Post::Update(PendingUpdate {
+            measured: quantised.position,
+            prediction,
+            captured_monotonic_us: meta.monotonic_us,
+        }));
+    }
+
+    /// Asks robot `robot` (0: every robot) to switch its LED off for `off_us`, `delay_us` after
+    /// the request's last byte leaves; returns the request's number. The writer sends it with
+    /// the next batch and records when ([`SerialSink::last_led_sent`]).
+    pub fn request_led(&mut self, robot: u8, delay_us: u32, off_us: u32) -> u8 {
+        let request = self.next_led_request;
+        self.next_led_request = request.wrapping_add(1);
+        self.posted_led_requests += 1;
+        let frame_clock_origin_us = self
+            .frame_clock_origin_us
+            .unwrap_or_else(|| i64::try_from(monotonic_now_us()).unwrap_or(i64::MAX));
+        self.mailbox.post(Post::Led(PendingLed {
+            request: LedRequest {
+                robot,
+                request,
+                at_us: 0,
+                delay_us,
+                off_us,
+            },
+            frame_clock_origin_us,
+        }));
+        request
+    }
+
+    /// The last LED request the writer handed to the kernel, and the frame time its last byte
+    /// left at.
+    pub fn last_led_sent(&self) -> Option<SentLed> {
+        self.counters.last_led()
     }
 
     /// Counts so far; final once [`Sink::finish`] has returned.
@@ -194,6 +266,7 @@ impl SerialSink {
         SerialStats {
             updates: self.posted_updates,
             heartbeats: self.posted_heartbeats,
+            led_requests: self.posted_led_requests,
             sent: c.sent.load(Ordering::Relaxed),
             superseded: self.mailbox.superseded(),
             timed_out: c.timed_out.load(Ordering::Relaxed),
@@ -203,11 +276,11 @@ impl SerialSink {
         }
     }
 
-    fn post(&self, kind: Kind, message: &Message) {
+    fn post_heartbeat(&self, message: &Message) {
         let mut frame = [0u8; SLOT_BYTES];
         match encode(message, &mut frame) {
             Ok(bytes) => {
-                self.mailbox.post(kind, bytes);
+                self.mailbox.post(Post::Heartbeat(bytes));
             }
             // Cannot happen: a slot holds the longest frame of the protocol.
             Err(e) => log::error!("serial: {e}"),
@@ -223,6 +296,13 @@ impl SerialSink {
             }
         }
     }
+}
+
+/// Where frame time 0 lies on the monotonic clock, by `meta`: exact for a camera (both are the
+/// driver's timestamps), the latest frame's arrival for a file or a pipe.
+fn frame_clock_origin_us(meta: &FrameMeta) -> i64 {
+    let monotonic = i128::from(meta.monotonic_us) - i128::from(meta.timestamp_us);
+    i64::try_from(monotonic).unwrap_or(i64::MAX)
 }
 
 impl Sink for SerialSink {

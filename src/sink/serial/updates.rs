@@ -10,7 +10,7 @@ use glint_protocol::{
 
 use crate::geometry::floor::{FloorFix, FloorUnit};
 use crate::source::FrameMeta;
-use crate::track::{Estimate, MAX_MISSED_FRAMES};
+use crate::track::{Estimate, VelocityMethod, MAX_MISSED_FRAMES};
 
 /// Frame time between heartbeats.
 pub const HEARTBEAT_INTERVAL_US: u64 = 1_000_000;
@@ -33,6 +33,8 @@ pub struct Located {
     pub position: (f32, f32),
     /// How fast it moves, in px/s or mm/s, when known.
     pub velocity_per_s: Option<(f32, f32)>,
+    /// How the velocity was measured, when known.
+    pub velocity_method: Option<VelocityMethod>,
     /// Detection quality, 0 (none) to 255 (best).
     pub quality: u8,
 }
@@ -44,6 +46,7 @@ impl Located {
             units: Units::Pixels,
             position: estimate.position_px,
             velocity_per_s: estimate.velocity_px_s.map(|(v, _)| v),
+            velocity_method: estimate.velocity_px_s.map(|(_, m)| m),
             quality: quality(estimate),
         }
     }
@@ -61,6 +64,7 @@ impl Located {
                     velocity_per_s: f
                         .velocity_per_s
                         .map(|v| ((v.x * mm) as f32, (v.y * mm) as f32)),
+                    velocity_method: estimate.velocity_px_s.map(|(_, m)| m),
                     quality: quality(estimate),
                 }
             }
@@ -208,7 +212,7 @@ fn centihz(frames: u32, elapsed_us: u64) -> u16 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::track::{PositionMethod, VelocityMethod};
+    use crate::track::PositionMethod;
 
     fn meta(index: u64, timestamp_us: u64) -> FrameMeta {
         FrameMeta {
@@ -216,6 +220,7 @@ mod tests {
             sequence: index,
             dropped: 0,
             timestamp_us,
+            monotonic_us: timestamp_us,
         }
     }
 
@@ -305,6 +310,7 @@ mod tests {
             units: Units::Floor,
             position: (1520.4, -310.0),
             velocity_per_s: None,
+            velocity_method: None,
             quality: 200,
         };
         let p = u.position(&meta(0, 0), Some(&floor)).position;

@@ -1,6 +1,7 @@
-//! Live capture from V4L2 cameras: packed YUYV read in place from the driver's mmap buffers.
+//! Live capture from V4L2 cameras: YUYV, UYVY or GREY frames read in place from the driver's
+//! mmap buffers.
 //!
-//! [`V4l2Source`] negotiates YUYV at a size and frame rate ([`negotiate`]), sets camera controls
+//! [`V4l2Source`] negotiates the asked pixel format at a size and frame rate ([`negotiate`]), sets camera controls
 //! ([`controls`]), and streams through a ring of mmap buffers ([`stream`]): each frame it lends
 //! out borrows the dequeued driver buffer itself, trimmed to the driver's `bytesused` and laid
 //! out with the driver's row stride. Nothing is copied or allocated per frame. Frame times are
@@ -34,7 +35,7 @@ pub use controls::{ControlReport, ControlRequest, NamedControl, PowerLine};
 pub use negotiate::{Negotiated, NegotiationError, Offer};
 pub use reopen::{Backoff, ReopeningSource};
 
-use crate::frame::{Frame, FrameError, FrameSize};
+use crate::frame::{Frame, FrameError, FrameSize, PixelFormat};
 use crate::source::{FrameMeta, FrameSource};
 use stream::{MmapStream, WaitError};
 use timeline::Timeline;
@@ -55,6 +56,8 @@ const MAX_CONSECUTIVE_BAD_BUFFERS: u32 = 30;
 pub struct CaptureConfig {
     pub path: PathBuf,
     pub size: FrameSize,
+    /// Pixel format to ask for (YUYV unless said otherwise).
+    pub format: PixelFormat,
     /// Frame rate to ask for; `None` keeps the camera's current one.
     pub fps: Option<u32>,
     /// mmap buffers to ask the driver for (it may grant a different number).
@@ -69,6 +72,7 @@ impl CaptureConfig {
         CaptureConfig {
             path: path.into(),
             size,
+            format: PixelFormat::Yuyv,
             fps,
             buffer_count: DEFAULT_BUFFER_COUNT,
             stall_timeout: DEFAULT_STALL_TIMEOUT,
@@ -195,15 +199,10 @@ impl fmt::Display for V4l2Error {
     }
 }
 
-impl std::error::Error for V4l2Error {
-    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
-        match self {
-            V4l2Error::Open { source, .. } | V4l2Error::Io { source, .. } => Some(source),
-            V4l2Error::Negotiation { source, .. } => Some(source),
-            _ => None,
-        }
-    }
-}
+// The messages include their cause's text, so no cause is given as a source as well: an
+// error chain printed whole (`{:#}`) would say it twice ("No such file or directory: No such
+// file or directory").
+impl std::error::Error for V4l2Error {}
 
 /// The driver's account of one dequeued frame, before it is placed on the session's timeline.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -266,19 +265,18 @@ impl V4l2Source {
                 card: caps.card,
             });
         }
-        let negotiated = negotiate::negotiate(&device, config.size, config.fps).map_err(
-            |source| match source {
+        let negotiated = negotiate::negotiate(&device, config.size, config.fps, config.format)
+            .map_err(|source| match source {
                 NegotiationError::Io(op, e) => V4l2Error::io(path, op, e),
                 source => V4l2Error::Negotiation {
                     path: path.to_path_buf(),
                     source,
                 },
-            },
-        )?;
+            })?;
         let stream = MmapStream::start(fd, config.buffer_count.max(1))
             .map_err(|e| V4l2Error::from_wait(path, config.stall_timeout, e))?;
-        let frame_bytes =
-            negotiated.stride_bytes * (negotiated.size.height() - 1) + negotiated.size.row_bytes();
+        let frame_bytes = negotiated.stride_bytes * (negotiated.size.height() - 1)
+            + negotiated.size.row_bytes_as(negotiated.format);
         Ok(V4l2Source {
             stream,
             device,
@@ -361,8 +359,8 @@ impl V4l2Source {
             .held_bytes()
             .and_then(|b| b.get(..raw.bytes_used))
             .ok_or_else(|| bad(None))?;
-        Frame::new_checked(bytes, self.negotiated.size, self.negotiated.stride_bytes)
-            .map_err(|e| bad(Some(e)))
+        let n = &self.negotiated;
+        Frame::new_checked_as(bytes, n.size, n.stride_bytes, n.format).map_err(|e| bad(Some(e)))
     }
 }
 

@@ -13,7 +13,7 @@ use v4l::video::Capture;
 use v4l::{Device, Fraction};
 
 use super::sys::{self, FormatDesc};
-use crate::frame::{FrameSize, YUYV_BYTES_PER_PIXEL};
+use crate::frame::{FrameSize, PixelFormat};
 
 /// The four-character code of packed YUYV 4:2:2.
 pub const YUYV: [u8; 4] = *b"YUYV";
@@ -222,6 +222,8 @@ fn offered_format(device: &Device, format: FormatDesc) -> OfferedFormat {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Negotiated {
     pub size: FrameSize,
+    /// The pixel format agreed (the one asked for: glint does not convert).
+    pub format: PixelFormat,
     /// Bytes from one row to the next, as the driver lays buffers out (may exceed 2 × width).
     pub stride_bytes: usize,
     /// Frames per second the camera reports it will deliver, when it says.
@@ -259,16 +261,21 @@ impl fmt::Display for NegotiationError {
 
 impl std::error::Error for NegotiationError {}
 
-/// Sets YUYV at `size` and, when given, `fps` frames per second, and returns what was agreed.
+/// Sets `format` (YUYV, UYVY or GREY) at `size` and, when given, `fps` frames per second, and
+/// returns what was agreed. A camera without that format is refused with the list of what it
+/// offers, so that the user can pick `--format-in` from it.
 pub fn negotiate(
     device: &Device,
     size: FrameSize,
     fps: Option<u32>,
+    format: PixelFormat,
 ) -> Result<Negotiated, NegotiationError> {
     let fd: c_int = device.handle().fd();
+    let fourcc = format.fourcc();
+    let name = String::from_utf8_lossy(&fourcc).into_owned();
     let wanted = match fps {
-        Some(fps) => format!("YUYV {}x{} at {fps} fps", size.width(), size.height()),
-        None => format!("YUYV {}x{}", size.width(), size.height()),
+        Some(fps) => format!("{name} {}x{} at {fps} fps", size.width(), size.height()),
+        None => format!("{name} {}x{}", size.width(), size.height()),
     };
     let unsupported = |problem: String| {
         let offer = query_offer(device).unwrap_or_default();
@@ -280,13 +287,15 @@ pub fn negotiate(
     };
 
     let formats = sys::enum_formats(fd).map_err(|e| NegotiationError::Io("VIDIOC_ENUM_FMT", e))?;
-    if !formats.iter().any(|f| f.fourcc == YUYV) {
-        return Err(unsupported("it has no YUYV format".into()));
+    if !formats.iter().any(|f| f.fourcc == fourcc) {
+        return Err(unsupported(format!(
+            "it has no {name} format (--format-in picks another)"
+        )));
     }
     let (width_px, height_px) = (size.width() as u32, size.height() as u32);
-    let got = sys::set_format(fd, width_px, height_px, YUYV)
+    let got = sys::set_format(fd, width_px, height_px, fourcc)
         .map_err(|e| NegotiationError::Io("VIDIOC_S_FMT", e))?;
-    if got.fourcc != YUYV || got.width_px != width_px || got.height_px != height_px {
+    if got.fourcc != fourcc || got.width_px != width_px || got.height_px != height_px {
         return Err(unsupported(format!(
             "the driver answered {} {}x{}",
             String::from_utf8_lossy(&got.fourcc),
@@ -294,14 +303,14 @@ pub fn negotiate(
             got.height_px
         )));
     }
-    let row_bytes = size.width() * YUYV_BYTES_PER_PIXEL;
+    let row_bytes = size.row_bytes_as(format);
     // Some drivers leave bytesperline 0 for packed formats, meaning rows are not padded.
     let stride_bytes = match got.bytes_per_line as usize {
         0 => row_bytes,
         stride if stride >= row_bytes => stride,
         stride => {
             return Err(unsupported(format!(
-                "the driver reports {stride} bytes per line, less than one YUYV row ({row_bytes})"
+                "the driver reports {stride} bytes per line, less than one {name} row ({row_bytes})"
             )))
         }
     };
@@ -315,6 +324,7 @@ pub fn negotiate(
     };
     Ok(Negotiated {
         size,
+        format,
         stride_bytes,
         fps,
     })

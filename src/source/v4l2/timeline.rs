@@ -70,6 +70,7 @@ impl Timeline {
             sequence,
             dropped: u64::from(step - 1),
             timestamp_us,
+            monotonic_us,
         }
     }
 }

@@ -28,7 +28,7 @@ const MS_PER_S: f64 = 1e3;
 /// Run glint on a built-in synthetic scene and show how close it comes to the truth.
 #[derive(Parser, Debug)]
 #[command(version, about)]
-struct Args {
+pub(crate) struct Args {
     /// Preset scene (see `glint-scene --list`).
     #[arg(long, default_value = DEFAULT_SCENE)]
     scene: String,
@@ -114,6 +114,7 @@ fn run(args: Args) -> Result<()> {
             sequence: index as u64,
             dropped: 0,
             timestamp_us: (index as f64 * US_PER_S / scene.fps()).round() as u64,
+            monotonic_us: glint::source::clock::monotonic_now_us(),
         };
         let started = Instant::now();
         let report = pipeline.process(&frame, meta);

@@ -17,7 +17,7 @@ use glint_tools::plot::{render, Track, Units, MAX_SIDE_PX, MIN_SIDE_PX};
 /// Plot a glint track: trajectory (floor units when calibrated, else pixels) and speed.
 #[derive(Parser, Debug)]
 #[command(version, about)]
-struct Args {
+pub(crate) struct Args {
     /// A JSON-lines track from `glint track`, or `-` for standard input.
     #[arg(long, value_name = "PATH|-")]
     input: String,
@@ -66,8 +66,8 @@ fn run(args: Args) -> Result<()> {
     };
     let track = Track::from_jsonl(input).with_context(|| format!("in {}", args.input))?;
     let units = match track.units {
-        Units::Pixels => "image pixels",
-        Units::Floor => "floor units",
+        Units::Pixels => "image pixels".to_string(),
+        Units::Floor => format!("floor {}", track.length_name()),
     };
     let title = args.title.clone().unwrap_or_else(|| {
         format!(

@@ -12,13 +12,13 @@ use std::time::Instant;
 use anyhow::{bail, Context, Result};
 use clap::Parser;
 use glint_tools::scene::{
-    write_truth_csv, Range, Scene, SceneConfig, Spot, SweepPoint, Truth, Visibility,
+    write_truth_csv, Knock, Range, Scene, SceneConfig, Spot, SweepPoint, Truth, Visibility,
 };
 
 /// Render a synthetic glint scene with ground truth.
 #[derive(Parser, Debug)]
 #[command(version, about)]
-struct Args {
+pub(crate) struct Args {
     /// List the presets and exit.
     #[arg(long)]
     list: bool,
@@ -64,6 +64,46 @@ struct Args {
     /// Seed of the floor texture and noise (default: the preset's).
     #[arg(long)]
     seed: Option<u64>,
+    /// Lens distortion `K1,K2,K3,P1,P2` (OpenCV's Brown–Conrady coefficients) for a preset
+    /// with a camera view (marker, marker-map, lens-*, led-mast, knocked).
+    #[arg(long, value_name = "K1,K2,K3,P1,P2", value_parser = parse_distortion,
+          allow_hyphen_values = true)]
+    distortion: Option<[f64; 5]>,
+    /// Height of the LED above the floor, cm (presets with a camera view).
+    #[arg(long, value_name = "CM")]
+    led_height_cm: Option<f64>,
+    /// Knock the camera at this frame: `FRAME:TILT_DEG` (presets with a camera view).
+    #[arg(long, value_name = "FRAME:TILT_DEG", value_parser = parse_knock,
+          allow_hyphen_values = true)]
+    knock: Option<(usize, f64)>,
+}
+
+fn parse_distortion(s: &str) -> Result<[f64; 5], String> {
+    let values: Vec<f64> = s
+        .split(',')
+        .map(|v| v.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| format!("{s:?} is not five numbers K1,K2,K3,P1,P2"))?;
+    let values: [f64; 5] = values
+        .try_into()
+        .map_err(|_| format!("{s:?} is not five numbers K1,K2,K3,P1,P2"))?;
+    if values.iter().any(|v| !v.is_finite() || v.abs() > 10.0) {
+        return Err(format!(
+            "{s:?}: coefficients must be finite, at most 10 in size"
+        ));
+    }
+    Ok(values)
+}
+
+fn parse_knock(s: &str) -> Result<(usize, f64), String> {
+    let usage = || format!("{s:?} is not FRAME:TILT_DEG, e.g. 60:0.8");
+    let (frame, deg) = s.split_once(':').ok_or_else(usage)?;
+    let frame: usize = frame.trim().parse().map_err(|_| usage())?;
+    let deg: f64 = deg.trim().parse().map_err(|_| usage())?;
+    if !(deg.is_finite() && deg.abs() <= 30.0) {
+        return Err(format!("{s:?}: the tilt must be at most 30°"));
+    }
+    Ok((frame, deg))
 }
 
 fn main() -> ExitCode {
@@ -107,6 +147,31 @@ fn run(args: Args) -> Result<()> {
     if let Some(seed) = args.seed {
         config.seed = seed;
     }
+    let view_flags =
+        args.distortion.is_some() || args.led_height_cm.is_some() || args.knock.is_some();
+    match config.view.as_mut() {
+        Some(view) => {
+            if let Some([k1, k2, k3, p1, p2]) = args.distortion {
+                view.lens = view.lens.with_distortion(k1, k2, k3, p1, p2);
+            }
+            if let Some(h) = args.led_height_cm {
+                view.led_height_cm = h;
+            }
+            if let Some((frame, tilt_deg)) = args.knock {
+                view.knock = Some(Knock {
+                    frame,
+                    pan_deg: 0.0,
+                    tilt_deg,
+                    roll_deg: 0.0,
+                });
+            }
+        }
+        None if view_flags => bail!(
+            "--distortion, --led-height-cm and --knock need a preset with a camera view \
+             (marker, marker-map, lens-wide, lens-mild, led-mast, knocked)"
+        ),
+        None => {}
+    }
     let scene = Scene::new(config).with_context(|| format!("scene {name}"))?;
 
     std::fs::create_dir_all(&out_dir)
@@ -135,6 +200,32 @@ fn run(args: Args) -> Result<()> {
         truths.len()
     );
     println!("wrote {} and {}", dump_path.display(), truth_path.display());
+    if let Some(view) = &scene.config().view {
+        let floor_path = out_dir.join(format!("{name}.floor.csv"));
+        write_floor_truth(&scene, &floor_path)?;
+        println!(
+            "wrote {} (the floor point under the LED, cm)",
+            floor_path.display()
+        );
+        let markers: Vec<String> = view
+            .marker_args()
+            .iter()
+            .map(|m| format!("--marker {m}"))
+            .collect();
+        // One marker cannot show how the lens bends the picture: say the lens is ideal.
+        let lens = if view.markers.len() < 2 {
+            " --lens ideal"
+        } else {
+            ""
+        };
+        println!(
+            "calibrate with: glint calibrate --input {} --size {}x{} {}{lens} --out calib.toml",
+            dump_path.display(),
+            scene.width_px(),
+            scene.height_px(),
+            markers.join(" ")
+        );
+    }
     eprintln!(
         "rendered in {:.1} ms ({:.2} ms/frame)",
         elapsed.as_secs_f64() * 1e3,
@@ -183,6 +274,19 @@ fn override_optics(args: &Args, config: &mut SceneConfig) {
         Some("full") => config.camera.range = Range::Full,
         _ => {}
     }
+}
+
+/// The floor truth of a scene with a camera view: `frame,floor_x_cm,floor_y_cm`, empty cells
+/// where the LED is over no floor.
+fn write_floor_truth(scene: &Scene, path: &PathBuf) -> Result<()> {
+    let mut text = String::from("frame,floor_x_cm,floor_y_cm\n");
+    for frame in 0..scene.frame_count() {
+        match scene.floor_truth_cm(frame) {
+            Some(p) => text.push_str(&format!("{frame},{:?},{:?}\n", p.x, p.y)),
+            None => text.push_str(&format!("{frame},,\n")),
+        }
+    }
+    std::fs::write(path, text).with_context(|| format!("cannot write {}", path.display()))
 }
 
 /// Streams the frames to `path` one at a time (an HD dump would not fit comfortably in memory).

@@ -26,7 +26,7 @@ use glint_tools::scene::{read_truth_csv, Truth};
 /// Draw one frame of a YUYV dump with glint's mask, skeleton, detections and the ground truth.
 #[derive(Parser, Debug)]
 #[command(version, about)]
-struct Args {
+pub(crate) struct Args {
     /// A raw YUYV dump, or `-` for standard input.
     #[arg(long, value_name = "PATH|-")]
     input: String,

@@ -147,7 +147,7 @@ fn detection_lines(overlay: &Overlay<'_>) -> Vec<String> {
                 p.position_method.name()
             ));
             if let Some(((vx, vy), method)) = p.velocity_px_s {
-                lines.push(format!("       v {vx:.0} {vy:.0} px/s ({})", method.name()));
+                lines.push(velocity_line(vx, vy, method.name()));
             }
             lines.push(format!(
                 "       centroid {:.2} {:.2}   streak {} px, {:.1} px thick",
@@ -166,6 +166,15 @@ fn detection_lines(overlay: &Overlay<'_>) -> Vec<String> {
 }
 
 /// The truth and glint's errors against it.
+/// The velocity as labelled components and the speed, so that the two components never read as
+/// one number (`v 185 706 px/s` looked like 185,706).
+fn velocity_line(vx_px_s: f32, vy_px_s: f32, method: &str) -> String {
+    format!(
+        "       vx {vx_px_s:.0} px/s, vy {vy_px_s:.0} px/s, speed {:.0} px/s ({method})",
+        vx_px_s.hypot(vy_px_s)
+    )
+}
+
 fn truth_lines(overlay: &Overlay<'_>) -> Vec<String> {
     let Some(truth) = overlay.truth else {
         return vec![];
@@ -289,6 +298,13 @@ fn draw_swatch(canvas: &mut Canvas, swatch: Swatch, x: i64, y: i64, line_px: i64
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn velocity_components_are_labelled_and_separated() {
+        let line = super::velocity_line(185.2, -706.4, "streak");
+        assert!(line.contains("vx 185 px/s, vy -706 px/s"), "{line}");
+        assert!(line.contains("speed 730 px/s (streak)"), "{line}");
+    }
+
     use super::*;
 
     #[test]

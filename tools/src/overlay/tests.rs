@@ -172,6 +172,7 @@ fn the_detector_s_mask_skeleton_and_answers_are_drawn() {
         sequence: 7,
         dropped: 0,
         timestamp_us: 0,
+        monotonic_us: 0,
     };
     let report = pipeline.process(&frame(&bytes), meta);
     let position = report.position.expect("the disk is found");
@@ -216,6 +217,7 @@ fn caption_reports_the_errors_against_the_truth() {
         sequence: 0,
         dropped: 0,
         timestamp_us: 0,
+        monotonic_us: 0,
     };
     let report = pipeline.process(&frame(&bytes), meta);
     // A truth 3 px to the right of the disk's centre.

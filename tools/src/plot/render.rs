@@ -117,7 +117,7 @@ fn draw_trajectory(canvas: &mut Canvas, track: &Track, area: Area) {
         end_px: area.bottom as f64,
         flip: track.units == Units::Floor,
     };
-    let unit = track.units.length_name();
+    let unit = track.length_name();
     draw_axes(
         canvas,
         area,
@@ -163,7 +163,7 @@ fn draw_speed(canvas: &mut Canvas, track: &Track, area: Area) {
         end_px: area.bottom as f64,
         flip: true,
     };
-    let unit = track.units.length_name();
+    let unit = track.length_name();
     draw_axes(canvas, area, &x, &y, "t (s)", &format!("speed ({unit}/s)"));
     for run in &runs {
         polyline(canvas, run, &x, &y, style::SPEED);

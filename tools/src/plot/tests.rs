@@ -38,6 +38,7 @@ fn scene_track(name: &str, frames: usize) -> String {
                 sequence: index as u64,
                 dropped: 0,
                 timestamp_us: (index as f64 * 1e6 / scene.fps()).round() as u64,
+                monotonic_us: 0,
             };
             sink.write(&pipeline.process(&frame, meta)).unwrap();
         }
@@ -74,6 +75,37 @@ fn floor_coordinates_are_preferred_when_present() {
     let track = parse(text).unwrap();
     assert_eq!(track.units, Units::Floor);
     assert_eq!(track.speed_runs(), vec![vec![(0.5, 10.0)]]); // 5 floor units in 0.5 s
+    assert_eq!(
+        track.length_name(),
+        "floor units",
+        "no floor_unit in the records"
+    );
+}
+
+#[test]
+fn the_axes_are_labelled_with_the_records_floor_unit() {
+    let text = concat!(
+        r#"{"t":0.0,"found":true,"x":1.0,"y":1.0,"floor_x":1.0,"floor_y":2.0,"floor_unit":"cm"}"#,
+        "\n",
+        r#"{"t":0.1,"found":false}"#,
+        "\n",
+    );
+    let track = parse(text).unwrap();
+    assert_eq!(track.length_name(), "cm");
+    let pixels = parse(r#"{"t":0.0,"found":true,"x":1.0,"y":1.0}"#).unwrap();
+    assert_eq!(pixels.length_name(), "px");
+}
+
+#[test]
+fn mixed_floor_units_are_refused() {
+    let text = concat!(
+        r#"{"t":0.0,"found":true,"x":1.0,"y":1.0,"floor_x":1.0,"floor_y":2.0,"floor_unit":"cm"}"#,
+        "\n",
+        r#"{"t":0.1,"found":true,"x":1.0,"y":1.0,"floor_x":10.0,"floor_y":20.0,"floor_unit":"mm"}"#,
+        "\n",
+    );
+    let err = parse(text).unwrap_err();
+    assert!(err.to_string().contains("cm and mm"), "{err}");
 }
 
 #[test]

@@ -10,19 +10,9 @@ use serde::Deserialize;
 pub enum Units {
     /// Image pixels (`x`, `y`): y grows downwards.
     Pixels,
-    /// Floor units of the calibration (`floor_x`, `floor_y`), usually cm: y grows upwards, as on
-    /// a map of the floor.
+    /// Floor units of the calibration (`floor_x`, `floor_y`, in the records' `floor_unit`,
+    /// usually cm): y grows upwards, as on a map of the floor.
     Floor,
-}
-
-impl Units {
-    /// The name of a length in these units, for axis labels.
-    pub fn length_name(self) -> &'static str {
-        match self {
-            Units::Pixels => "px",
-            Units::Floor => "floor units",
-        }
-    }
 }
 
 /// One frame of the track: its time, and the position when the LED was found.
@@ -38,6 +28,8 @@ pub struct Sample {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Track {
     pub units: Units,
+    /// The records' `floor_unit` (`cm`, `mm`, ...) when the track is in floor units.
+    pub floor_unit: Option<String>,
     pub samples: Vec<Sample>,
 }
 
@@ -52,6 +44,8 @@ pub enum TrackError {
     Empty,
     /// No frame has a position: nothing to draw.
     NoPositions { frames: usize },
+    /// Found frames name different floor units: one axis cannot carry both.
+    MixedUnits { first: String, other: String },
 }
 
 impl fmt::Display for TrackError {
@@ -66,6 +60,10 @@ impl fmt::Display for TrackError {
                     "none of the {frames} frames has a position (found: false in all)"
                 )
             }
+            TrackError::MixedUnits { first, other } => write!(
+                f,
+                "the track mixes floor units ({first} and {other}): plot one calibration at a time"
+            ),
         }
     }
 }
@@ -81,6 +79,7 @@ struct Record {
     y: Option<f64>,
     floor_x: Option<f64>,
     floor_y: Option<f64>,
+    floor_unit: Option<String>,
 }
 
 impl Track {
@@ -122,6 +121,25 @@ impl Track {
             .iter()
             .any(|r| r.found && r.floor_x.is_some() && r.floor_y.is_some());
         let units = if floor { Units::Floor } else { Units::Pixels };
+        let mut floor_unit: Option<String> = None;
+        if floor {
+            for unit in records
+                .iter()
+                .filter(|r| r.found)
+                .filter_map(|r| r.floor_unit.as_ref())
+            {
+                match &floor_unit {
+                    None => floor_unit = Some(unit.clone()),
+                    Some(first) if first != unit => {
+                        return Err(TrackError::MixedUnits {
+                            first: first.clone(),
+                            other: unit.clone(),
+                        })
+                    }
+                    Some(_) => {}
+                }
+            }
+        }
         let samples: Vec<Sample> = records
             .iter()
             .map(|r| {
@@ -140,7 +158,20 @@ impl Track {
                 frames: samples.len(),
             });
         }
-        Ok(Track { units, samples })
+        Ok(Track {
+            units,
+            floor_unit,
+            samples,
+        })
+    }
+
+    /// The name of a length in the track's units, for axis labels: `px`, or the calibration's
+    /// floor unit (`cm`, ...); "floor units" only when the records do not name it.
+    pub fn length_name(&self) -> &str {
+        match self.units {
+            Units::Pixels => "px",
+            Units::Floor => self.floor_unit.as_deref().unwrap_or("floor units"),
+        }
     }
 
     /// The positions, as runs of consecutive frames that all have one (a lost frame ends a

@@ -40,7 +40,7 @@ impl Floor {
         map
     }
 
-    fn radiance(&self, x: f64, y: f64, seed: u64) -> f64 {
+    pub(crate) fn radiance(&self, x: f64, y: f64, seed: u64) -> f64 {
         let noise = (1.0 - FINE_SHARE) * value_noise(x / COARSE_CELL_PX, y / COARSE_CELL_PX, seed)
             + FINE_SHARE * value_noise(x / FINE_CELL_PX, y / FINE_CELL_PX, seed ^ FINE_OCTAVE_SALT);
         let grout = if self.tile_px > 0 {

@@ -4,7 +4,8 @@
 //! analytic trajectory. Each frame is rendered physically, in linear units where 1.0 is the
 //! sensor's clip level: the floor's radiance, plus the LED disk (several times the clip level)
 //! integrated over the pixel area AND over the exposure window `[t - exposure, t]`, so fast
-//! motion makes real streaks; static glare; opaque occluders on top; then sensor noise,
+//! motion makes real streaks; further LEDs on the same rigid body; static glare and static
+//! lights of other shapes (bars, windows, hot pixels); opaque occluders on top; then sensor noise,
 //! clipping and 8-bit quantisation to packed YUYV 4:2:2.
 //!
 //! The ground truth ([`Truth`]) is computed from the trajectory's formulas, not from the
@@ -14,6 +15,7 @@
 //! This module does not use glint: glint's own tests render their scenes with it.
 
 mod camera;
+mod distractor;
 mod floor;
 mod occlusion;
 mod optics;
@@ -22,19 +24,23 @@ mod rng;
 mod sweep;
 mod trajectory;
 mod truth;
+mod view;
 
 use std::fmt;
 
 pub use camera::{Camera, Range};
+pub use distractor::{Companion, StaticLight};
 pub use floor::Floor;
 pub use occlusion::Occluder;
 pub use optics::{Glare, Led, Spot};
 pub use sweep::{SpotKind, SweepPath, SweepPoint};
 pub use trajectory::{Motion, Point, Trajectory};
 pub use truth::{read_truth_csv, write_truth_csv, Truth, TruthCsvError, Visibility, CSV_HEADER};
+pub use view::{Knock, Lens, View};
 
 use optics::Patch;
 use rng::{mix64, SplitMix64};
+use view::PoseImage;
 
 /// At most this much LED motion between two time samples of an exposure, so a streak is a
 /// continuous smear rather than a row of separate disks.
@@ -77,12 +83,20 @@ pub struct SceneConfig {
     pub led: Led,
     /// Static saturated spots.
     pub glare: Vec<Glare>,
+    /// Static lights of other shapes (bars, windows, hot pixels).
+    pub static_lights: Vec<StaticLight>,
+    /// Further LEDs on the tracked LED's rigid body.
+    pub companions: Vec<Companion>,
     /// Opaque rectangles drawn over everything, the LED included.
     pub occluders: Vec<Occluder>,
     /// The floor's texture.
     pub floor: Floor,
     /// Noise and output range.
     pub camera: Camera,
+    /// A real camera (lens, pose over the floor, markers, LED height, knock), or `None` for
+    /// an ideal camera whose pixels are the scene's own. With a view, the trajectory and the
+    /// floor texture are in the view's reference pixels, glare and occluders in the picture's.
+    pub view: Option<View>,
 }
 
 /// Why a scene cannot be built or rendered.
@@ -124,6 +138,8 @@ pub struct Scene {
     config: SceneConfig,
     /// Radiance of everything that does not move (floor, glare, occluders), row-major.
     static_radiance: Vec<f32>,
+    /// With a view: the static picture in each of the camera's poses.
+    poses: Vec<PoseImage>,
 }
 
 /// Shows the configuration only: the precomputed radiance map is a frame's worth of floats.
@@ -165,33 +181,77 @@ impl Scene {
     pub fn new(config: SceneConfig) -> Result<Scene, SceneError> {
         validate(&config)?;
         let (width, height) = (config.width_px as usize, config.height_px as usize);
-        let mut static_radiance = config.floor.render(width, height, config.seed);
-        for glare in &config.glare {
-            let mut patch = Patch::around(
-                glare.centre_px,
-                glare.centre_px,
-                glare.radius_px + 1.0,
-                width,
-                height,
-            );
-            patch.add_disk(glare.centre_px, glare.radius_px, glare.peak);
-            add_patch(&mut static_radiance, width, &patch);
-        }
-        for occluder in &config.occluders {
-            for (y, row) in static_radiance.chunks_exact_mut(width).enumerate() {
-                for (x, value) in row.iter_mut().enumerate() {
-                    if occluder.covers(x, y) {
-                        *value = occluder.radiance as f32;
-                    }
-                }
+        if let Some(view) = &config.view {
+            let mut poses: Vec<PoseImage> = (0..view.pose_count())
+                .map(|pose| view.render_static(&config.floor, config.seed, width, height, pose))
+                .collect();
+            for pose in &mut poses {
+                add_glare_and_occluders(&config, &mut pose.radiance, width);
             }
+            return Ok(Scene {
+                config,
+                static_radiance: Vec::new(),
+                poses,
+            });
         }
+        let mut static_radiance = config.floor.render(width, height, config.seed);
+        add_glare_and_occluders(&config, &mut static_radiance, width);
         Ok(Scene {
             config,
             static_radiance,
+            poses: Vec::new(),
         })
     }
 
+    /// The floor point (cm) under the LED at the end of frame `frame`'s exposure, when the
+    /// scene has a view and the LED is over the floor.
+    pub fn floor_truth_cm(&self, frame: usize) -> Option<glint::geometry::Point> {
+        let view = self.config.view.as_ref()?;
+        let t = self.exposure(frame).end_s;
+        view.floor_under(self.config.trajectory.motion(t).position_px)
+    }
+
+    /// The LED's floor velocity (cm/s) at the end of frame `frame`'s exposure, when the scene
+    /// has a view (central differences in time of [`Scene::floor_truth_cm`]'s formula).
+    pub fn floor_velocity_truth_cm_s(&self, frame: usize) -> Option<glint::geometry::Point> {
+        const DT_S: f64 = 1e-5;
+        let view = self.config.view.as_ref()?;
+        let t = self.exposure(frame).end_s;
+        let at = |t: f64| view.floor_under(self.config.trajectory.motion(t).position_px);
+        let (a, b) = (at(t - DT_S)?, at(t + DT_S)?);
+        Some(glint::geometry::Point::from((b - a) / (2.0 * DT_S)))
+    }
+}
+
+/// Adds the glare spots and static lights, and paints the occluders over a static radiance map.
+fn add_glare_and_occluders(config: &SceneConfig, static_radiance: &mut [f32], width: usize) {
+    let height = static_radiance.len() / width.max(1);
+    for glare in &config.glare {
+        let mut patch = Patch::around(
+            glare.centre_px,
+            glare.centre_px,
+            glare.radius_px + 1.0,
+            width,
+            height,
+        );
+        patch.add_disk(glare.centre_px, glare.radius_px, glare.peak);
+        add_patch(static_radiance, width, &patch);
+    }
+    for light in &config.static_lights {
+        light.add_to(static_radiance, width);
+    }
+    for occluder in &config.occluders {
+        for (y, row) in static_radiance.chunks_exact_mut(width).enumerate() {
+            for (x, value) in row.iter_mut().enumerate() {
+                if occluder.covers(x, y) {
+                    *value = occluder.radiance as f32;
+                }
+            }
+        }
+    }
+}
+
+impl Scene {
     /// A preset by its stable name (see [`Scene::names`]).
     pub fn preset(name: &str) -> Option<Scene> {
         Scene::new(presets::config(name)?).ok()
@@ -276,7 +336,7 @@ impl Scene {
             .into_iter()
             .chain(exposure.sample_times(steps));
         let visible = occlusion::classify(
-            times.map(|t| trajectory.motion(t).position_px),
+            times.map(|t| self.picture_px(trajectory.motion(t).position_px, frame)),
             self.config.led.radius_px,
             self.config.width_px,
             self.config.height_px,
@@ -287,6 +347,31 @@ impl Scene {
             .motion(exposure.end_s - 0.5 * exposure.duration_s)
             .position_px;
         let known = |v: f64| (visible != Visibility::Hidden).then_some(v);
+        let (end, mid, streak_px) = match &self.config.view {
+            None => (end, mid, streak_px),
+            Some(view) => {
+                let velocity_px_s = view
+                    .velocity_to_output(end.position_px, end.velocity_px_s, frame)
+                    .unwrap_or(Point::new(f64::NAN, f64::NAN));
+                // The streak's length on the picture: the mapped path, finely sampled.
+                let path: Vec<Point> = (0..=steps)
+                    .map(|k| start_s + exposure.duration_s * k as f64 / steps as f64)
+                    .map(|t| self.picture_px(trajectory.motion(t).position_px, frame))
+                    .collect();
+                let length = path
+                    .windows(2)
+                    .map(|w| Point::new(w[1].x - w[0].x, w[1].y - w[0].y).norm())
+                    .sum();
+                (
+                    Motion {
+                        position_px: self.picture_px(end.position_px, frame),
+                        velocity_px_s,
+                    },
+                    self.picture_px(mid, frame),
+                    length,
+                )
+            }
+        };
         Truth {
             frame,
             t_s: exposure.end_s,
@@ -301,18 +386,39 @@ impl Scene {
         }
     }
 
+    /// Where a scene pixel is seen in the picture at `frame` (itself without a view).
+    fn picture_px(&self, p: Point, frame: usize) -> Point {
+        match &self.config.view {
+            None => p,
+            Some(view) => view
+                .to_output(p, frame)
+                .unwrap_or(Point::new(f64::NAN, f64::NAN)),
+        }
+    }
+
     /// The LED's light on the sensor during frame `frame`'s exposure, before occluders,
     /// noise and clipping: linear radiance over the LED's bounding box.
     fn led_radiance(&self, frame: usize) -> Patch {
+        let (width, height) = (
+            self.config.width_px as usize,
+            self.config.height_px as usize,
+        );
+        self.led_radiance_in(frame, Point::default(), width, height)
+    }
+
+    /// [`Scene::led_radiance`] in scene pixels shifted by `-origin`, clipped to
+    /// `width × height` (a view's picture sees beyond the scene's own frame).
+    fn led_radiance_in(&self, frame: usize, origin: Point, width: usize, height: usize) -> Patch {
         let exposure = self.exposure(frame);
         let trajectory = &self.config.trajectory;
         let led = &self.config.led;
         let streak_px =
             trajectory.path_length_px(exposure.end_s - exposure.duration_s, exposure.end_s);
         let disk_steps = Exposure::steps_for(streak_px, MAX_DISK_STEP_PX);
+        let shift = |p: Point| Point::new(p.x - origin.x, p.y - origin.y);
         let positions: Vec<Point> = exposure
             .sample_times(disk_steps)
-            .map(|t| trajectory.motion(t).position_px)
+            .map(|t| shift(trajectory.motion(t).position_px))
             .collect();
         let glow_reach_px = if led.glow_peak > 0.0 {
             led.glow_radius_px
@@ -320,10 +426,6 @@ impl Scene {
             0.0
         };
         let (min, max) = bounds(&positions);
-        let (width, height) = (
-            self.config.width_px as usize,
-            self.config.height_px as usize,
-        );
         let mut patch = Patch::around(
             min,
             max,
@@ -360,7 +462,11 @@ impl Scene {
             let glow_steps = Exposure::steps_for(streak_px, MAX_GLOW_STEP_PX);
             let weight = led.glow_peak / glow_steps as f64;
             for t in exposure.sample_times(glow_steps) {
-                patch.add_glow(trajectory.motion(t).position_px, led.glow_radius_px, weight);
+                patch.add_glow(
+                    shift(trajectory.motion(t).position_px),
+                    led.glow_radius_px,
+                    weight,
+                );
             }
         }
         patch
@@ -380,12 +486,46 @@ impl Scene {
         Ok(self.truth(frame))
     }
 
+    /// The light of each companion LED during frame `frame`'s exposure.
+    fn companion_radiance(&self, frame: usize) -> impl Iterator<Item = Patch> + '_ {
+        let exposure = self.exposure(frame);
+        let trajectory = &self.config.trajectory;
+        let streak_px =
+            trajectory.path_length_px(exposure.end_s - exposure.duration_s, exposure.end_s);
+        let steps = Exposure::steps_for(streak_px, MAX_DISK_STEP_PX);
+        let positions: Vec<Point> = exposure
+            .sample_times(steps)
+            .map(|t| trajectory.motion(t).position_px)
+            .collect();
+        let (width, height) = (
+            self.config.width_px as usize,
+            self.config.height_px as usize,
+        );
+        self.config.companions.iter().map(move |c| {
+            let (min, max) = bounds(&positions);
+            let shift = |p: Point| Point::new(p.x + c.offset_px.x, p.y + c.offset_px.y);
+            let mut patch =
+                Patch::around(shift(min), shift(max), c.led.radius_px + 1.0, width, height);
+            if !patch.values.is_empty() {
+                distractor::add_swept_disk(&mut patch, &positions, c.offset_px, &c.led);
+            }
+            patch
+        })
+    }
+
     /// Renders into a buffer of the right length (shorter buffers get whole rows only).
     fn render_into(&self, frame: usize, out: &mut [u8]) {
         let width = self.config.width_px as usize;
-        let mut patch = self.led_radiance(frame);
-        for occluder in &self.config.occluders {
-            hide(&mut patch, occluder);
+        if let Some(view) = &self.config.view {
+            return self.render_view_into(view, frame, out);
+        }
+        let mut patches: Vec<Patch> = core::iter::once(self.led_radiance(frame))
+            .chain(self.companion_radiance(frame))
+            .collect();
+        for patch in &mut patches {
+            for occluder in &self.config.occluders {
+                hide(patch, occluder);
+            }
         }
         let mut rng = (self.config.camera.noise_sigma > 0.0)
             .then(|| SplitMix64::new(mix64(self.config.seed ^ mix64(frame as u64 ^ NOISE_SALT))));
@@ -396,11 +536,58 @@ impl Scene {
             .enumerate()
         {
             row.copy_from_slice(static_row);
-            if let Some(led_row) = patch_row(&patch, y) {
-                if let Some(dst) = row.get_mut(patch.left..patch.left + led_row.len()) {
-                    for (d, s) in dst.iter_mut().zip(led_row) {
-                        *d += s;
+            for patch in &patches {
+                if let Some(led_row) = patch_row(patch, y) {
+                    if let Some(dst) = row.get_mut(patch.left..patch.left + led_row.len()) {
+                        for (d, s) in dst.iter_mut().zip(led_row) {
+                            *d += s;
+                        }
                     }
+                }
+            }
+            self.config.camera.expose_row(&row, &mut rng, out_row);
+        }
+    }
+
+    /// Renders through a view: the LED's patch is made in reference pixels and sampled
+    /// (bilinearly) where each output pixel looks; occluders hide it in the picture.
+    fn render_view_into(&self, view: &View, frame: usize, out: &mut [u8]) {
+        let width = self.config.width_px as usize;
+        let Some(pose) = self.poses.get(view.pose_at(frame)) else {
+            return;
+        };
+        // The patch's frame: everything the picture sees, with room for the bilinear taps.
+        let origin = Point::new(
+            pose.reference_min.x.floor() - 2.0,
+            pose.reference_min.y.floor() - 2.0,
+        );
+        let extent = |lo: f64, hi: f64| ((hi - lo).max(0.0).ceil() as usize).saturating_add(5);
+        let patch = self.led_radiance_in(
+            frame,
+            origin,
+            extent(pose.reference_min.x, pose.reference_max.x),
+            extent(pose.reference_min.y, pose.reference_max.y),
+        );
+        let mut rng = (self.config.camera.noise_sigma > 0.0)
+            .then(|| SplitMix64::new(mix64(self.config.seed ^ mix64(frame as u64 ^ NOISE_SALT))));
+        let mut row = vec![0.0f32; width];
+        for (y, ((out_row, static_row), refs)) in out
+            .chunks_exact_mut(2 * width)
+            .zip(pose.radiance.chunks_exact(width))
+            .zip(pose.reference_px.chunks_exact(width))
+            .enumerate()
+        {
+            row.copy_from_slice(static_row);
+            if !patch.values.is_empty() {
+                for (x, (d, r)) in row.iter_mut().zip(refs).enumerate() {
+                    if self.config.occluders.iter().any(|o| o.covers(x, y)) {
+                        continue;
+                    }
+                    let local = Point::new(
+                        f64::from(r[0]) - origin.x - patch.left as f64,
+                        f64::from(r[1]) - origin.y - patch.top as f64,
+                    );
+                    *d += bilinear(&patch, local);
                 }
             }
             self.config.camera.expose_row(&row, &mut rng, out_row);
@@ -437,6 +624,28 @@ fn bounds(points: &[Point]) -> (Point, Point) {
             Point::new(hi.x.max(p.x), hi.y.max(p.y)),
         )
     })
+}
+
+/// A patch's value at a point in its own pixel coordinates (0 outside).
+fn bilinear(patch: &Patch, p: Point) -> f32 {
+    if !(p.x > -1.0 && p.y > -1.0) {
+        return 0.0;
+    }
+    let (x0, y0) = (p.x.floor(), p.y.floor());
+    let (fx, fy) = ((p.x - x0) as f32, (p.y - y0) as f32);
+    let at = |x: f64, y: f64| -> f32 {
+        if x < 0.0 || y < 0.0 || x >= patch.width as f64 || y >= patch.height as f64 {
+            return 0.0;
+        }
+        patch
+            .values
+            .get(y as usize * patch.width + x as usize)
+            .copied()
+            .unwrap_or(0.0)
+    };
+    let top = at(x0, y0) * (1.0 - fx) + at(x0 + 1.0, y0) * fx;
+    let bottom = at(x0, y0 + 1.0) * (1.0 - fx) + at(x0 + 1.0, y0 + 1.0) * fx;
+    top * (1.0 - fy) + bottom * fy
 }
 
 /// Row `y` (frame coordinates) of a patch, if the patch covers it.
@@ -544,6 +753,18 @@ fn validate(c: &SceneConfig) -> Result<(), SceneError> {
             "centres must be finite, radii positive, peaks not negative",
         ));
     }
+    if !c.static_lights.iter().all(StaticLight::is_valid) {
+        return Err(invalid(
+            "static_lights",
+            "sizes must be positive and finite, radiances not negative",
+        ));
+    }
+    if !c.companions.iter().all(Companion::is_valid) {
+        return Err(invalid(
+            "companions",
+            "offsets finite, radii positive, peaks not negative, no glow",
+        ));
+    }
     let occluders_ok = c.occluders.iter().all(|o| {
         u64::from(o.left) + u64::from(o.width) <= u64::from(c.width_px)
             && u64::from(o.top) + u64::from(o.height) <= u64::from(c.height_px)
@@ -560,6 +781,10 @@ fn validate(c: &SceneConfig) -> Result<(), SceneError> {
     }
     if !(c.camera.gamma.is_finite() && c.camera.gamma > 0.0) {
         return Err(invalid("camera.gamma", "must be positive"));
+    }
+    if let Some(view) = &c.view {
+        view.validate(c.width_px, c.height_px)
+            .map_err(|reason| invalid("view", reason))?;
     }
     if !finite_at_least(c.camera.noise_sigma, 0.0) {
         return Err(invalid(

@@ -2,11 +2,15 @@
 //! and README figures depend on them. All are 640×480 at 30 fps unless said otherwise.
 
 use super::camera::{Camera, Range};
+use super::distractor::{Companion, StaticLight};
 use super::floor::Floor;
 use super::occlusion::Occluder;
 use super::optics::{Glare, Led, Spot};
 use super::trajectory::{Point, Trajectory};
+use super::view::{Knock, Lens, View};
 use super::SceneConfig;
+use crate::markers::{reference_camera, PlacedMarker};
+use glint::geometry::aruco::Dictionary;
 
 /// Preset names, in the order `glint-scene --list` prints them.
 pub(crate) const NAMES: &[&str] = &[
@@ -20,6 +24,16 @@ pub(crate) const NAMES: &[&str] = &[
     "dim-noisy",
     "studio",
     "hd-720",
+    "marker",
+    "marker-map",
+    "lens-wide",
+    "lens-mild",
+    "led-mast",
+    "knocked",
+    "rest-glare",
+    "hot-pixel",
+    "window",
+    "three-leds",
 ];
 
 const VGA_WIDTH_PX: u32 = 640;
@@ -39,6 +53,35 @@ const FLOOR_CONTRAST: f64 = 0.18;
 const FLOOR_TILE_PX: u32 = 64;
 /// About 2.5 luma levels of read noise.
 const NOISE_SIGMA: f64 = 0.01;
+
+/// A floor with little texture, so that an unclipped LED's top level is known to a few levels.
+const UNCLIPPED_FLOOR_CONTRAST: f64 = 0.02;
+/// LED radiance over the floor that brings its top to about 237 of 255: visible, not clipped.
+const UNCLIPPED_LED_PEAK: f64 = 0.55;
+/// A hot pixel that reads 247.
+const HOT_PIXEL_RADIANCE: f64 = 247.0 / 255.0;
+
+/// An LED the camera does not clip: no glow, radiance `peak` above the floor.
+fn unclipped_led(peak: f64) -> Led {
+    Led {
+        radius_px: LED_RADIUS_PX,
+        spot: Spot::Disk,
+        peak,
+        glow_peak: 0.0,
+        glow_radius_px: 0.0,
+    }
+}
+
+/// Another LED on the same body, without glow.
+fn companion_led(peak: f64) -> Led {
+    Led {
+        radius_px: LED_RADIUS_PX,
+        spot: Spot::Disk,
+        peak,
+        glow_peak: 0.0,
+        glow_radius_px: 0.0,
+    }
+}
 
 fn led(radius_px: f64) -> Led {
     Led {
@@ -70,6 +113,8 @@ pub(crate) fn base(
         trajectory,
         led: led(LED_RADIUS_PX),
         glare: Vec::new(),
+        static_lights: Vec::new(),
+        companions: Vec::new(),
         occluders: Vec::new(),
         floor: Floor {
             mean: FLOOR_MEAN,
@@ -81,6 +126,7 @@ pub(crate) fn base(
             range: Range::Full,
             gamma: 1.0,
         },
+        view: None,
     }
 }
 
@@ -91,6 +137,91 @@ fn figure_eight(centre_px: Point, amplitude_px: Point, x_freq_hz: f64) -> Trajec
         amplitude_px,
         freq_hz: Point::new(x_freq_hz, 2.0 * x_freq_hz),
         phase_rad: Point::new(0.0, 0.0),
+    }
+}
+
+/// Side of the map's markers, cm.
+const MAP_MARKER_CM: f64 = 18.0;
+/// Top-left corners (cm) of the six markers of the marker map: three near the top of the
+/// reference camera's picture and three near the bottom, spread to its corners, so that a
+/// calibration sees how the lens bends the whole picture.
+const MAP_ORIGINS_CM: [(f64, f64); 6] = [
+    (93.0, 54.0),
+    (1.0, 59.0),
+    (-91.0, 54.0),
+    (65.0, -62.0),
+    (1.0, -65.0),
+    (-64.0, -62.0),
+];
+/// Ids of the map's markers (DICT_6X6_250).
+const MAP_IDS: [u16; 6] = [1, 2, 3, 4, 5, 6];
+
+fn marker_at(id: u16, size_cm: f64, (x, y): (f64, f64)) -> PlacedMarker {
+    PlacedMarker {
+        dictionary: Dictionary::Aruco6x6_250,
+        id,
+        size_cm,
+        origin_cm: glint::geometry::Point::new(x, y),
+        rotation_deg: 0.0,
+    }
+}
+
+/// The six-marker map.
+fn marker_map() -> Vec<PlacedMarker> {
+    MAP_IDS
+        .iter()
+        .zip(MAP_ORIGINS_CM)
+        .map(|(&id, origin)| marker_at(id, MAP_MARKER_CM, origin))
+        .collect()
+}
+
+/// The reference camera (1.3 m up, looking obliquely down) with `lens` and `markers`.
+fn view(lens: Lens, markers: Vec<PlacedMarker>) -> View {
+    let camera = reference_camera();
+    View {
+        camera,
+        lens,
+        led_height_cm: 0.0,
+        knock: None,
+        markers,
+    }
+}
+
+/// A short exposure, as a tracker sets its camera for a bright LED: the tours' streaks are
+/// under a pixel or two.
+const TOUR_EXPOSURE_US: u32 = 2_000;
+
+/// An LED touring the whole picture of the reference camera for five seconds.
+fn tour(name: &str, summary: &str, view: View) -> SceneConfig {
+    let mut config = base(
+        name,
+        summary,
+        TOUR_EXPOSURE_US,
+        150,
+        Trajectory::Lissajous {
+            centre_px: Point::new(320.0, 240.0),
+            amplitude_px: Point::new(300.0, 225.0),
+            freq_hz: Point::new(0.23, 0.31),
+            phase_rad: Point::new(0.4, 0.0),
+        },
+    );
+    config.view = Some(view);
+    config
+}
+
+/// The wide-angle webcam lens of the accuracy targets: strong barrel distortion.
+pub(crate) fn wide_lens() -> Lens {
+    Lens::ideal(&reference_camera()).with_distortion(-0.30, 0.09, 0.0, 0.0, 0.0)
+}
+
+/// A milder lens, its distortion slightly decentred (tangential terms, and the principal
+/// point a few pixels off the picture's centre).
+pub(crate) fn mild_lens() -> Lens {
+    let ideal = Lens::ideal(&reference_camera());
+    Lens {
+        cx: ideal.cx + 6.0,
+        cy: ideal.cy - 4.0,
+        ..ideal.with_distortion(-0.12, 0.0, 0.0, 0.001, -0.001)
     }
 }
 
@@ -261,6 +392,168 @@ pub(crate) fn config(name: &str) -> Option<SceneConfig> {
             config.width_px = 1280;
             config.height_px = 720;
             config.led = led(5.0);
+            config
+        }
+        "marker" => {
+            let ideal = Lens::ideal(&reference_camera());
+            let mut config = tour(
+                name,
+                "one 20 cm marker (DICT_6X6_250 id 23) at the floor origin, camera 1.3 m up, ideal lens; an LED tours the picture",
+                view(ideal, vec![marker_at(23, 20.0, (0.0, 0.0))]),
+            );
+            config.frame_count = 60;
+            config
+        }
+        "marker-map" => tour(
+            name,
+            "six 18 cm markers (DICT_6X6_250 ids 1-6) spread over the picture, ideal lens; an LED tours the picture",
+            view(Lens::ideal(&reference_camera()), marker_map()),
+        ),
+        "lens-wide" => tour(
+            name,
+            "wide-angle lens (k1 -0.30, k2 0.09) over the six-marker map; an LED tours the whole picture",
+            view(wide_lens(), marker_map()),
+        ),
+        "lens-mild" => tour(
+            name,
+            "milder decentred lens (k1 -0.12, p1 0.001, p2 -0.001, principal point 6,-4 px off centre) over the marker map",
+            view(mild_lens(), marker_map()),
+        ),
+        "led-mast" => {
+            let mut v = view(Lens::ideal(&reference_camera()), marker_map());
+            v.led_height_cm = 12.0;
+            tour(
+                name,
+                "the LED on a 12 cm mast, markers on the floor, camera 1.3 m up (ideal lens)",
+                v,
+            )
+        }
+        "knocked" => {
+            let mut v = view(mild_lens(), marker_map());
+            v.knock = Some(Knock {
+                frame: 60,
+                pan_deg: 0.3,
+                tilt_deg: 0.8,
+                roll_deg: 0.2,
+            });
+            let mut config = tour(
+                name,
+                "the mild lens over the marker map, camera knocked 0.8° down (0.3° pan, 0.2° roll) at 2 s",
+                v,
+            );
+            config.frame_count = 180;
+            config
+        }
+        "rest-glare" => {
+            // The robot stands still for the first second, among static lights of several
+            // shapes: a small round spot, an elongated bar and a square lamp, all clipped.
+            let mut config = base(
+                name,
+                "LED at rest for 1 s, then round a rectangle, among a small glare disk, a glare bar and a square lamp",
+                8_000,
+                150,
+                Trajectory::StopGo {
+                    waypoints_px: vec![
+                        Point::new(200.0, 300.0),
+                        Point::new(420.0, 300.0),
+                        Point::new(420.0, 180.0),
+                    ],
+                    move_s: 0.8,
+                    hold_s: 1.0,
+                    start_s: 1.0,
+                },
+            );
+            config.static_lights = vec![
+                StaticLight::Ellipse {
+                    centre_px: Point::new(110.0, 90.0),
+                    radii_px: Point::new(3.0, 3.0),
+                    angle_rad: 0.0,
+                    peak: 3.0,
+                },
+                StaticLight::Ellipse {
+                    centre_px: Point::new(520.0, 400.0),
+                    radii_px: Point::new(14.0, 2.5),
+                    angle_rad: 0.5,
+                    peak: 3.0,
+                },
+                StaticLight::Rect {
+                    left_px: 540.0,
+                    top_px: 60.0,
+                    width_px: 9.0,
+                    height_px: 9.0,
+                    peak: 2.0,
+                },
+            ];
+            config
+        }
+        "hot-pixel" => {
+            // An LED that the camera does not clip (top near 237) creeping round a small
+            // circle, and one hot pixel that reads 247 all the time.
+            let mut config = base(
+                name,
+                "unclipped LED (top about 237) creeping on a 6 px circle at 5 px/s, and a hot pixel at 247",
+                8_000,
+                150,
+                Trajectory::Circle {
+                    centre_px: Point::new(300.0, 220.0),
+                    radius_px: 6.0,
+                    rev_per_s: 0.13,
+                    phase_rad: 0.0,
+                },
+            );
+            config.floor.contrast = UNCLIPPED_FLOOR_CONTRAST;
+            config.led = unclipped_led(UNCLIPPED_LED_PEAK);
+            config.static_lights = vec![StaticLight::Pixel {
+                x_px: 450,
+                y_px: 120,
+                radiance: HOT_PIXEL_RADIANCE,
+            }];
+            config
+        }
+        "window" => {
+            // A window that clips, and beside it an LED that does not (top near 237).
+            let mut config = base(
+                name,
+                "unclipped LED (top about 237) on a 3:2 Lissajous beside a large clipped window",
+                8_000,
+                150,
+                Trajectory::Lissajous {
+                    centre_px: Point::new(260.0, 260.0),
+                    amplitude_px: Point::new(150.0, 120.0),
+                    freq_hz: Point::new(0.3, 0.2),
+                    phase_rad: Point::new(0.0, 0.5),
+                },
+            );
+            config.floor.contrast = UNCLIPPED_FLOOR_CONTRAST;
+            config.led = unclipped_led(UNCLIPPED_LED_PEAK);
+            config.static_lights = vec![StaticLight::Rect {
+                left_px: 450.0,
+                top_px: 40.0,
+                width_px: 120.0,
+                height_px: 90.0,
+                peak: 1.5,
+            }];
+            config
+        }
+        "three-leds" => {
+            // Three LEDs of different brightness on one body, translating on a figure-eight.
+            let mut config = base(
+                name,
+                "three LEDs (20×, 6× and 2× clip) on one rigid body on a 360×220 px figure-eight, 10 ms exposure",
+                10_000,
+                150,
+                figure_eight(Point::new(300.0, 220.0), Point::new(180.0, 110.0), 0.25),
+            );
+            config.companions = vec![
+                Companion {
+                    offset_px: Point::new(70.0, 0.0),
+                    led: companion_led(6.0),
+                },
+                Companion {
+                    offset_px: Point::new(35.0, 60.0),
+                    led: companion_led(2.0),
+                },
+            ];
             config
         }
         _ => return None,

@@ -61,12 +61,12 @@ fn render(scene: &Scene, frame: usize) -> Vec<u8> {
 
 #[test]
 fn presets_have_stable_names_and_sane_sizes() {
-    assert_eq!(Scene::names().len(), 10);
+    assert_eq!(Scene::names().len(), 20);
     for &name in Scene::names() {
         let scene = Scene::preset(name).unwrap_or_else(|| panic!("preset {name} must build"));
         assert_eq!(scene.name(), name);
-        assert!((90..=150).contains(&scene.frame_count()), "{name}");
-        assert!((4_000..=25_000).contains(&scene.exposure_us()), "{name}");
+        assert!((60..=180).contains(&scene.frame_count()), "{name}");
+        assert!((2_000..=25_000).contains(&scene.exposure_us()), "{name}");
         let expected = if name == "hd-720" {
             (1280, 720)
         } else {
@@ -369,4 +369,44 @@ fn truth_csv_round_trips_a_preset() {
             assert!((x - y).abs() < 1e-6);
         }
     }
+}
+
+#[test]
+fn through_a_lens_the_led_is_where_the_truth_says() {
+    // The wide lens bends the picture by tens of pixels at the edges: the saturated disk's
+    // centroid must follow the distorted truth, not the reference pixel.
+    let mut config = Scene::preset_config("lens-wide").unwrap();
+    config.camera.noise_sigma = 0.0;
+    config.frame_count = 150;
+    let scene = Scene::new(config).unwrap();
+    let mut frame = vec![0u8; scene.frame_len_bytes()];
+    let mut checked = 0;
+    for index in (0..150).step_by(15) {
+        let truth = scene.render(index, &mut frame).unwrap();
+        if truth.visible != Visibility::Visible {
+            continue;
+        }
+        let (tx, ty) = (truth.x_px.unwrap(), truth.y_px.unwrap());
+        let (mut sx, mut sy, mut n) = (0.0, 0.0, 0.0);
+        for y in 0..480usize {
+            for x in 0..640usize {
+                let near = (x as f64 - tx).hypot(y as f64 - ty) < 20.0;
+                if near && frame[2 * (y * 640 + x)] == 255 {
+                    sx += x as f64;
+                    sy += y as f64;
+                    n += 1.0;
+                }
+            }
+        }
+        assert!(n > 10.0, "frame {index}: no saturated disk near the truth");
+        let streak = truth.streak_px.unwrap();
+        let (mx, my) = (truth.mid_x_px.unwrap(), truth.mid_y_px.unwrap());
+        let err = (sx / n - mx).hypot(sy / n - my);
+        assert!(
+            err < 0.3 + 0.1 * streak,
+            "frame {index}: centroid {err:.3} px off"
+        );
+        checked += 1;
+    }
+    assert!(checked >= 5);
 }

@@ -1,5 +1,7 @@
 /* Test driver for board/arduino/glint.h: decodes stdin byte by byte and prints one line per
- * event, in the text form of SPEC.md's test vectors, for tests/c_decoder.rs to compare. */
+ * event, in the text form of SPEC.md's test vectors, for tests/c_decoder.rs to compare. Built
+ * against the frozen version 1 header (tests/c/v1) too, which knows positions and heartbeats
+ * only. */
 #include <stdio.h>
 
 #include "glint.h"
@@ -43,6 +45,18 @@ int main(void) {
                    (unsigned long)msg.heartbeat.dropped_frames,
                    tracker_name(msg.heartbeat.tracker_state));
             break;
+#if GLINT_PROTOCOL_VERSION >= 2
+        case GLINT_AGE:
+            printf("age seq=%u age_us=%lu predicted=%s\n", (unsigned)msg.age.seq,
+                   (unsigned long)msg.age.age_us, msg.age.predicted ? "true" : "false");
+            break;
+        case GLINT_LED:
+            printf("led robot=%u request=%u at_us=%lu delay_us=%lu off_us=%lu\n",
+                   (unsigned)msg.led.robot, (unsigned)msg.led.request,
+                   (unsigned long)msg.led.at_us, (unsigned long)msg.led.delay_us,
+                   (unsigned long)msg.led.off_us);
+            break;
+#endif
         case GLINT_UNKNOWN:
             printf("unknown id=0x%02x\n", (unsigned)msg.id);
             break;

@@ -4,7 +4,8 @@
 #![allow(dead_code)] // each test binary uses its own part of this module
 
 use glint_protocol::{
-    DecodeError, Heartbeat, Message, Position, Received, Status, TrackerState, Units,
+    DecodeError, Heartbeat, LedRequest, Message, Position, PositionAge, Received, Status,
+    TrackerState, Units,
 };
 
 /// The text form of one decoder event.
@@ -40,6 +41,14 @@ pub fn describe(event: &Result<Received, DecodeError>) -> String {
                 TrackerState::Tracking => "tracking",
                 TrackerState::Coasting => "coasting",
             }
+        ),
+        Ok(Received::Message(Message::Age(a))) => format!(
+            "age seq={} age_us={} predicted={}",
+            a.seq, a.age_us, a.predicted
+        ),
+        Ok(Received::Message(Message::Led(r))) => format!(
+            "led robot={} request={} at_us={} delay_us={} off_us={}",
+            r.robot, r.request, r.at_us, r.delay_us, r.off_us
         ),
         Ok(Received::Unknown { id }) => format!("unknown id={id:#04x}"),
         Err(DecodeError::Overflow) => "error overflow".to_string(),
@@ -99,6 +108,18 @@ pub fn parse_message(text: &str) -> Result<Message, String> {
                 "coasting" => TrackerState::Coasting,
                 other => return Err(format!("bad tracker state {other}")),
             },
+        })),
+        "age" => Ok(Message::Age(PositionAge {
+            seq: num(get("seq")?)?,
+            age_us: num(get("age_us")?)?,
+            predicted: num(get("predicted")?)?,
+        })),
+        "led" => Ok(Message::Led(LedRequest {
+            robot: num(get("robot")?)?,
+            request: num(get("request")?)?,
+            at_us: num(get("at_us")?)?,
+            delay_us: num(get("delay_us")?)?,
+            off_us: num(get("off_us")?)?,
         })),
         other => Err(format!("unknown message kind {other}")),
     }
@@ -204,8 +225,28 @@ impl SplitMix64 {
         self.next_u64() as u8
     }
 
-    /// A random message: positions three times as often as heartbeats, as on the real link.
+    /// A random message of any kind, each position followed by its age, as on the real link.
     pub fn message(&mut self) -> Message {
+        let u32_field = |r: &mut Self| (r.next_u64() as u32) >> r.below(32);
+        match self.below(8) {
+            0 | 1 => {
+                return Message::Age(PositionAge {
+                    seq: self.byte(),
+                    age_us: u32_field(self),
+                    predicted: self.below(2) == 0,
+                })
+            }
+            2 => {
+                return Message::Led(LedRequest {
+                    robot: self.byte(),
+                    request: self.byte(),
+                    at_us: self.next_u64() as u32,
+                    delay_us: u32_field(self),
+                    off_us: u32_field(self),
+                })
+            }
+            _ => {}
+        }
         if self.below(4) == 0 {
             Message::Heartbeat(Heartbeat {
                 protocol_version: self.byte(),

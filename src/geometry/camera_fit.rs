@@ -1,0 +1,710 @@
+//! Fitting the camera (lens and pose over the floor) to the marker map's corners.
+//!
+//! A homography is exact only for an ideal lens; a webcam's barrel distortion bends straight
+//! floor lines by pixels at the picture's edges, and no homography can follow that. Here every
+//! corner of every marker goes into one bundle adjustment: Levenberg–Marquardt over the pose
+//! (rotation vector and translation), the focal length (square pixels) and OpenCV's
+//! `k1, k2, p1, p2`, minimising the pixel distances between detected corners and the
+//! floor corners projected through the model. It starts where Zhang's method puts it: the
+//! homography of the corners gives the focal length (with the principal point at the picture's
+//! centre) and the pose; a pinhole fit of pose and focal length comes first, then the lens.
+//!
+//! The principal point stays at the picture's centre: one view of one plane cannot tell it
+//! from a tilt of the camera (the floor fits either way, but the camera's centre, and with it
+//! every plane above the floor, moves), and a lens whose distortion is off-centre is what the
+//! tangential terms `p1, p2` describe to first order.
+//!
+//! One view of one plane does not always pin a lens down: with every marker near the centre,
+//! nothing tells how the edges bend. So the fit says how well it is determined: the parameters'
+//! covariance (the corner noise, measured as the fit's residual, through the inverse normal
+//! matrix) is carried to the floor point of each part of the picture. Where that uncertainty,
+//! in pixels, is large, the lens is not known there, and the caller is told which parts of the
+//! picture need markers.
+//!
+//! Fitting runs once, at calibration; it uses fixed-size matrices and allocates nothing.
+
+use core::fmt;
+
+use nalgebra::{Rotation3, SMatrix, SVector, Vector2, Vector3};
+
+use super::camera::{CameraError, CameraModel, Lens, Pose};
+use super::homography::{FloorMapping, HomographyError, Point};
+use crate::frame::FrameSize;
+
+/// Parameters: rotation vector (3), translation (3), focal length, principal point (2),
+/// `k1, k2, p1, p2`.
+const PARAMS: usize = 13;
+type Params = SVector<f64, PARAMS>;
+type Normal = SMatrix<f64, PARAMS, PARAMS>;
+
+const FOCAL: usize = 6;
+const CX: usize = 7;
+const CY: usize = 8;
+const K1: usize = 9;
+
+/// Levenberg–Marquardt iterations at most per stage.
+const MAX_ITERATIONS: usize = 200;
+/// A relative decrease of the squared error below this has converged.
+const CONVERGED: f64 = 1e-14;
+/// Relative step of the numerical derivatives.
+const DERIVATIVE_STEP: f64 = 1e-6;
+/// The corner noise is measured as the fit's residual, but never taken below this: the
+/// sub-pixel refiner's own accuracy on sharp, noise-free corners (about a twentieth of a
+/// pixel), so that a perfect synthetic fit is not taken for perfect knowledge.
+const MIN_CORNER_NOISE_PX: f64 = 0.05;
+/// Where the mapping of a part of the picture is uncertain by more than this (1σ, pixels),
+/// the lens is not determined there: a few pixels is centimetres on the floor, more than the
+/// detector's own error by an order of magnitude.
+pub const LENS_UNDETERMINED_PX: f64 = 2.0;
+/// Where it is uncertain by more than this, more markers there would improve it.
+pub const LENS_WEAK_PX: f64 = 0.5;
+/// Points of the picture the uncertainty is evaluated at, per side.
+const GRID_X: usize = 16;
+const GRID_Y: usize = 12;
+/// Most corners fitted.
+pub const MAX_FIT_POINTS: usize = 4 * super::aruco::MAX_MARKERS;
+
+/// What the fit may change of the lens.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum LensChoice {
+    /// Fit the focal length and distortion with the pose (the principal point at the
+    /// picture's centre).
+    Fit,
+    /// An ideal pinhole with its principal point at the picture's centre: fit the focal
+    /// length with the pose.
+    Ideal,
+    /// A lens calibrated elsewhere: fit the pose only.
+    Known(Lens),
+}
+
+/// Why the camera could not be fitted.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum CameraFitError {
+    /// The corners do not give a homography to start from.
+    Homography(HomographyError),
+    /// More corners than supported, or floor and screen lists of different lengths.
+    BadInput,
+    /// The model cannot be evaluated (e.g. a corner behind the camera) from where Zhang's
+    /// method starts.
+    NoStart(CameraError),
+    /// The fitted lens is not a lens (it folds over, or has absurd numbers).
+    BadLens(CameraError),
+}
+
+impl fmt::Display for CameraFitError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            CameraFitError::Homography(e) => write!(f, "the marker corners: {e}"),
+            CameraFitError::BadInput => write!(
+                f,
+                "at most {MAX_FIT_POINTS} corners, with one floor point for each"
+            ),
+            CameraFitError::NoStart(e) => write!(f, "no camera fits the corners: {e}"),
+            CameraFitError::BadLens(e) => write!(f, "the fitted lens cannot be used: {e}"),
+        }
+    }
+}
+
+impl core::error::Error for CameraFitError {}
+
+impl From<HomographyError> for CameraFitError {
+    fn from(e: HomographyError) -> Self {
+        CameraFitError::Homography(e)
+    }
+}
+
+/// Parts of the picture, a 3 × 3 grid, for saying where markers are missing.
+pub const REGION_NAMES: [&str; 9] = [
+    "top left",
+    "top",
+    "top right",
+    "left",
+    "centre",
+    "right",
+    "bottom left",
+    "bottom",
+    "bottom right",
+];
+
+/// A fitted camera and how well the corners determine it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CameraFit {
+    pub camera: CameraModel,
+    /// Root-mean-square corner residual, pixels.
+    pub rms_residual_px: f64,
+    /// Largest corner residual, pixels.
+    pub max_residual_px: f64,
+    /// Corners fitted.
+    pub corners: usize,
+    /// The corner noise the uncertainty assumes (1σ per coordinate), pixels.
+    pub noise_px: f64,
+    /// Largest uncertainty (1σ) of the mapping over the picture's floor, in pixels;
+    /// infinite when the corners do not determine the parameters at all.
+    pub picture_uncertainty_px: f64,
+    /// Largest uncertainty (1σ) of a floor position over the markers' area, floor units.
+    pub markers_area_uncertainty: f64,
+    /// Largest uncertainty (1σ) of a floor position over the whole picture's floor.
+    pub picture_uncertainty: f64,
+    /// For each of [`REGION_NAMES`]: the largest uncertainty (1σ) of the mapping there,
+    /// pixels (0 where no floor is seen).
+    pub region_uncertainty_px: [f64; 9],
+}
+
+impl CameraFit {
+    /// Whether the lens is determined everywhere in the picture.
+    pub fn determined(&self) -> bool {
+        self.picture_uncertainty_px <= LENS_UNDETERMINED_PX
+    }
+
+    /// The parts of the picture where the mapping is uncertain by more than `threshold_px`.
+    pub fn regions_above(&self, threshold_px: f64) -> impl Iterator<Item = &'static str> + '_ {
+        REGION_NAMES
+            .iter()
+            .zip(&self.region_uncertainty_px)
+            .filter(move |(_, &u)| u.is_nan() || u > threshold_px)
+            .map(|(name, _)| *name)
+    }
+}
+
+/// The model for a parameter vector.
+fn model(p: &Params, choice: &LensChoice) -> CameraModel {
+    let rotation = Rotation3::new(Vector3::new(p[0], p[1], p[2]));
+    let translation = Vector3::new(p[3], p[4], p[5]);
+    let lens = match choice {
+        LensChoice::Known(lens) => *lens,
+        _ => Lens {
+            fx: p[FOCAL],
+            fy: p[FOCAL],
+            cx: p[CX],
+            cy: p[CY],
+            k1: p[K1],
+            k2: p[K1 + 1],
+            p1: p[K1 + 2],
+            p2: p[K1 + 3],
+            k3: 0.0,
+        },
+    };
+    CameraModel {
+        lens,
+        pose: Pose {
+            rotation,
+            translation,
+        },
+    }
+}
+
+/// Which parameters a stage changes.
+fn free_mask(choice: &LensChoice, with_lens: bool) -> [bool; PARAMS] {
+    let mut free = [false; PARAMS];
+    for f in free.iter_mut().take(6) {
+        *f = true;
+    }
+    match choice {
+        LensChoice::Known(_) => {}
+        LensChoice::Ideal => free[FOCAL] = true,
+        LensChoice::Fit => {
+            free[FOCAL] = true;
+            if with_lens {
+                for f in free.iter_mut().skip(K1) {
+                    *f = true;
+                }
+            }
+        }
+    }
+    free
+}
+
+/// Squared error over all corners, or `None` if a corner cannot be projected.
+fn cost(p: &Params, choice: &LensChoice, floor: &[Point], screen: &[Point]) -> Option<f64> {
+    let m = model(p, choice);
+    let mut sum = 0.0;
+    for (f, s) in floor.iter().zip(screen) {
+        let q = m.project(f, 0.0).ok()?;
+        sum += (q - s).norm_squared();
+    }
+    sum.is_finite().then_some(sum)
+}
+
+fn step_of(value: f64) -> f64 {
+    DERIVATIVE_STEP * value.abs().max(1.0)
+}
+
+/// The 2 × 13 derivative of the projection of `f` by central differences.
+fn point_jacobian(
+    p: &Params,
+    choice: &LensChoice,
+    free: &[bool; PARAMS],
+    f: &Point,
+) -> Option<SMatrix<f64, 2, PARAMS>> {
+    let mut j = SMatrix::<f64, 2, PARAMS>::zeros();
+    for k in 0..PARAMS {
+        if !free[k] {
+            continue;
+        }
+        let h = step_of(p[k]);
+        let (mut a, mut b) = (*p, *p);
+        a[k] -= h;
+        b[k] += h;
+        let qa = model(&a, choice).project(f, 0.0).ok()?;
+        let qb = model(&b, choice).project(f, 0.0).ok()?;
+        let d = (qb - qa) / (2.0 * h);
+        j[(0, k)] = d.x;
+        j[(1, k)] = d.y;
+    }
+    Some(j)
+}
+
+/// Normal matrix and gradient at `p`.
+fn linearise(
+    p: &Params,
+    choice: &LensChoice,
+    free: &[bool; PARAMS],
+    floor: &[Point],
+    screen: &[Point],
+) -> Option<(Normal, Params)> {
+    let m = model(p, choice);
+    let mut jtj = Normal::zeros();
+    let mut jtr = Params::zeros();
+    for (f, s) in floor.iter().zip(screen) {
+        let r = m.project(f, 0.0).ok()? - s;
+        let j = point_jacobian(p, choice, free, f)?;
+        jtj += j.transpose() * j;
+        jtr += j.transpose() * Vector2::new(r.x, r.y);
+    }
+    Some((jtj, jtr))
+}
+
+/// Levenberg–Marquardt over the free parameters.
+fn minimise(
+    mut p: Params,
+    choice: &LensChoice,
+    free: &[bool; PARAMS],
+    floor: &[Point],
+    screen: &[Point],
+) -> Params {
+    let Some(mut c) = cost(&p, choice, floor, screen) else {
+        return p;
+    };
+    let mut lambda = 1e-3;
+    for _ in 0..MAX_ITERATIONS {
+        let Some((jtj, jtr)) = linearise(&p, choice, free, floor, screen) else {
+            break;
+        };
+        let mut improved = false;
+        while lambda < 1e12 {
+            let mut a = jtj;
+            for k in 0..PARAMS {
+                if free[k] {
+                    a[(k, k)] += lambda * jtj[(k, k)].max(1e-12);
+                } else {
+                    a[(k, k)] = 1.0;
+                }
+            }
+            let Some(step) = a.cholesky().map(|ch| ch.solve(&(-jtr))) else {
+                lambda *= 10.0;
+                continue;
+            };
+            let trial = p + step;
+            match cost(&trial, choice, floor, screen) {
+                Some(tc) if tc < c => {
+                    let converged = c - tc <= CONVERGED * c;
+                    p = trial;
+                    c = tc;
+                    lambda = (lambda * 0.3).max(1e-12);
+                    improved = !converged;
+                    break;
+                }
+                _ => lambda *= 10.0,
+            }
+        }
+        if !improved {
+            break;
+        }
+    }
+    p
+}
+
+/// Zhang's start: focal length from the homography (principal point at `centre`), then the
+/// pose from `K⁻¹ H`. For a known lens, the corners are undistorted first and `K` is that
+/// lens's.
+fn start(
+    floor: &[Point],
+    screen: &[Point],
+    size: FrameSize,
+    choice: &LensChoice,
+) -> Result<Params, CameraFitError> {
+    let centre = Point::new(
+        (size.width() as f64 - 1.0) / 2.0,
+        (size.height() as f64 - 1.0) / 2.0,
+    );
+    // Points in the frame of `K`: pixels about the centre, or a known lens's normalised rays.
+    let mut local: heapless::Vec<Point, MAX_FIT_POINTS> = heapless::Vec::new();
+    for s in screen {
+        let q = match choice {
+            LensChoice::Known(lens) => {
+                let n = lens.undistort(s).map_err(CameraFitError::NoStart)?;
+                Point::new(n.x, n.y)
+            }
+            _ => Point::new(s.x - centre.x, s.y - centre.y),
+        };
+        local.push(q).map_err(|_| CameraFitError::BadInput)?;
+    }
+    let h = *FloorMapping::fit(floor, &local)?
+        .floor_to_screen_homography()
+        .matrix();
+    let focal = match choice {
+        LensChoice::Known(_) => 1.0,
+        _ => zhang_focal(&h).unwrap_or(size.width() as f64),
+    };
+    let a = nalgebra::Matrix3::new(1.0 / focal, 0.0, 0.0, 0.0, 1.0 / focal, 0.0, 0.0, 0.0, 1.0) * h;
+    let (a1, a2, a3) = (
+        a.column(0).into_owned(),
+        a.column(1).into_owned(),
+        a.column(2).into_owned(),
+    );
+    let mut scale = 2.0 / (a1.norm() + a2.norm());
+    if a3.z * scale < 0.0 {
+        scale = -scale;
+    }
+    let (r1, r2, t) = (a1 * scale, a2 * scale, a3 * scale);
+    let r3 = r1.cross(&r2);
+    let m = nalgebra::Matrix3::from_columns(&[r1, r2, r3]);
+    let rotation = Rotation3::from_matrix(&m);
+    let axis = rotation.scaled_axis();
+    let mut p = Params::zeros();
+    p.fixed_rows_mut::<3>(0).copy_from(&axis);
+    p.fixed_rows_mut::<3>(3).copy_from(&t);
+    p[FOCAL] = focal;
+    p[CX] = centre.x;
+    p[CY] = centre.y;
+    if !p.iter().all(|v| v.is_finite()) {
+        return Err(CameraFitError::NoStart(CameraError::NonFinite));
+    }
+    Ok(p)
+}
+
+/// The focal length (square pixels, principal point at the origin) that makes the
+/// homography's first two columns orthogonal and of equal length, by least squares over both
+/// of Zhang's constraints; `None` for a view square to the floor, where they say nothing.
+fn zhang_focal(h: &nalgebra::Matrix3<f64>) -> Option<f64> {
+    let (a1, b1) = (
+        h[(0, 0)] * h[(0, 1)] + h[(1, 0)] * h[(1, 1)],
+        h[(2, 0)] * h[(2, 1)],
+    );
+    let (a2, b2) = (
+        h[(0, 0)].powi(2) + h[(1, 0)].powi(2) - h[(0, 1)].powi(2) - h[(1, 1)].powi(2),
+        h[(2, 0)].powi(2) - h[(2, 1)].powi(2),
+    );
+    // a / f² + b = 0 for both: 1/f² = −(a₁b₁ + a₂b₂) / (a₁² + a₂²).
+    let denominator = a1 * a1 + a2 * a2;
+    let inverse_square = -(a1 * b1 + a2 * b2) / denominator;
+    (inverse_square.is_finite() && inverse_square > 0.0).then(|| 1.0 / inverse_square.sqrt())
+}
+
+/// Fits the camera to corners at `floor` (floor units) detected at `screen` (pixels) in
+/// frames of `size`.
+pub fn fit_camera(
+    floor: &[Point],
+    screen: &[Point],
+    size: FrameSize,
+    choice: LensChoice,
+) -> Result<CameraFit, CameraFitError> {
+    if floor.len() != screen.len() || floor.len() > MAX_FIT_POINTS {
+        return Err(CameraFitError::BadInput);
+    }
+    let start = start(floor, screen, size, &choice)?;
+    let pinhole = minimise(start, &choice, &free_mask(&choice, false), floor, screen);
+    let free = free_mask(&choice, true);
+    let p = if free == free_mask(&choice, false) {
+        pinhole
+    } else {
+        minimise(pinhole, &choice, &free, floor, screen)
+    };
+    let camera = model(&p, &choice);
+    camera.lens.check(size).map_err(CameraFitError::BadLens)?;
+    let mut sum_sq = 0.0;
+    let mut max_px: f64 = 0.0;
+    for (f, s) in floor.iter().zip(screen) {
+        let d = (camera.project(f, 0.0).map_err(CameraFitError::BadLens)? - s).norm();
+        sum_sq += d * d;
+        max_px = max_px.max(d);
+    }
+    let n = floor.len();
+    let rms = (sum_sq / n.max(1) as f64).sqrt();
+    let free_count = free.iter().filter(|&&f| f).count();
+    // The corner noise per coordinate, from the residual with the fitted degrees removed.
+    let dof = (2 * n).saturating_sub(free_count);
+    let noise_px = if dof > 0 {
+        (sum_sq / dof as f64).sqrt().max(MIN_CORNER_NOISE_PX)
+    } else {
+        f64::INFINITY
+    };
+    let covariance = linearise(&p, &choice, &free, floor, screen)
+        .and_then(|(jtj, _)| {
+            let mut a = jtj;
+            for k in 0..PARAMS {
+                if !free[k] {
+                    a[(k, k)] = 1.0;
+                }
+            }
+            a.try_inverse()
+        })
+        .filter(|c| c.iter().all(|v| v.is_finite()) && noise_px.is_finite())
+        .map(|mut c| {
+            for k in 0..PARAMS {
+                for l in 0..PARAMS {
+                    if !(free[k] && free[l]) {
+                        c[(k, l)] = 0.0;
+                    }
+                }
+            }
+            c * noise_px * noise_px
+        });
+    let uncertainty = Uncertainty::over_picture(&p, &choice, covariance.as_ref(), size, floor);
+    Ok(CameraFit {
+        camera,
+        rms_residual_px: rms,
+        max_residual_px: max_px,
+        corners: n,
+        noise_px,
+        picture_uncertainty_px: uncertainty.max_px,
+        markers_area_uncertainty: uncertainty.markers_area,
+        picture_uncertainty: uncertainty.picture,
+        region_uncertainty_px: uncertainty.regions_px,
+    })
+}
+
+/// The covariance carried to the floor over a grid of the picture.
+struct Uncertainty {
+    max_px: f64,
+    markers_area: f64,
+    picture: f64,
+    regions_px: [f64; 9],
+}
+
+impl Uncertainty {
+    fn over_picture(
+        p: &Params,
+        choice: &LensChoice,
+        covariance: Option<&Normal>,
+        size: FrameSize,
+        markers: &[Point],
+    ) -> Uncertainty {
+        let Some(covariance) = covariance else {
+            return Uncertainty {
+                max_px: f64::INFINITY,
+                markers_area: f64::INFINITY,
+                picture: f64::INFINITY,
+                regions_px: [f64::INFINITY; 9],
+            };
+        };
+        let (lo, hi) = markers.iter().fold(
+            (
+                Point::new(f64::MAX, f64::MAX),
+                Point::new(f64::MIN, f64::MIN),
+            ),
+            |(lo, hi), m| {
+                (
+                    Point::new(lo.x.min(m.x), lo.y.min(m.y)),
+                    Point::new(hi.x.max(m.x), hi.y.max(m.y)),
+                )
+            },
+        );
+        let camera = model(p, choice);
+        let (w, h) = (size.width() as f64, size.height() as f64);
+        let mut out = Uncertainty {
+            max_px: 0.0,
+            markers_area: 0.0,
+            picture: 0.0,
+            regions_px: [0.0; 9],
+        };
+        for gy in 0..GRID_Y {
+            for gx in 0..GRID_X {
+                let q = Point::new(
+                    (gx as f64 + 0.5) * w / GRID_X as f64 - 0.5,
+                    (gy as f64 + 0.5) * h / GRID_Y as f64 - 0.5,
+                );
+                let Ok(floor) = camera.floor_point(&q, 0.0) else {
+                    continue;
+                };
+                // A variance that cannot be computed is no knowledge at all.
+                let sigma = floor_sigma(p, choice, covariance, &q).unwrap_or(f64::INFINITY);
+                // Floor per pixel here, to say the uncertainty in pixels.
+                let Some(scale) = floor_per_px(&camera, &q) else {
+                    continue;
+                };
+                let sigma_px = sigma / scale;
+                // NaN-safe: an undetermined point makes everything infinite.
+                let sigma_px = if sigma_px.is_nan() {
+                    f64::INFINITY
+                } else {
+                    sigma_px
+                };
+                out.max_px = out.max_px.max(sigma_px);
+                out.picture = out.picture.max(sigma);
+                let inside = (lo.x..=hi.x).contains(&floor.x) && (lo.y..=hi.y).contains(&floor.y);
+                if inside {
+                    out.markers_area = out.markers_area.max(sigma);
+                }
+                let region = (3 * gy / GRID_Y) * 3 + 3 * gx / GRID_X;
+                if let Some(u) = out.regions_px.get_mut(region) {
+                    *u = u.max(sigma_px);
+                }
+            }
+        }
+        out
+    }
+}
+
+/// 1σ of the floor point seen at `q` (root of the covariance's trace), floor units.
+fn floor_sigma(p: &Params, choice: &LensChoice, covariance: &Normal, q: &Point) -> Option<f64> {
+    let mut g = SMatrix::<f64, 2, PARAMS>::zeros();
+    for k in 0..PARAMS {
+        if covariance[(k, k)] == 0.0 {
+            continue;
+        }
+        let h = step_of(p[k]);
+        let (mut a, mut b) = (*p, *p);
+        a[k] -= h;
+        b[k] += h;
+        let fa = model(&a, choice).floor_point(q, 0.0).ok()?;
+        let fb = model(&b, choice).floor_point(q, 0.0).ok()?;
+        let d = (fb - fa) / (2.0 * h);
+        g[(0, k)] = d.x;
+        g[(1, k)] = d.y;
+    }
+    let c = g * covariance * g.transpose();
+    let variance = c.trace();
+    (variance.is_finite() && variance >= 0.0).then(|| variance.sqrt())
+}
+
+/// Floor units per pixel at `q`: the root of the mapping's area scale.
+fn floor_per_px(camera: &CameraModel, q: &Point) -> Option<f64> {
+    const H_PX: f64 = 0.5;
+    let at = |dx: f64, dy: f64| {
+        camera
+            .floor_point(&Point::new(q.x + dx, q.y + dy), 0.0)
+            .ok()
+    };
+    let dx = (at(H_PX, 0.0)? - at(-H_PX, 0.0)?) / (2.0 * H_PX);
+    let dy = (at(0.0, H_PX)? - at(0.0, -H_PX)?) / (2.0 * H_PX);
+    let area = (dx.x * dy.y - dx.y * dy.x).abs();
+    (area > 0.0 && area.is_finite()).then(|| area.sqrt())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::Matrix3;
+
+    fn size() -> FrameSize {
+        FrameSize::new(640, 480).unwrap()
+    }
+
+    /// The reference camera of the accuracy tests: 1.3 m up, looking obliquely down.
+    fn truth(lens: Lens) -> CameraModel {
+        let centre = Vector3::new(10.0, -70.0, -130.0);
+        let look = Vector3::new(10.0, -5.0, 0.0);
+        let forward = (look - centre).normalize();
+        let right = forward.cross(&Vector3::new(0.0, 0.0, -1.0)).normalize();
+        let down = forward.cross(&right);
+        let r = Matrix3::from_rows(&[right.transpose(), down.transpose(), forward.transpose()]);
+        CameraModel {
+            lens,
+            pose: Pose::new(r, -(r * centre)).unwrap(),
+        }
+    }
+
+    /// Corners of 18 cm markers with top-left corners at `origins`, and where `camera` sees
+    /// them, with a small deterministic jitter standing for detection noise.
+    fn corners(camera: &CameraModel, origins: &[(f64, f64)]) -> (Vec<Point>, Vec<Point>) {
+        let (mut floor, mut screen) = (Vec::new(), Vec::new());
+        for (i, &(x, y)) in origins.iter().enumerate() {
+            for (k, (dx, dy)) in [(0.0, 0.0), (18.0, 0.0), (18.0, 18.0), (0.0, 18.0)]
+                .into_iter()
+                .enumerate()
+            {
+                let f = Point::new(x + dx, y + dy);
+                let jitter = 0.05 * (((i * 4 + k) * 7919 % 13) as f64 / 6.0 - 1.0);
+                let s = camera.project(&f, 0.0).unwrap();
+                floor.push(f);
+                screen.push(Point::new(s.x + jitter, s.y - jitter));
+            }
+        }
+        (floor, screen)
+    }
+
+    const SPREAD: [(f64, f64); 6] = [
+        (93.0, 54.0),
+        (1.0, 59.0),
+        (-91.0, 54.0),
+        (65.0, -62.0),
+        (1.0, -65.0),
+        (-64.0, -62.0),
+    ];
+
+    #[test]
+    fn a_wide_lens_is_recovered_from_markers_spread_over_the_picture() {
+        let lens = Lens {
+            k1: -0.30,
+            k2: 0.09,
+            ..Lens::ideal(460.0, 460.0, 319.5, 239.5)
+        };
+        let camera = truth(lens);
+        let (floor, screen) = corners(&camera, &SPREAD);
+        let fit = fit_camera(&floor, &screen, size(), LensChoice::Fit).unwrap();
+        assert!(fit.rms_residual_px < 0.1, "{fit:?}");
+        assert!(fit.determined(), "{fit:?}");
+        // Floor positions over the picture agree with the true camera.
+        let mut worst: f64 = 0.0;
+        for v in (40..480).step_by(40) {
+            for u in (40..640).step_by(40) {
+                let q = Point::new(f64::from(u), f64::from(v));
+                let want = camera.floor_point(&q, 0.0).unwrap();
+                let got = fit.camera.floor_point(&q, 0.0).unwrap();
+                worst = worst.max((got - want).norm());
+            }
+        }
+        assert!(worst < 0.5, "worst floor error {worst:.3} cm");
+        assert!((fit.camera.pose.height() - 130.0).abs() < 2.0, "{fit:?}");
+    }
+
+    #[test]
+    fn markers_only_near_the_centre_leave_the_lens_undetermined() {
+        let lens = Lens {
+            k1: -0.30,
+            k2: 0.09,
+            ..Lens::ideal(460.0, 460.0, 319.5, 239.5)
+        };
+        let (floor, screen) = corners(&truth(lens), &[(0.0, 0.0), (20.0, -15.0)]);
+        let fit = fit_camera(&floor, &screen, size(), LensChoice::Fit).unwrap();
+        assert!(!fit.determined(), "{fit:?}");
+        let regions: Vec<&str> = fit.regions_above(LENS_UNDETERMINED_PX).collect();
+        assert!(
+            regions.contains(&"top left") && regions.contains(&"bottom right"),
+            "{regions:?}"
+        );
+        // An ideal lens is what the user asked for: fitted, and exact for an ideal camera.
+        let ideal = Lens::ideal(460.0, 460.0, 319.5, 239.5);
+        let (floor, screen) = corners(&truth(ideal), &[(0.0, 0.0), (20.0, -15.0)]);
+        let fit = fit_camera(&floor, &screen, size(), LensChoice::Ideal).unwrap();
+        assert!(fit.camera.lens.is_ideal());
+        assert!((fit.camera.lens.fx - 460.0).abs() < 15.0, "{fit:?}");
+    }
+
+    #[test]
+    fn a_known_lens_fits_the_pose_only() {
+        let lens = Lens {
+            k1: -0.12,
+            p1: 0.001,
+            p2: -0.001,
+            ..Lens::ideal(455.0, 462.0, 325.5, 235.5)
+        };
+        let camera = truth(lens);
+        let (floor, screen) = corners(&camera, &SPREAD[..2]);
+        let fit = fit_camera(&floor, &screen, size(), LensChoice::Known(lens)).unwrap();
+        assert_eq!(fit.camera.lens, lens);
+        let centre = fit.camera.pose.centre();
+        assert!((centre - camera.pose.centre()).norm() < 1.0, "{centre:?}");
+    }
+}

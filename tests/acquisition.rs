@@ -1,0 +1,244 @@
+//! Acquisition and the automatic level against the scene renderer's truth, over a small sweep
+//! of each situation (glare size, shape and level; LED brightness; noise):
+//!
+//! - the LED at rest at the start among static glare of several shapes: `ambiguous` and
+//!   `found: false` while it stands still, then found once it moves, and never the glare;
+//! - a hot pixel brighter than an LED the camera does not clip;
+//! - a large clipped window beside an LED dimmer than the window;
+//! - three LEDs on one rigid body: the tracker stays on one of them.
+//!
+//! In every case: after acquisition every visible frame is found, and every report lies
+//! within [`REPORT_TOLERANCE_PX`] of the true LED (no false reports).
+
+use glint::frame::{Frame, FrameSize};
+use glint::pipeline::{FrameReport, Pipeline, PipelineConfig};
+use glint::source::FrameMeta;
+use glint::track::TrackerConfig;
+use glint_tools::scene::{Point, Scene, SceneConfig, StaticLight, Truth, Visibility};
+
+/// A report farther than this from the true LED is a false report.
+const REPORT_TOLERANCE_PX: f64 = 3.0;
+
+/// Frames after the LED starts to move within which it must be acquired (0.2 s at 30 fps).
+const ACQUIRE_WITHIN_FRAMES: usize = 6;
+
+/// Runs glint's pipeline in-process over every frame of `config`'s scene.
+fn run(config: SceneConfig) -> (Scene, Vec<(FrameReport, Truth)>) {
+    let scene = Scene::new(config).expect("valid scene");
+    let size = FrameSize::new(scene.width_px(), scene.height_px()).unwrap();
+    let pipeline_config = PipelineConfig {
+        tracker: TrackerConfig {
+            exposure_us: Some(scene.exposure_us()),
+        },
+        ..PipelineConfig::default()
+    };
+    let mut pipeline = Pipeline::new(size, pipeline_config).unwrap();
+    let mut buffer = vec![0u8; scene.frame_len_bytes()];
+    let frame_us = 1e6 / scene.fps();
+    let reports = (0..scene.frame_count())
+        .map(|i| {
+            let truth = scene.render(i, &mut buffer).unwrap();
+            let frame = Frame::new_checked(&buffer, size, size.row_bytes()).unwrap();
+            let meta = FrameMeta {
+                index: i as u64,
+                sequence: i as u64,
+                dropped: 0,
+                timestamp_us: (i as f64 * frame_us) as u64,
+                monotonic_us: (i as f64 * frame_us) as u64,
+            };
+            (pipeline.process(&frame, meta), truth)
+        })
+        .collect();
+    (scene, reports)
+}
+
+/// Distance of a report's position from a truth shifted by `offset_px`.
+fn error_px(report: &FrameReport, truth: &Truth, offset_px: Point) -> Option<f64> {
+    let p = report.position?.position_px;
+    let (x, y) = (truth.x_px? + offset_px.x, truth.y_px? + offset_px.y);
+    Some((f64::from(p.0) - x).hypot(f64::from(p.1) - y))
+}
+
+/// Holds a run to the common rules: from the first found frame on, every visible frame is
+/// found, every report is within tolerance of the LED at `offset_px` from the truth, and
+/// nothing is reported while the LED is hidden. Returns the first found frame.
+fn check(label: &str, runs: &[(FrameReport, Truth)], offset_px: Point) -> usize {
+    let first = runs
+        .iter()
+        .position(|(r, _)| r.position.is_some())
+        .unwrap_or_else(|| panic!("{label}: the LED is never found"));
+    let mut worst_px: f64 = 0.0;
+    for (i, (report, truth)) in runs.iter().enumerate() {
+        match truth.visible {
+            Visibility::Hidden => {
+                assert!(report.position.is_none(), "{label}: frame {i} hidden");
+            }
+            Visibility::Visible if i >= first => {
+                let error = error_px(report, truth, offset_px)
+                    .unwrap_or_else(|| panic!("{label}: frame {i} visible but not found"));
+                worst_px = worst_px.max(error);
+                assert!(
+                    error <= REPORT_TOLERANCE_PX,
+                    "{label}: frame {i} reported {error:.1} px from the LED"
+                );
+            }
+            _ => {
+                if let Some(error) = error_px(report, truth, offset_px) {
+                    assert!(error <= REPORT_TOLERANCE_PX, "{label}: frame {i} off");
+                }
+            }
+        }
+    }
+    eprintln!("{label}: acquired in frame {first}, worst report {worst_px:.2} px");
+    first
+}
+
+fn preset(name: &str) -> SceneConfig {
+    Scene::preset_config(name).unwrap_or_else(|| panic!("no preset {name}"))
+}
+
+#[test]
+fn an_led_at_rest_among_static_glare_is_not_guessed() {
+    // Glare size scale, glare level (clip units), noise σ.
+    for (scale, peak, noise) in [(0.7, 1.3, 0.005), (1.0, 3.0, 0.01), (1.6, 8.0, 0.02)] {
+        let mut config = preset("rest-glare");
+        config.frame_count = 60;
+        config.camera.noise_sigma = noise;
+        for light in &mut config.static_lights {
+            match light {
+                StaticLight::Ellipse {
+                    radii_px, peak: p, ..
+                } => {
+                    *radii_px = Point::new(radii_px.x * scale, radii_px.y * scale);
+                    *p = peak;
+                }
+                StaticLight::Rect {
+                    width_px,
+                    height_px,
+                    peak: p,
+                    ..
+                } => {
+                    *width_px *= scale;
+                    *height_px *= scale;
+                    *p = peak;
+                }
+                StaticLight::Pixel { .. } => {}
+            }
+        }
+        let label = format!("rest-glare ×{scale} at {peak}× clip, σ {noise}");
+        let (_, runs) = run(config);
+        let rest = runs
+            .iter()
+            .take_while(|(_, t)| t.vx_px_s == Some(0.0) && t.vy_px_s == Some(0.0))
+            .count();
+        assert!(rest >= 25, "{label}: the LED rests about a second: {rest}");
+        for (i, (report, _)) in runs.iter().take(rest).enumerate() {
+            assert!(
+                report.position.is_none() && report.ambiguous,
+                "{label}: frame {i}, LED at rest among glare, must be ambiguous"
+            );
+        }
+        let first = check(&label, &runs, Point::default());
+        assert!(
+            first <= rest + ACQUIRE_WITHIN_FRAMES,
+            "{label}: acquired {first}, moving from {rest}"
+        );
+    }
+}
+
+#[test]
+fn a_hot_pixel_does_not_hide_an_unclipped_led() {
+    // LED radiance over the floor (top from about 232 to 248), hot pixel, noise σ.
+    for (led_peak, hot, noise) in [(0.52, 0.96, 0.004), (0.55, 0.97, 0.008), (0.6, 1.0, 0.01)] {
+        let mut config = preset("hot-pixel");
+        config.frame_count = 60;
+        config.led.peak = led_peak;
+        config.camera.noise_sigma = noise;
+        for light in &mut config.static_lights {
+            if let StaticLight::Pixel { radiance, .. } = light {
+                *radiance = hot;
+            }
+        }
+        let label = format!("hot-pixel LED {led_peak}, hot {hot}, σ {noise}");
+        let (_, runs) = run(config);
+        assert_eq!(
+            check(&label, &runs, Point::default()),
+            0,
+            "{label}: at once"
+        );
+    }
+}
+
+#[test]
+fn an_led_dimmer_than_a_window_is_found_beside_it() {
+    // LED radiance over the floor, window size scale and level, noise σ.
+    for (led_peak, scale, window, noise) in [
+        (0.54, 1.0, 1.1, 0.004),
+        (0.56, 0.6, 1.5, 0.008),
+        (0.6, 1.3, 3.0, 0.01),
+    ] {
+        let mut config = preset("window");
+        config.frame_count = 60;
+        config.led.peak = led_peak;
+        config.camera.noise_sigma = noise;
+        for light in &mut config.static_lights {
+            if let StaticLight::Rect {
+                width_px,
+                height_px,
+                peak,
+                ..
+            } = light
+            {
+                *width_px *= scale;
+                *height_px *= scale;
+                *peak = window;
+            }
+        }
+        let label = format!("window ×{scale} at {window}, LED {led_peak}, σ {noise}");
+        let (_, runs) = run(config);
+        assert!(
+            check(&label, &runs, Point::default()) <= 1,
+            "{label}: acquired late"
+        );
+    }
+}
+
+#[test]
+fn three_leds_on_one_body_the_tracker_stays_on_one() {
+    // The tracked LED's and its companions' radiance (clip units), noise σ. At 0.62 over the
+    // floor the first LED barely reaches clip: a level taken from the brightest LED in view
+    // would make it flicker in and out of the mask.
+    for (peak, peaks, noise) in [
+        (20.0, [6.0, 2.0], 0.005),
+        (20.0, [20.0, 1.3], 0.01),
+        (2.0, [1.5, 20.0], 0.02),
+        (0.62, [20.0, 6.0], 0.01),
+    ] {
+        let mut config = preset("three-leds");
+        config.frame_count = 90;
+        config.camera.noise_sigma = noise;
+        config.led.peak = peak;
+        for (companion, peak) in config.companions.iter_mut().zip(peaks) {
+            companion.led.peak = peak;
+        }
+        let offsets: Vec<Point> = core::iter::once(Point::default())
+            .chain(config.companions.iter().map(|c| c.offset_px))
+            .collect();
+        let label = format!("three-leds {peak} and {peaks:?}, σ {noise}");
+        let (_, runs) = run(config);
+        let (first_report, first_truth) = runs
+            .iter()
+            .find(|(r, _)| r.position.is_some())
+            .unwrap_or_else(|| panic!("{label}: never found"));
+        let offset = offsets
+            .iter()
+            .copied()
+            .min_by(|a, b| {
+                let e = |o: Point| error_px(first_report, first_truth, o).unwrap();
+                e(*a).total_cmp(&e(*b))
+            })
+            .unwrap();
+        let first = check(&label, &runs, offset);
+        assert!(first <= 1, "{label}: acquired in frame {first}");
+    }
+}

@@ -1,0 +1,343 @@
+//! `--mavlink` end to end, decoded by an implementation glint did not write: `glint track`
+//! sends MAVLink 2 on a pty's slave end; the master end's bytes go to pymavlink
+//! (`tests/mavlink/decode.py`), which checks every frame's CRC (CRC extra included) and decodes
+//! its fields. The test compares them with glint's own JSON reports of the same run.
+//!
+//! pymavlink lives in a venv made by `tools/setup-python.sh` (tools/test.sh runs it); without
+//! it this test fails and says the command.
+
+mod common;
+
+use std::io::{Read, Write};
+use std::os::unix::io::AsRawFd;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::Duration;
+
+use common::{glint, parse_jsonl, render};
+use glint::geometry::aruco::Dictionary;
+use glint::geometry::Point;
+use glint_tools::markers::{reference_camera, MarkerScene, PlacedMarker};
+use nix::fcntl::{fcntl, FcntlArg, FdFlag};
+use serde_json::Value;
+use serialport::{SerialPort, TTYPort};
+
+/// The bearing of floor +x given to glint: not a multiple of 90°, so a swapped or mirrored
+/// axis cannot pass.
+const YAW_OFFSET_DEG: f64 = 30.0;
+/// A system id other than the default, to see the flag arrive.
+const SYSTEM_ID: u64 = 7;
+/// `MAV_COMP_ID_VISUAL_INERTIAL_ODOMETRY`.
+const COMPONENT_ID: u64 = 197;
+/// `MAV_TYPE_ONBOARD_CONTROLLER`, `MAV_AUTOPILOT_INVALID`, `MAV_STATE_ACTIVE`.
+const HEARTBEAT_TYPE: u64 = 18;
+const HEARTBEAT_AUTOPILOT: u64 = 8;
+const HEARTBEAT_STATE: u64 = 4;
+/// The JSON prints floor positions with 3 decimals (cm), and MAVLink carries f32 metres.
+const POSITION_TOLERANCE_M: f64 = 1e-4;
+const VELOCITY_TOLERANCE_M_S: f64 = 1e-3;
+/// The variance of an angle uniform over the circle, π²/3 rad², given to unmeasured angles.
+const UNMEASURED_ANGLE_VARIANCE_RAD2: f64 = std::f64::consts::PI * std::f64::consts::PI / 3.0;
+
+/// The venv's python, or a failure that says how to make it.
+fn python() -> PathBuf {
+    let venv = std::env::var_os("GLINT_PY_VENV")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| {
+            PathBuf::from(std::env::var_os("HOME").expect("HOME")).join(".cache/glint-py")
+        });
+    let python = venv.join("bin/python");
+    assert!(
+        python.exists(),
+        "no pymavlink venv at {}: run tools/setup-python.sh (tools/test.sh does)",
+        venv.display()
+    );
+    python
+}
+
+fn marker(id: u16, x_cm: f64, y_cm: f64) -> PlacedMarker {
+    PlacedMarker {
+        dictionary: Dictionary::Aruco6x6_250,
+        id,
+        size_cm: 20.0,
+        origin_cm: Point::new(x_cm, y_cm),
+        rotation_deg: 0.0,
+    }
+}
+
+/// `glint calibrate` on rendered frames of two markers seen by the reference camera.
+fn calibrate(dir: &Path) -> PathBuf {
+    let scene = MarkerScene::new(
+        reference_camera(),
+        vec![marker(23, 0.0, 0.0), marker(101, 55.0, 45.0)],
+    );
+    let dump = dir.join("markers.yuv");
+    std::fs::write(&dump, scene.render_yuyv()).unwrap();
+    let out = dir.join("calib.toml");
+    let run = glint()
+        .args(["calibrate", "--input"])
+        .arg(&dump)
+        .args(["--size", "640x480", "--out"])
+        .arg(&out)
+        .args([
+            "--marker",
+            "23:20",
+            "--marker",
+            "101:20@55,45",
+            "--lens",
+            "ideal",
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    out
+}
+
+/// Decodes `bytes` with pymavlink: the messages, then the summary.
+fn decode(bytes: &[u8]) -> (Vec<Value>, Value) {
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/mavlink/decode.py");
+    let mut child = Command::new(python())
+        .arg(script)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("start python");
+    child.stdin.take().unwrap().write_all(bytes).unwrap();
+    let out = child.wait_with_output().unwrap();
+    assert!(
+        out.status.success(),
+        "decode.py: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let mut lines = parse_jsonl(&out.stdout);
+    let summary = lines.pop().expect("summary line")["summary"].clone();
+    (lines, summary)
+}
+
+/// `key=value` counts of the sink's summary line in glint's log.
+fn summary_count(log: &str, key: &str) -> u64 {
+    let line = log
+        .lines()
+        .find(|l| l.contains("mavlink port") && l.contains("positions="))
+        .unwrap_or_else(|| panic!("no mavlink summary in the log:\n{log}"));
+    line.split_whitespace()
+        .find_map(|kv| kv.strip_prefix(&format!("{key}=")))
+        .and_then(|v| v.parse().ok())
+        .unwrap_or_else(|| panic!("no {key} in {line}"))
+}
+
+fn f(v: &Value) -> f64 {
+    v.as_f64().unwrap_or_else(|| panic!("not a number: {v}"))
+}
+
+/// Floor cm → (north, east) m under the README's convention.
+fn north_east_m(x_cm: f64, y_cm: f64) -> (f64, f64) {
+    let (s, c) = YAW_OFFSET_DEG.to_radians().sin_cos();
+    ((x_cm * c - y_cm * s) / 100.0, (x_cm * s + y_cm * c) / 100.0)
+}
+
+#[test]
+fn pymavlink_decodes_every_message_with_the_reported_positions() {
+    let python = python();
+    assert!(python.exists());
+    let dir = tempfile::tempdir().unwrap();
+    let calib = calibrate(dir.path());
+    let r = render("figure-eight");
+
+    let (mut master, slave) = TTYPort::pair().expect("pty pair");
+    for end in [&master, &slave] {
+        fcntl(end.as_raw_fd(), FcntlArg::F_SETFD(FdFlag::FD_CLOEXEC)).expect("close-on-exec");
+    }
+    let name = slave.name().expect("slave name");
+    let stop = Arc::new(AtomicBool::new(false));
+    let reader = {
+        let stop = Arc::clone(&stop);
+        std::thread::spawn(move || {
+            let mut bytes = Vec::new();
+            let mut buf = [0u8; 4096];
+            let mut quiet = 0;
+            // After glint has exited, read until the pty has been empty for 200 ms.
+            while !stop.load(Ordering::Relaxed) || quiet < 200 {
+                match master.read(&mut buf) {
+                    Ok(n) if n > 0 => {
+                        bytes.extend_from_slice(&buf[..n]);
+                        quiet = 0;
+                    }
+                    _ => {
+                        std::thread::sleep(Duration::from_millis(1));
+                        quiet += 1;
+                    }
+                }
+            }
+            bytes
+        })
+    };
+    let size = format!("{}x{}", r.scene.width_px(), r.scene.height_px());
+    let run = glint()
+        .args(["-v", "track", "--input"])
+        .arg(&r.dump)
+        .args(["--size", &size, "--fps", &r.scene.fps().to_string()])
+        .args(["--exposure-us", &r.scene.exposure_us().to_string()])
+        .arg("--calib")
+        .arg(&calib)
+        .args(["--serial", &name, "--mavlink"])
+        .args(["--mavlink-yaw-offset-deg", &YAW_OFFSET_DEG.to_string()])
+        .args(["--mavlink-system-id", &SYSTEM_ID.to_string()])
+        .output()
+        .unwrap();
+    stop.store(true, Ordering::Relaxed);
+    let bytes = reader.join().unwrap();
+    let log = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "{log}");
+    let reports = parse_jsonl(&run.stdout);
+    let (messages, summary) = decode(&bytes);
+
+    // Every byte decodes, every CRC holds, and a flipped byte is caught.
+    assert!(
+        !messages.is_empty(),
+        "nothing decoded from {} bytes",
+        bytes.len()
+    );
+    assert!(
+        messages.iter().all(|m| m["type"] != "BAD_DATA"),
+        "bad frames: {:?}",
+        messages.iter().filter(|m| m["type"] == "BAD_DATA").count()
+    );
+    assert_eq!(summary["bytes"].as_u64(), Some(bytes.len() as u64));
+    assert!(summary["corrupted_bad"].as_u64() >= Some(1), "{summary}");
+
+    // Sequence numbers count every message, from 0; ids are glint's.
+    for (i, m) in messages.iter().enumerate() {
+        assert_eq!(m["seq"].as_u64(), Some(i as u64 % 256), "message {i}: {m}");
+        assert_eq!(m["sysid"].as_u64(), Some(SYSTEM_ID), "{m}");
+        assert_eq!(m["compid"].as_u64(), Some(COMPONENT_ID), "{m}");
+    }
+
+    let of_type = |t: &'static str| messages.iter().filter(move |m| m["type"] == t);
+    let heartbeats: Vec<_> = of_type("HEARTBEAT").collect();
+    assert_eq!(messages[0]["type"], "HEARTBEAT", "a heartbeat first");
+    for h in &heartbeats {
+        let fields = &h["fields"];
+        assert_eq!(fields["type"].as_u64(), Some(HEARTBEAT_TYPE));
+        assert_eq!(fields["autopilot"].as_u64(), Some(HEARTBEAT_AUTOPILOT));
+        assert_eq!(fields["system_status"].as_u64(), Some(HEARTBEAT_STATE));
+        assert_eq!(fields["mavlink_version"].as_u64(), Some(3));
+    }
+
+    // Positions: each at a reported frame's time, in metres, turned by the yaw offset.
+    let floor_reports: Vec<&Value> = reports
+        .iter()
+        .filter(|r| r["floor_x"].is_number())
+        .collect();
+    assert!(
+        floor_reports.len() > reports.len() / 2,
+        "the robot was on the floor"
+    );
+    let at = |usec: u64| {
+        floor_reports
+            .iter()
+            .find(|r| (f(&r["t"]) * 1e6).round() as u64 == usec)
+            .unwrap_or_else(|| panic!("no report with a floor position at {usec} µs"))
+    };
+    let positions: Vec<_> = of_type("VISION_POSITION_ESTIMATE").collect();
+    let mut last_usec = None;
+    for p in &positions {
+        let fields = &p["fields"];
+        let usec = fields["usec"].as_u64().unwrap();
+        assert!(Some(usec) > last_usec, "times increase");
+        last_usec = Some(usec);
+        let report = at(usec);
+        let (n, e) = north_east_m(f(&report["floor_x"]), f(&report["floor_y"]));
+        assert!(
+            (f(&fields["x"]) - n).abs() < POSITION_TOLERANCE_M,
+            "{fields} vs {report}"
+        );
+        assert!(
+            (f(&fields["y"]) - e).abs() < POSITION_TOLERANCE_M,
+            "{fields} vs {report}"
+        );
+        assert_eq!(f(&fields["z"]), 0.0);
+        let cov = fields["covariance"].as_array().expect("covariance sent");
+        assert_eq!(cov.len(), 21);
+        let variance = f(&cov[0]);
+        // A σ between 0.1 mm and 1 cm: a fraction of a pixel at a few mm per pixel (about 1 mm here).
+        assert!((1e-8..1e-4).contains(&variance), "variance {variance} m²");
+        // The diagonal: x, y, z the same; roll, pitch, yaw a whole circle (π²/3); 0 elsewhere.
+        let diagonal = [0, 6, 11, 15, 18, 20];
+        for (state, &i) in diagonal.iter().enumerate() {
+            let expected = if state < 3 {
+                variance
+            } else {
+                UNMEASURED_ANGLE_VARIANCE_RAD2
+            };
+            assert!(
+                (f(&cov[i]) - expected).abs() <= 1e-6 * expected,
+                "entry {i}: {cov:?}"
+            );
+        }
+        let off_diagonal = (0..21).filter(|i| !diagonal.contains(i));
+        assert!(
+            off_diagonal.into_iter().all(|i| f(&cov[i]) == 0.0),
+            "{cov:?}"
+        );
+    }
+    let speeds: Vec<_> = of_type("VISION_SPEED_ESTIMATE").collect();
+    for s in &speeds {
+        let fields = &s["fields"];
+        let report = at(fields["usec"].as_u64().unwrap());
+        let (n, e) = north_east_m(f(&report["floor_vx"]), f(&report["floor_vy"]));
+        assert!(
+            (f(&fields["x"]) - n).abs() < VELOCITY_TOLERANCE_M_S,
+            "{fields} vs {report}"
+        );
+        assert!(
+            (f(&fields["y"]) - e).abs() < VELOCITY_TOLERANCE_M_S,
+            "{fields} vs {report}"
+        );
+        assert!(
+            fields["covariance"][0].is_null(),
+            "velocity covariance unknown"
+        );
+    }
+
+    // Nothing lost: what was posted was received, or replaced unsent (and counted).
+    let posted = summary_count(&log, "positions") + summary_count(&log, "speeds");
+    let stale = summary_count(&log, "stale");
+    assert_eq!(summary_count(&log, "positions"), floor_reports.len() as u64);
+    assert_eq!(
+        positions.len() as u64 + speeds.len() as u64 + stale,
+        posted,
+        "{log}"
+    );
+    assert!(
+        positions.len() >= floor_reports.len() / 2,
+        "most positions sent: {log}"
+    );
+    assert!(!speeds.is_empty(), "velocities sent");
+    assert_eq!(heartbeats.len() as u64, summary_count(&log, "heartbeats"));
+}
+
+#[test]
+fn mavlink_without_a_calibration_is_refused_with_one_line() {
+    let r = render("slow-line");
+    let (_master, slave) = TTYPort::pair().expect("pty pair");
+    let name = slave.name().unwrap();
+    let out = common::track(&r, &["--serial", &name, "--mavlink"]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("--mavlink needs --calib"), "{err}");
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(out.stdout.is_empty());
+
+    // And it changes what --serial sends: without a port it is refused too.
+    let out = common::track(&r, &["--mavlink"]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--serial"));
+}
