@@ -1,7 +1,8 @@
 //! Per-stage and whole-path timings of detection on rendered frames, at 640×480 and 1280×720.
 //!
 //! Stages: the threshold into the bit mask (at a fixed level, and automatic), blob labelling, streak
-//! analysis (skeleton, centroid, ends), and the whole `Pipeline::process`. The frames are
+//! analysis (skeleton, centroid, ends), and the whole `Pipeline::process`, with the ends from
+//! the ramps (the default) and from the fitted streak model (`--streak-model fit`). The frames are
 //! rendered scenes with a moving LED streak on a textured floor. The threshold is also timed on
 //! the same frames repacked as UYVY and as GREY (mono cameras).
 
@@ -10,6 +11,7 @@ use std::hint::black_box;
 
 use glint::detect::bitimage::BitImage;
 use glint::detect::blobs::Labeler;
+use glint::detect::streak::StreakModel;
 use glint::detect::threshold;
 use glint::detect::{Detector, DetectorConfig};
 use glint::frame::{Frame, FrameSize, PixelFormat};
@@ -60,6 +62,21 @@ fn stages(c: &mut Criterion) {
         group.bench_with_input(BenchmarkId::new("pipeline", name), &frame, |b, frame| {
             b.iter(|| pipeline.process(black_box(frame), meta))
         });
+
+        // The same path with the streak model fitted to the pixels instead of the ramps.
+        let config = PipelineConfig {
+            detector: DetectorConfig {
+                streak_model: StreakModel::Fit,
+                ..DetectorConfig::default()
+            },
+            ..PipelineConfig::default()
+        };
+        let mut pipeline = Pipeline::new(size, config).unwrap();
+        group.bench_with_input(
+            BenchmarkId::new("pipeline_fit", name),
+            &frame,
+            |b, frame| b.iter(|| pipeline.process(black_box(frame), meta)),
+        );
         group.finish();
     }
 }

@@ -7,6 +7,7 @@ use clap::{Args, ValueEnum};
 
 use crate::detect::morph::Kernel;
 use crate::detect::skeleton::SkeletonMethod;
+use crate::detect::streak::StreakModel;
 use crate::detect::threshold::Threshold;
 use crate::detect::{DetectorConfig, MaskMethod};
 
@@ -42,6 +43,19 @@ pub struct LedArgs {
     /// Skeleton for the streak's middle and ends.
     #[arg(long, value_enum, default_value_t = SkeletonArg::Thinning)]
     pub skeleton: SkeletonArg,
+
+    /// How the LED's positions at the start and end of the exposure are measured.
+    #[arg(long, value_enum, default_value_t = StreakModelArg::Ramps)]
+    pub streak_model: StreakModelArg,
+}
+
+/// `--streak-model`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum StreakModelArg {
+    /// Brightness ramps at the ends, for a sharp-edged disk spot.
+    Ramps,
+    /// A swept-spot model fitted to the pixels (spot width, brightness, gamma from the frame).
+    Fit,
 }
 
 /// `--erode-kernel`.
@@ -74,6 +88,10 @@ impl LedArgs {
             skeleton: match self.skeleton {
                 SkeletonArg::Thinning => SkeletonMethod::Thinning,
                 SkeletonArg::Seed => SkeletonMethod::Morphological,
+            },
+            streak_model: match self.streak_model {
+                StreakModelArg::Ramps => StreakModel::Ramps,
+                StreakModelArg::Fit => StreakModel::Fit,
             },
             ..DetectorConfig::default()
         }
@@ -144,12 +162,14 @@ mod tests {
             erode: 10,
             erode_kernel: KernelArg::Cross,
             skeleton: SkeletonArg::Seed,
+            streak_model: StreakModelArg::Fit,
         };
         let config = args.detector_config(MaskMethod::Saturation);
         assert_eq!(config.threshold, Threshold::Fixed(200));
         assert_eq!(config.erosions, 10);
         assert_eq!(config.erosion_kernel, Kernel::Cross);
         assert_eq!(config.skeleton, SkeletonMethod::Morphological);
+        assert_eq!(config.streak_model, StreakModel::Fit);
         assert_eq!(config.min_area_px, DetectorConfig::default().min_area_px);
     }
 }

@@ -65,11 +65,13 @@ fn replay_allocates_nothing_per_frame() {
     );
     assert_eq!(allocations, 0, "allocations during {count} frames");
 
-    // The CSV sink and the seed's morphological skeleton keep the promise too.
+    // The CSV sink, the seed's morphological skeleton and the fitted streak model keep the
+    // promise too.
     let config = PipelineConfig {
         detector: glint::detect::DetectorConfig {
             skeleton: glint::detect::skeleton::SkeletonMethod::Morphological,
             erosions: 1,
+            streak_model: glint::detect::streak::StreakModel::Fit,
             ..Default::default()
         },
         tracker: glint::track::TrackerConfig {
@@ -80,9 +82,9 @@ fn replay_allocates_nothing_per_frame() {
     let mut pipeline = Pipeline::new(size, config).unwrap();
     let mut sink = CsvSink::new(BufWriter::with_capacity(64 * 1024, io::sink()), false);
     let allocations = allocations_during(|| {
-        pipeline::run(&mut source, &mut pipeline, &mut sink)
-            .1
-            .unwrap();
+        let (s, result) = pipeline::run(&mut source, &mut pipeline, &mut sink);
+        result.unwrap();
+        assert!(s.found > s.frames / 2, "{s:?}");
     });
     assert_eq!(allocations, 0);
 

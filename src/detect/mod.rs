@@ -6,6 +6,7 @@
 pub mod bgdiff;
 pub mod bitimage;
 pub mod blobs;
+pub mod fit;
 pub mod morph;
 pub mod skeleton;
 pub mod streak;
@@ -17,7 +18,7 @@ use bitimage::BitImage;
 use blobs::{Blob, Labeler, Overflow};
 use morph::Kernel;
 use skeleton::SkeletonMethod;
-use streak::{Streak, StreakScratch};
+use streak::{Streak, StreakModel, StreakScratch};
 use threshold::{blob_level, Levels, Threshold, AUTO_MARGIN_LUMA};
 
 use crate::frame::{Frame, FrameSize};
@@ -48,6 +49,8 @@ pub struct DetectorConfig {
     pub skeleton: SkeletonMethod,
     /// Blobs with fewer pixels are noise.
     pub min_area_px: u32,
+    /// How the LED's positions at the ends of the exposure are measured.
+    pub streak_model: StreakModel,
 }
 
 impl Default for DetectorConfig {
@@ -59,6 +62,7 @@ impl Default for DetectorConfig {
             erosion_kernel: Kernel::Square,
             skeleton: SkeletonMethod::Thinning,
             min_area_px: 2,
+            streak_model: StreakModel::Ramps,
         }
     }
 }
@@ -302,6 +306,7 @@ impl Detector {
             &blob,
             levels,
             self.config.skeleton,
+            self.config.streak_model,
             &mut self.streak,
         );
         Some((blob, streak))

@@ -12,10 +12,11 @@ use heapless::Deque;
 
 use super::bitimage::{BitImage, Window, NEIGHBOURS_8};
 use super::blobs::{Blob, Labeler};
+use super::fit::{self, Rough};
 use super::morph::{self, Kernel};
 use super::skeleton::{self, SkeletonMethod, SkeletonScratch, SEED_PRE_DILATIONS};
 use super::threshold::Levels;
-use super::tips::{self, Tips};
+use super::tips;
 use crate::frame::Frame;
 
 /// Pixels around a blob whose partial brightness still says where its edge is.
@@ -26,6 +27,15 @@ pub const WEIGHT_FLOOR_FRACTION: f32 = 0.6;
 
 /// A chord shorter than this gives no direction; the streak is treated as a dot.
 pub const MIN_CHORD_PX: f32 = 2.0;
+
+/// A Gaussian's full width at half maximum over its standard deviation.
+const FWHM_PER_SIGMA: f32 = 2.354_82;
+
+/// A path within this many of the fit's standard deviations of the spot's width is still.
+const STILL_UNCERTAINTIES: f32 = 2.0;
+
+/// A streak at most this many spot widths long takes its middle from the light's centre.
+const SHORT_STREAK_SPOTS: f32 = 3.0;
 
 /// Skeleton pixels the walk to the ends may visit; more belong to no LED.
 pub const MAX_SKELETON_PX: usize = 2048;
@@ -47,9 +57,37 @@ pub struct Streak {
     pub skeleton_px: u32,
     /// Mean thickness: area over skeleton length.
     pub thickness_px: f32,
-    /// The LED's position at both ends of the exposure, when the streak is long enough to
-    /// have two ends and both ramps could be measured.
-    pub tips: Option<Tips>,
+    /// Where the LED was at both ends of the exposure; `None` when they could not be
+    /// measured (the fit failed, or a ramp could not be read).
+    pub path: Option<StreakPath>,
+    /// The streak model was fitted and failed: the middle is the only position to trust
+    /// (nothing is extrapolated from it).
+    pub path_failed: bool,
+}
+
+/// How the LED's position at the start and end of the exposure is measured.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum StreakModel {
+    /// The brightness ramps at the streak's ends, extrapolated to the floor
+    /// ([`tips`]): built for a sharp-edged disk spot.
+    #[default]
+    Ramps,
+    /// A swept-spot model fitted to the pixels ([`fit`]): the spot's width, brightness and
+    /// the camera's tone come from the frame itself.
+    Fit,
+}
+
+/// The LED's path over the exposure.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StreakPath {
+    /// The LED at the two ends of the exposure, in the order of the skeleton's ends. For a
+    /// still LED (a streak no longer than the spot is wide) both are the middle: there is no
+    /// direction to tell them apart.
+    pub ends_px: [(f32, f32); 2],
+    /// Length of the path from end to end.
+    pub path_length_px: f32,
+    /// One standard deviation of the ends, from the fit's residual ([`StreakModel::Fit`]).
+    pub fit_px: Option<f32>,
 }
 
 /// Scratch for the streak stage, sized once to the frame.
@@ -94,6 +132,7 @@ impl StreakScratch {
 
 /// Analyses blob `index` of `labeler` on `frame`. `threshold_luma` is the level the mask was
 /// cut at; rim pixels are weighted by how close they come to it.
+#[allow(clippy::too_many_arguments)]
 pub fn analyze(
     frame: &Frame<'_>,
     labeler: &Labeler,
@@ -101,6 +140,7 @@ pub fn analyze(
     blob: &Blob,
     levels: Levels,
     method: SkeletonMethod,
+    model: StreakModel,
     scratch: &mut StreakScratch,
 ) -> Streak {
     let threshold_luma = levels.threshold_luma.unwrap_or(levels.top_luma);
@@ -176,18 +216,29 @@ pub fn analyze(
         seed_point_px,
         thickness_px,
     );
-    let tips = (dist(ends_px[0], ends_px[1]) >= MIN_CHORD_PX)
-        .then(|| {
-            tips::refine(
-                frame,
-                &scratch.skeleton,
-                window,
-                ends_px,
-                mid_px,
-                levels.top_luma,
-            )
-        })
-        .flatten();
+    let (mid_px, path) = match model {
+        StreakModel::Ramps => {
+            let tips = (dist(ends_px[0], ends_px[1]) >= MIN_CHORD_PX)
+                .then(|| {
+                    tips::refine(
+                        frame,
+                        &scratch.skeleton,
+                        window,
+                        ends_px,
+                        mid_px,
+                        levels.top_luma,
+                    )
+                })
+                .flatten();
+            let path = tips.map(|t| StreakPath {
+                ends_px: t.tips_px,
+                path_length_px: t.path_length_px,
+                fit_px: None,
+            });
+            (mid_px, path)
+        }
+        StreakModel::Fit => fitted_path(frame, blob, ends_px, mid_px, thickness_px, levels),
+    };
 
     Streak {
         centroid_px,
@@ -197,8 +248,49 @@ pub fn analyze(
         skeleton_length_px: steps,
         skeleton_px: skeleton_px as u32,
         thickness_px,
-        tips,
+        path,
+        path_failed: model == StreakModel::Fit && path.is_none(),
     }
+}
+
+/// The middle and the path from the fitted streak model, with the still rule; the streak's
+/// own middle and no path when the fit fails.
+fn fitted_path(
+    frame: &Frame<'_>,
+    blob: &Blob,
+    ends_px: [(f32, f32); 2],
+    mid_px: (f32, f32),
+    thickness_px: f32,
+    levels: Levels,
+) -> ((f32, f32), Option<StreakPath>) {
+    // A round blob's skeleton is a dot, and area over length is then its area: its width is
+    // at most the diameter of a disk of that area.
+    let disk_diameter_px = 2.0 * (blob.area_px as f32 / core::f32::consts::PI).sqrt();
+    let rough = Rough {
+        ends_px,
+        mid_px,
+        thickness_px: thickness_px.min(disk_diameter_px),
+    };
+    let Some(f) = fit::fit(frame, &rough, levels.top_luma) else {
+        return (mid_px, None);
+    };
+    let spot_width_px = FWHM_PER_SIGMA * f.spot_sigma_px;
+    // On a streak a few spots long, the light's symmetric centre is a steadier middle than
+    // the fitted path's, which trades length against the spot's width.
+    let mid = if f.path_length_px <= SHORT_STREAK_SPOTS * spot_width_px {
+        mid_px
+    } else {
+        f.mid_px
+    };
+    // No longer than the spot is wide, within the fit's uncertainty: still, and both ends
+    // are the middle.
+    let still = f.path_length_px <= spot_width_px + STILL_UNCERTAINTIES * f.uncertainty_px;
+    let path = StreakPath {
+        ends_px: if still { [mid; 2] } else { f.ends_px },
+        path_length_px: f.path_length_px,
+        fit_px: Some(f.uncertainty_px),
+    };
+    (mid, Some(path))
 }
 
 fn dist(a: (f32, f32), b: (f32, f32)) -> f32 {

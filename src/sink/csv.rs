@@ -9,7 +9,7 @@ use crate::pipeline::FrameReport;
 /// The header line.
 pub const CSV_HEADER: &str = "frame,t,found,x,y,mid_x,mid_y,pos_method,vx,vy,v_method,area_px,\
 len_px,seq,dropped,blobs,threshold,ambiguous,blinded,overflow,heading_deg,floor_x,floor_y,\
-floor_vx,floor_vy,floor_speed,floor_heading_deg,floor_unit,beyond_horizon";
+floor_vx,floor_vy,floor_speed,floor_heading_deg,floor_unit,beyond_horizon,fit_px";
 
 /// Writes reports as CSV rows under a header line naming the columns.
 pub struct CsvSink<W: Write> {
@@ -88,10 +88,18 @@ impl<W: Write> Sink for CsvSink<W> {
                     Some(h) => write!(out, ",{h:.2}")?,
                     None => write!(out, ",")?,
                 }
-                writeln!(out, ",{},false", f.unit)?;
+                write!(out, ",{},false", f.unit)?;
             }
-            Some(FloorFix::BeyondHorizon) => writeln!(out, ",,,,,,,,true")?,
-            None => writeln!(out, ",,,,,,,,false")?,
+            Some(FloorFix::BeyondHorizon) => write!(out, ",,,,,,,,true")?,
+            None => write!(out, ",,,,,,,,false")?,
+        }
+        match d
+            .best
+            .filter(|_| r.position.is_some())
+            .and_then(|(_, streak)| streak.path?.fit_px)
+        {
+            Some(fit_px) => writeln!(out, ",{fit_px:.3}")?,
+            None => writeln!(out, ",")?,
         }
         if self.live {
             out.flush()?;

@@ -12,7 +12,9 @@
 //! from +x towards +y of their coordinates ([`crate::track::marker_heading_deg`]). With
 //! `--predict arrival`, a found frame with a known velocity gets `predicted`: `{"x", "y" (px),
 //! "ahead_ms"}`, the position extrapolated to the moment the line is written, `ahead_ms` after
-//! the end of the exposure (see [`super::predict`]). Then the detection's diagnostics.
+//! the end of the exposure (see [`super::predict`]). Then the detection's diagnostics, among
+//! them, with `--streak-model fit`, `fit_px`: one standard deviation of the fitted path's ends
+//! (px).
 
 use std::io::{self, Write};
 
@@ -133,6 +135,9 @@ impl<W: Write> Sink for JsonLinesSink<W> {
                 ",\"area_px\":{},\"len_px\":{}",
                 blob.area_px, streak.skeleton_length_px
             )?;
+            if let Some(fit_px) = streak.path.and_then(|p| p.fit_px) {
+                write!(out, ",\"fit_px\":{fit_px:.3}")?;
+            }
         }
         write!(
             out,

@@ -309,9 +309,9 @@ impl Tracker {
             .copied()
             .filter(|_| self.previous_found);
         let mid_px = streak.mid_px;
-        let head = streak.tips.and_then(|tips| {
+        let head = streak.path.and_then(|path| {
             let before = previous?.estimate.position_px;
-            let [a, b] = tips.tips_px;
+            let [a, b] = path.ends_px;
             Some(if dist(a, before) >= dist(b, before) {
                 a
             } else {
@@ -319,9 +319,13 @@ impl Tracker {
             })
         });
         let velocity_px_s = self.velocity(streak, head.unwrap_or(mid_px), previous, t_us);
-        // A streak too short for its tips to be measured still moved: with the exposure
+        // A streak too short for its ends to be measured still moved: with the exposure
         // known, the head is half an exposure's travel ahead of the middle.
+        // A streak whose model failed to fit gives its middle and nothing more.
         let extrapolated = || {
+            if streak.path_failed {
+                return None;
+            }
             let exposure_s = self.config.exposure_us? as f32 * 1e-6;
             let ((vx, vy), _) = velocity_px_s?;
             Some((
@@ -353,8 +357,8 @@ impl Tracker {
         previous: Option<Sample>,
         t_us: u64,
     ) -> Option<((f32, f32), VelocityMethod)> {
-        if let (Some(exposure_us), Some(tips)) = (self.config.exposure_us, streak.tips) {
-            let speed = tips.path_length_px / (exposure_us as f32 * 1e-6);
+        if let (Some(exposure_us), Some(path)) = (self.config.exposure_us, streak.path) {
+            let speed = path.path_length_px / (exposure_us as f32 * 1e-6);
             // The direction of travel at the head: from the middle towards the head. Until
             // the head is known, the streak's axis gives the direction up to its sign, and the
             // previous middle settles the sign when there is one.
@@ -383,7 +387,7 @@ fn dist(a: (f32, f32), b: (f32, f32)) -> f32 {
 mod tests {
     use super::*;
     use crate::detect::blobs::BoundingBox;
-    use crate::detect::tips::Tips;
+    use crate::detect::streak::StreakPath;
 
     fn blob_at(x: f32, y: f32) -> Blob {
         Blob {
@@ -408,11 +412,12 @@ mod tests {
             skeleton_length_px: 0,
             skeleton_px: 1,
             thickness_px: 6.0,
-            tips: tips.map(|tips_px| Tips {
-                tips_px,
-                radius_px: 3.0,
-                path_length_px: ((tips_px[1].0 - tips_px[0].0).hypot(tips_px[1].1 - tips_px[0].1)),
+            path: tips.map(|ends_px| StreakPath {
+                ends_px,
+                path_length_px: ((ends_px[1].0 - ends_px[0].0).hypot(ends_px[1].1 - ends_px[0].1)),
+                fit_px: None,
             }),
+            path_failed: false,
         }
     }
 

@@ -11,7 +11,9 @@ use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
 use clap::Parser;
-use glint_tools::scene::{write_truth_csv, Knock, Scene, Truth, Visibility};
+use glint_tools::scene::{
+    write_truth_csv, Knock, Range, Scene, SceneConfig, Spot, SweepPoint, Truth, Visibility,
+};
 
 /// Render a synthetic glint scene with ground truth.
 #[derive(Parser, Debug)]
@@ -21,8 +23,38 @@ pub(crate) struct Args {
     #[arg(long)]
     list: bool,
     /// Preset name (see --list).
-    #[arg(long, required_unless_present = "list")]
+    #[arg(long, required_unless_present_any = ["list", "sweep"])]
     scene: Option<String>,
+    /// Render point N of the accuracy sweep instead of a preset (named sweep-N).
+    #[arg(long, value_name = "N", conflicts_with = "scene")]
+    sweep: Option<usize>,
+    /// Seed of the sweep the point is drawn from.
+    #[arg(long, default_value_t = 11)]
+    sweep_seed: u64,
+    /// The LED's spot profile: disk, gaussian or bloom (a Gaussian core in a wide glow).
+    #[arg(long, value_parser = ["disk", "gaussian", "bloom"])]
+    spot: Option<String>,
+    /// Spot width: the disk's radius or the Gaussian core's σ (default: the scene's).
+    #[arg(long)]
+    spot_px: Option<f64>,
+    /// Bloom only: the glow's σ in multiples of the core's.
+    #[arg(long, default_value_t = 4.0)]
+    glow_width: f64,
+    /// Bloom only: the glow's centre radiance relative to the core's.
+    #[arg(long, default_value_t = 0.05)]
+    glow_ratio: f64,
+    /// The spot's centre radiance in multiples of the clip level.
+    #[arg(long)]
+    peak: Option<f64>,
+    /// The camera's tone-curve exponent (1 is linear; webcams use 1.8–2.4).
+    #[arg(long)]
+    gamma: Option<f64>,
+    /// Read noise, in luma levels of a linear full-range camera.
+    #[arg(long)]
+    noise_luma: Option<f64>,
+    /// Output range: full (white 255) or studio (white 235).
+    #[arg(long, value_parser = ["full", "studio"])]
+    range: Option<String>,
     /// Directory for NAME.yuv and NAME.truth.csv (created if missing).
     #[arg(long, required_unless_present = "list")]
     out_dir: Option<PathBuf>,
@@ -93,15 +125,22 @@ fn run(args: Args) -> Result<()> {
         }
         return Ok(());
     }
-    let (Some(name), Some(out_dir)) = (args.scene, args.out_dir) else {
-        bail!("--scene and --out-dir are required (or --list)");
+    let Some(out_dir) = args.out_dir.clone() else {
+        bail!("--out-dir is required (or --list)");
     };
-    let Some(mut config) = Scene::preset_config(&name) else {
-        bail!(
-            "unknown scene {name:?}; known: {}",
-            Scene::names().join(", ")
-        );
+    let mut config = match (&args.scene, args.sweep) {
+        (_, Some(index)) => SweepPoint::new(args.sweep_seed, index).config(),
+        (Some(name), None) => match Scene::preset_config(name) {
+            Some(config) => config,
+            None => bail!(
+                "unknown scene {name:?}; known: {}",
+                Scene::names().join(", ")
+            ),
+        },
+        (None, None) => bail!("--scene or --sweep is required (or --list)"),
     };
+    let name = config.name.clone();
+    override_optics(&args, &mut config);
     if let Some(frames) = args.frames {
         config.frame_count = frames;
     }
@@ -193,6 +232,48 @@ fn run(args: Args) -> Result<()> {
         elapsed.as_secs_f64() * 1e3 / truths.len().max(1) as f64
     );
     Ok(())
+}
+
+/// Applies the spot, brightness and camera flags to `config`.
+fn override_optics(args: &Args, config: &mut SceneConfig) {
+    let led = &mut config.led;
+    if let Some(width) = args.spot_px {
+        led.radius_px = width;
+        led.spot = match led.spot {
+            Spot::Disk => Spot::Disk,
+            Spot::Gaussian { .. } | Spot::Bloom { .. } => Spot::Gaussian { sigma_px: width },
+        };
+    }
+    if let Some(kind) = &args.spot {
+        let sigma_px = led.radius_px;
+        led.spot = match kind.as_str() {
+            "gaussian" => Spot::Gaussian { sigma_px },
+            "bloom" => Spot::Bloom {
+                sigma_px,
+                glow_sigma_px: args.glow_width * sigma_px,
+                glow_ratio: args.glow_ratio,
+            },
+            _ => Spot::Disk,
+        };
+        if kind != "disk" {
+            // The old lens glow is the bloom's job now.
+            led.glow_peak = 0.0;
+        }
+    }
+    if let Some(peak) = args.peak {
+        led.peak = peak;
+    }
+    if let Some(gamma) = args.gamma {
+        config.camera.gamma = gamma;
+    }
+    if let Some(noise) = args.noise_luma {
+        config.camera.noise_sigma = noise / 255.0;
+    }
+    match args.range.as_deref() {
+        Some("studio") => config.camera.range = Range::Studio,
+        Some("full") => config.camera.range = Range::Full,
+        _ => {}
+    }
 }
 
 /// The floor truth of a scene with a camera view: `frame,floor_x_cm,floor_y_cm`, empty cells

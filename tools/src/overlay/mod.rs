@@ -333,7 +333,7 @@ impl<'a> Overlay<'a> {
             for end in streak.ends_px {
                 mark(canvas, style::ENDS, f64_pair(end));
             }
-            for tip in streak.tips.map(|t| t.tips_px).into_iter().flatten() {
+            for tip in streak.path.map(|p| p.ends_px).into_iter().flatten() {
                 mark(canvas, style::TIPS, f64_pair(tip));
             }
             mark(canvas, style::CENTROID, f64_pair(streak.centroid_px));

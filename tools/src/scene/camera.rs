@@ -55,6 +55,9 @@ pub struct Camera {
     pub noise_sigma: f64,
     /// Output range.
     pub range: Range,
+    /// The tone curve's exponent: the clipped linear signal `v` is written as `v^(1/gamma)`
+    /// (1.0 is linear; webcams use about 1.8–2.4, and the tracker is not told which).
+    pub gamma: f64,
 }
 
 impl Camera {
@@ -68,19 +71,35 @@ impl Camera {
         out: &mut [u8],
     ) {
         let sigma = self.noise_sigma as f32;
-        // Two monomorphised loops rather than a per-pixel branch on the noise.
-        match rng {
-            Some(rng) => self.pack_row(radiance, out, || sigma * rng.next_gaussian()),
-            None => self.pack_row(radiance, out, || 0.0),
+        let inverse_gamma = (1.0 / self.gamma) as f32;
+        let tone = |v: f32| v.powf(inverse_gamma);
+        // Monomorphised loops rather than per-pixel branches on the noise and the tone curve.
+        match (rng, self.gamma == 1.0) {
+            (Some(rng), true) => {
+                self.pack_row(radiance, out, || sigma * rng.next_gaussian(), |v| v)
+            }
+            (None, true) => self.pack_row(radiance, out, || 0.0, |v| v),
+            (Some(rng), false) => {
+                self.pack_row(radiance, out, || sigma * rng.next_gaussian(), tone)
+            }
+            (None, false) => self.pack_row(radiance, out, || 0.0, tone),
         }
     }
 
-    fn pack_row(&self, radiance: &[f32], out: &mut [u8], mut noise: impl FnMut() -> f32) {
+    /// Noise is read noise, added to the linear signal before the sensor clips it; the tone
+    /// curve follows, so a saturated pixel is always exactly white.
+    fn pack_row(
+        &self,
+        radiance: &[f32],
+        out: &mut [u8],
+        mut noise: impl FnMut() -> f32,
+        tone: impl Fn(f32) -> f32,
+    ) {
         let (black, span) = self.range.black_and_span();
         for (pair, quad) in radiance.chunks_exact(2).zip(out.chunks_exact_mut(4)) {
             let [a, b] = *pair else { continue };
-            let v0 = (a + noise()).clamp(0.0, 1.0);
-            let v1 = (b + noise()).clamp(0.0, 1.0);
+            let v0 = tone((a + noise()).clamp(0.0, 1.0));
+            let v1 = tone((b + noise()).clamp(0.0, 1.0));
             let fade = 1.0 - 0.5 * (v0 + v1);
             quad.copy_from_slice(&[
                 round_to_u8(black + span * v0),
@@ -114,6 +133,7 @@ mod tests {
         let camera = Camera {
             noise_sigma: 0.0,
             range: Range::Full,
+            gamma: 1.0,
         };
         let mut out = [0u8; 12];
         camera.expose_row(&[0.0, 1.0, 2.0, 1.5, 0.2, 0.2], &mut None, &mut out);
@@ -128,10 +148,24 @@ mod tests {
     }
 
     #[test]
+    fn gamma_lifts_mid_tones_and_keeps_black_and_white() {
+        let camera = Camera {
+            noise_sigma: 0.0,
+            range: Range::Full,
+            gamma: 2.2,
+        };
+        let mut out = [0u8; 8];
+        camera.expose_row(&[0.0, 0.25, 1.0, 3.0], &mut None, &mut out);
+        // 0.25^(1/2.2) = 0.5325 → 135.8
+        assert_eq!([out[0], out[2], out[4], out[6]], [0, 136, 255, 255]);
+    }
+
+    #[test]
     fn noise_has_the_configured_spread() {
         let camera = Camera {
             noise_sigma: 0.04,
             range: Range::Full,
+            gamma: 1.0,
         };
         let row = vec![0.5f32; 20_000];
         let mut out = vec![0u8; 40_000];

@@ -21,6 +21,7 @@ mod occlusion;
 mod optics;
 mod presets;
 mod rng;
+mod sweep;
 mod trajectory;
 mod truth;
 mod view;
@@ -31,7 +32,8 @@ pub use camera::{Camera, Range};
 pub use distractor::{Companion, StaticLight};
 pub use floor::Floor;
 pub use occlusion::Occluder;
-pub use optics::{Glare, Led};
+pub use optics::{Glare, Led, Spot};
+pub use sweep::{SpotKind, SweepPath, SweepPoint};
 pub use trajectory::{Motion, Point, Trajectory};
 pub use truth::{read_truth_csv, write_truth_csv, Truth, TruthCsvError, Visibility, CSV_HEADER};
 pub use view::{Knock, Lens, View};
@@ -427,7 +429,7 @@ impl Scene {
         let mut patch = Patch::around(
             min,
             max,
-            led.radius_px.max(glow_reach_px) + 1.0,
+            led.spot.reach_px(led.radius_px).max(glow_reach_px) + 1.0,
             width,
             height,
         );
@@ -435,8 +437,26 @@ impl Scene {
             return patch;
         }
         let weight = led.peak / disk_steps as f64;
-        for &centre in &positions {
-            patch.add_disk(centre, led.radius_px, weight);
+        match led.spot {
+            Spot::Disk => {
+                for &centre in &positions {
+                    patch.add_disk(centre, led.radius_px, weight);
+                }
+            }
+            spot => {
+                for (sigma_px, ratio) in spot.gaussians() {
+                    if ratio <= 0.0 {
+                        continue;
+                    }
+                    // A wide Gaussian is smooth: it needs fewer time samples.
+                    let steps =
+                        Exposure::steps_for(streak_px, MAX_DISK_STEP_PX.max(0.25 * sigma_px));
+                    let weight = ratio * led.peak / steps as f64;
+                    for t in exposure.sample_times(steps) {
+                        patch.add_gaussian(trajectory.motion(t).position_px, sigma_px, weight);
+                    }
+                }
+            }
         }
         if led.glow_peak > 0.0 {
             let glow_steps = Exposure::steps_for(streak_px, MAX_GLOW_STEP_PX);
@@ -705,6 +725,16 @@ fn validate(c: &SceneConfig) -> Result<(), SceneError> {
             "peak and glow_peak must be finite and not negative",
         ));
     }
+    let spot_ok = led.spot.gaussians().iter().all(|&(sigma_px, ratio)| {
+        (ratio == 0.0 || (sigma_px > 0.0 && sigma_px <= optics::MAX_SPOT_SIGMA_PX))
+            && finite_at_least(ratio, 0.0)
+    });
+    if !spot_ok {
+        return Err(invalid(
+            "led.spot",
+            "standard deviations must be positive and at most 25 px, the glow ratio not negative",
+        ));
+    }
     if led.glow_peak > 0.0 && !(led.glow_radius_px.is_finite() && led.glow_radius_px > 0.0) {
         return Err(invalid(
             "led.glow_radius_px",
@@ -748,6 +778,9 @@ fn validate(c: &SceneConfig) -> Result<(), SceneError> {
     }
     if !(c.floor.mean.is_finite() && c.floor.contrast.is_finite()) {
         return Err(invalid("floor", "mean and contrast must be finite"));
+    }
+    if !(c.camera.gamma.is_finite() && c.camera.gamma > 0.0) {
+        return Err(invalid("camera.gamma", "must be positive"));
     }
     if let Some(view) = &c.view {
         view.validate(c.width_px, c.height_px)

@@ -6,6 +6,11 @@
 //! error and its integral is exactly `π R² · peak`. A faint glow (a smooth compact bump) can
 //! surround the LED, as lens flare does on a real webcam.
 //!
+//! The LED's spot need not be a disk ([`Spot`]): a real LED seen through a cheap lens is closer
+//! to a Gaussian, or a narrow Gaussian core inside a wide glow (bloom), and its width changes
+//! with focus and distance. Gaussians are integrated exactly over each pixel's square too (a
+//! product of error-function differences), so their centroid is exact as well.
+//!
 //! Radiance is in linear sensor units where 1.0 is the clip level.
 
 use super::trajectory::Point;
@@ -13,9 +18,12 @@ use super::trajectory::Point;
 /// The moving LED.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Led {
-    /// Radius of the bright disk.
+    /// Radius of the bright disk; for the other spots, the radius within which the LED counts
+    /// as visible (about two standard deviations of the core).
     pub radius_px: f64,
-    /// Radiance inside the disk, in multiples of the clip level (several times 1.0 for a
+    /// The spot's profile.
+    pub spot: Spot,
+    /// Radiance at the spot's centre, in multiples of the clip level (several times 1.0 for a
     /// strong LED, so even streaks saturate).
     pub peak: f64,
     /// Peak radiance of the glow around the disk (0 disables it). Keep it faint: it adds to
@@ -23,6 +31,76 @@ pub struct Led {
     pub glow_peak: f64,
     /// Radius out to which the glow reaches; its profile is `(1 - (d/ρ)²)²`.
     pub glow_radius_px: f64,
+}
+
+/// The LED's blur spot on the sensor: its light at distance `d` from its centre, relative to
+/// the centre's.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Spot {
+    /// A uniformly bright disk of [`Led::radius_px`].
+    Disk,
+    /// A Gaussian, `exp(-d² / 2σ²)`.
+    Gaussian {
+        /// Standard deviation.
+        sigma_px: f64,
+    },
+    /// A narrow Gaussian core inside a wide Gaussian glow (bloom): `exp(-d²/2σ²) + glow_ratio ·
+    /// exp(-d²/2σ_g²)`.
+    Bloom {
+        /// Standard deviation of the core.
+        sigma_px: f64,
+        /// Standard deviation of the glow.
+        glow_sigma_px: f64,
+        /// The glow's centre radiance relative to the core's.
+        glow_ratio: f64,
+    },
+}
+
+impl Spot {
+    /// The Gaussian components as (σ, relative peak), at most two; none for a disk.
+    pub(crate) fn gaussians(self) -> [(f64, f64); 2] {
+        match self {
+            Spot::Disk => [(0.0, 0.0); 2],
+            Spot::Gaussian { sigma_px } => [(sigma_px, 1.0), (0.0, 0.0)],
+            Spot::Bloom {
+                sigma_px,
+                glow_sigma_px,
+                glow_ratio,
+            } => [(sigma_px, 1.0), (glow_sigma_px, glow_ratio)],
+        }
+    }
+
+    /// How far from the centre the spot's light reaches (beyond it, under 1e-4 of the peak).
+    pub(crate) fn reach_px(self, radius_px: f64) -> f64 {
+        match self {
+            Spot::Disk => radius_px,
+            _ => self
+                .gaussians()
+                .iter()
+                .map(|&(sigma, _)| GAUSSIAN_REACH_SIGMAS * sigma)
+                .fold(0.0, f64::max),
+        }
+    }
+}
+
+/// A Gaussian is drawn out to this many standard deviations (exp(-4.3²/2) ≈ 1e-4).
+const GAUSSIAN_REACH_SIGMAS: f64 = 4.3;
+
+/// The standard normal cumulative distribution, to about 1e-7 (Abramowitz & Stegun 7.1.26 on
+/// erf, whose error is at most 1.5e-7).
+pub(crate) fn normal_cdf(z: f64) -> f64 {
+    let x = z.abs() / std::f64::consts::SQRT_2;
+    let t = 1.0 / (1.0 + 0.327_591_1 * x);
+    let poly = t
+        * (0.254_829_592
+            + t * (-0.284_496_736
+                + t * (1.421_413_741 + t * (-1.453_152_027 + t * 1.061_405_429))));
+    let erf = 1.0 - poly * (-x * x).exp();
+    if z >= 0.0 {
+        0.5 * (1.0 + erf)
+    } else {
+        0.5 * (1.0 - erf)
+    }
 }
 
 /// A static, saturated light (a lamp, a reflection) that never moves.
@@ -117,6 +195,13 @@ pub(crate) fn pixel_disk_coverage(centre: Point, radius_px: f64, px: f64, py: f6
     disk_rect_area(radius_px, dx - 0.5, dx + 0.5, dy - 0.5, dy + 0.5)
 }
 
+/// Widest Gaussian (in pixel columns) [`Patch::add_gaussian`] draws, enough for
+/// [`MAX_SPOT_SIGMA_PX`].
+const MAX_GAUSSIAN_SPAN: usize = 256;
+
+/// Largest accepted spot or glow standard deviation.
+pub(crate) const MAX_SPOT_SIGMA_PX: f64 = 25.0;
+
 /// Glow radiance profile at distance² `d2` from the centre: `(1 - d²/ρ²)²` inside ρ.
 fn glow_profile(d2: f64, glow_radius_px: f64) -> f64 {
     let u = 1.0 - d2 / (glow_radius_px * glow_radius_px);
@@ -199,6 +284,35 @@ impl Patch {
                 if let Some(value) = line.get_mut(col) {
                     let px = (self.left + col) as f64;
                     *value += (weight * pixel_disk_coverage(centre, radius_px, px, py)) as f32;
+                }
+            }
+        }
+    }
+
+    /// Adds a Gaussian of standard deviation `sigma_px` and centre radiance `peak` at
+    /// `centre`, integrated exactly over each pixel's square: the pixel gets `peak · 2πσ²`
+    /// times the Gaussian's probability mass inside the square.
+    pub(crate) fn add_gaussian(&mut self, centre: Point, sigma_px: f64, peak: f64) {
+        let reach = GAUSSIAN_REACH_SIGMAS * sigma_px + 0.5;
+        let cols = self.index_range(centre.x - reach, centre.x + reach, self.left, self.width);
+        let rows = self.index_range(centre.y - reach, centre.y + reach, self.top, self.height);
+        let mass = |pixel: f64, c: f64| {
+            normal_cdf((pixel + 0.5 - c) / sigma_px) - normal_cdf((pixel - 0.5 - c) / sigma_px)
+        };
+        let mut column_mass = [0.0f64; MAX_GAUSSIAN_SPAN];
+        for (slot, col) in column_mass.iter_mut().zip(cols.clone()) {
+            *slot = mass((self.left + col) as f64, centre.x);
+        }
+        let scale = peak * std::f64::consts::TAU * sigma_px * sigma_px;
+        let width = self.width;
+        for row in rows {
+            let row_mass = scale * mass((self.top + row) as f64, centre.y);
+            let Some(line) = self.values.get_mut(row * width..(row + 1) * width) else {
+                continue;
+            };
+            for (col, m) in cols.clone().zip(column_mass) {
+                if let Some(value) = line.get_mut(col) {
+                    *value += (row_mass * m) as f32;
                 }
             }
         }
@@ -354,6 +468,35 @@ mod tests {
                 centre.y
             );
         }
+    }
+
+    /// A pixel-integrated Gaussian holds exactly `2πσ² · peak` and is centred on its centre.
+    #[test]
+    fn gaussian_sum_and_centroid_are_exact() {
+        for (centre, sigma) in [
+            (Point::new(30.37, 22.8), 0.8),
+            (Point::new(31.5, 20.02), 2.7),
+        ] {
+            let mut patch = Patch::around(centre, centre, 15.0, 64, 48);
+            patch.add_gaussian(centre, sigma, 2.0);
+            let (mut sum, mut sx, mut sy) = (0.0, 0.0, 0.0);
+            for y in 0..48 {
+                for x in 0..64 {
+                    let v = f64::from(patch.at(x, y));
+                    sum += v;
+                    sx += v * x as f64;
+                    sy += v * y as f64;
+                }
+            }
+            let expected = 2.0 * std::f64::consts::TAU * sigma * sigma;
+            assert!(
+                (sum - expected).abs() < 1e-3 * expected,
+                "sum {sum} vs {expected}"
+            );
+            assert!((sx / sum - centre.x).abs() < 1e-3 && (sy / sum - centre.y).abs() < 1e-3);
+        }
+        assert!((normal_cdf(0.0) - 0.5).abs() < 1e-9);
+        assert!((normal_cdf(1.0) - 0.841_344_746).abs() < 2e-7);
     }
 
     #[test]

@@ -5,7 +5,7 @@ use super::camera::{Camera, Range};
 use super::distractor::{Companion, StaticLight};
 use super::floor::Floor;
 use super::occlusion::Occluder;
-use super::optics::{Glare, Led};
+use super::optics::{Glare, Led, Spot};
 use super::trajectory::{Point, Trajectory};
 use super::view::{Knock, Lens, View};
 use super::SceneConfig;
@@ -65,6 +65,7 @@ const HOT_PIXEL_RADIANCE: f64 = 247.0 / 255.0;
 fn unclipped_led(peak: f64) -> Led {
     Led {
         radius_px: LED_RADIUS_PX,
+        spot: Spot::Disk,
         peak,
         glow_peak: 0.0,
         glow_radius_px: 0.0,
@@ -75,6 +76,7 @@ fn unclipped_led(peak: f64) -> Led {
 fn companion_led(peak: f64) -> Led {
     Led {
         radius_px: LED_RADIUS_PX,
+        spot: Spot::Disk,
         peak,
         glow_peak: 0.0,
         glow_radius_px: 0.0,
@@ -84,14 +86,15 @@ fn companion_led(peak: f64) -> Led {
 fn led(radius_px: f64) -> Led {
     Led {
         radius_px,
+        spot: Spot::Disk,
         peak: LED_PEAK,
         glow_peak: LED_GLOW_PEAK,
         glow_radius_px: LED_GLOW_RADIUS_PER_RADIUS * radius_px,
     }
 }
 
-/// The common defaults; each preset overrides what it is about.
-fn base(
+/// The common defaults; each preset (and each sweep point) overrides what it is about.
+pub(crate) fn base(
     name: &str,
     summary: &str,
     exposure_us: u32,
@@ -121,6 +124,7 @@ fn base(
         camera: Camera {
             noise_sigma: NOISE_SIGMA,
             range: Range::Full,
+            gamma: 1.0,
         },
         view: None,
     }
@@ -353,6 +357,7 @@ pub(crate) fn config(name: &str) -> Option<SceneConfig> {
             );
             config.led = Led {
                 radius_px: 2.0,
+                spot: Spot::Disk,
                 peak: 1.6,
                 glow_peak: 0.0,
                 glow_radius_px: 0.0,

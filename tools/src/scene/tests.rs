@@ -14,6 +14,7 @@ fn static_scene(at: Point, peak: f64, range: Range) -> Scene {
     };
     config.led = Led {
         radius_px: 3.5,
+        spot: Spot::Disk,
         peak,
         glow_peak: 0.0,
         glow_radius_px: 0.0,
@@ -26,6 +27,7 @@ fn static_scene(at: Point, peak: f64, range: Range) -> Scene {
     config.camera = Camera {
         noise_sigma: 0.0,
         range,
+        gamma: 1.0,
     };
     Scene::new(config).unwrap()
 }

@@ -1,0 +1,544 @@
+//! Where the LED was at the start, middle and end of the exposure: a model of the streak fitted
+//! to the pixels around it.
+//!
+//! The streak is the LED's blur spot swept along a path during the exposure, then clipped by
+//! the sensor and bent by the camera's unknown tone curve. The model says exactly that:
+//!
+//! - the path is a quadratic arc from `start` through `mid` to `end` (a straight line when
+//!   `mid` lies on the chord), swept at constant speed;
+//! - the spot is a Gaussian of standard deviation `σ`, so the swept light at a pixel is the
+//!   Gaussian's line integral along the path, in closed form per straight piece (an
+//!   error-function difference times a Gaussian across);
+//! - the camera maps that light `q` to luma `floor + B · q^k`: the amplitude `B` absorbs the
+//!   LED's brightness, the exponent `k` the tone curve (a Gaussian seen through `v^(1/γ)` is a
+//!   Gaussian `√γ` wider, and `k` lets the flanks and the ends share one `σ`), and `floor` the
+//!   background;
+//! - a clipped pixel says only "at least the clip level": it costs nothing when the model
+//!   reaches the clip there and is pulled up when it does not (a censored residual).
+//!
+//! So the spot's width, brightness and tone come from the streak's own unclipped flanks, not
+//! from constants tuned on one renderer. The nine parameters are fitted by Levenberg–Marquardt
+//! on a bounded set of pixels (both end caps in full, the body subsampled), with fixed-size
+//! matrices and no allocation. When the fit does not settle, or lands somewhere the pixels do
+//! not support, the caller falls back to the streak's middle.
+
+use nalgebra::{SMatrix, SVector};
+
+use crate::frame::Frame;
+
+/// Pixels the fit uses at most: both end caps and a subsample of the body.
+pub const MAX_FIT_PX: usize = 128;
+/// Of those, pixels taken from the body (between the end caps).
+const BODY_PX: usize = 32;
+/// Levenberg–Marquardt iterations at most, in each of the two stages.
+pub const MAX_ITERATIONS: usize = 10;
+/// The most the path's parameters may move in one step.
+const MAX_PATH_STEP_PX: f32 = 2.0;
+/// Straight pieces the arc is drawn with.
+const PIECES: usize = 4;
+/// Pixels farther than this from the rough path, beyond the streak's half thickness, are left
+/// out: the spot's light has faded into the floor there.
+const REACH_PX: f32 = 3.0;
+/// End-cap pixels: within this distance of a rough end, beyond half the thickness.
+const CAP_PX: f32 = 5.0;
+/// The fitted ends may move at most this far from the rough ones.
+const MAX_END_SHIFT_PX: f32 = 6.0;
+/// Bounds of the fitted spot σ and tone exponent.
+const SIGMA_RANGE_PX: (f32, f32) = (0.3, 12.0);
+const TONE_RANGE: (f32, f32) = (0.2, 8.0);
+/// Parameters: start x, y; end x, y; sagitta; ln σ of the core; ln σ of the glow; amplitude;
+/// glow ratio; tone exponent; floor.
+const PARAMS: usize = 11;
+/// The glow starts this many times wider than the core, and this bright relative to it.
+const GLOW_WIDTH0: f32 = 3.0;
+const GLOW_RATIO0: f32 = 0.05;
+/// The tone exponent starts at that of a gamma-2.2 camera.
+const TONE0: f32 = 0.45;
+
+type Params = SVector<f32, PARAMS>;
+type Normal = SMatrix<f32, PARAMS, PARAMS>;
+
+/// The rough streak the fit starts from (from the skeleton).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Rough {
+    /// The skeleton's ends.
+    pub ends_px: [(f32, f32); 2],
+    /// The streak's middle.
+    pub mid_px: (f32, f32),
+    /// Mean thickness of the saturated blob.
+    pub thickness_px: f32,
+}
+
+/// The fitted path.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PathFit {
+    /// The LED at the two ends of the exposure, in the order of the rough ends.
+    pub ends_px: [(f32, f32); 2],
+    /// The LED halfway through the exposure.
+    pub mid_px: (f32, f32),
+    /// Length of the path.
+    pub path_length_px: f32,
+    /// The spot's fitted standard deviation, as the camera shows it (tone included).
+    pub spot_sigma_px: f32,
+    /// One standard deviation of the ends' positions (the larger of the two), from the fit's
+    /// residual and its curvature: a frame whose model does not match its pixels shows here.
+    pub uncertainty_px: f32,
+}
+
+/// The pixels the fit uses: position and luma.
+struct Samples {
+    xy: [(f32, f32); MAX_FIT_PX],
+    luma: [f32; MAX_FIT_PX],
+    len: usize,
+}
+
+/// Fits the streak model around `rough` on `frame`, whose clipped pixels read `clip_luma`.
+/// `None` when the fit fails (too few pixels, no convergence, a result the pixels do not
+/// support).
+pub fn fit(frame: &Frame<'_>, rough: &Rough, clip_luma: u8) -> Option<PathFit> {
+    let clip = f32::from(clip_luma);
+    let samples = collect(frame, rough)?;
+    let floor0 = low_percentile(&samples);
+    let sigma0 = (0.3 * rough.thickness_px).clamp(0.7, 6.0);
+    let [a, b] = rough.ends_px;
+    let mut p = Params::from_column_slice(&[
+        a.0,
+        a.1,
+        b.0,
+        b.1,
+        sagitta_of(a, b, rough.mid_px),
+        sigma0.ln(),
+        (GLOW_WIDTH0 * sigma0).ln(),
+        2.0,
+        GLOW_RATIO0,
+        TONE0,
+        (floor0 / clip).clamp(0.01, 0.95).powf(1.0 / TONE0),
+    ]);
+    // First the core alone (no glow), which has one clear minimum near the start; then
+    // everything, from there. Started together, a wide core and a glow can settle into a
+    // wrong minimum that stretches the path.
+    let mut core_only = [true; PARAMS];
+    core_only[6] = false;
+    core_only[8] = false;
+    p[8] = 0.0;
+    let (p, _) = levenberg_marquardt(&samples, p, clip, &core_only)?;
+    let mut p = p;
+    p[8] = GLOW_RATIO0;
+    let (p, cost, normal) = match levenberg_marquardt(&samples, p, clip, &[true; PARAMS]) {
+        Some((q, _)) => {
+            let cost = cost_of(&samples, &q, clip)?;
+            (q, cost, normal_equations(&samples, &q, clip)?.0)
+        }
+        None => return None,
+    };
+    let sigma = p[5].exp();
+    let ends_px = [(p[0], p[1]), (p[2], p[3])];
+    // The skeleton's ends of a fat blob lie up to half its width from the path's.
+    let max_shift_px = MAX_END_SHIFT_PX.max(0.5 * rough.thickness_px);
+    let sane = p.iter().all(|v| v.is_finite())
+        && dist(ends_px[0], a).min(dist(ends_px[0], b)) <= max_shift_px
+        && dist(ends_px[1], b).min(dist(ends_px[1], a)) <= max_shift_px;
+    if !sane {
+        return None;
+    }
+    let residual_var = cost / (samples.len.saturating_sub(PARAMS).max(1)) as f32;
+    let mut regularised = normal;
+    for i in 0..PARAMS {
+        regularised[(i, i)] += 1e-6 * normal[(i, i)].max(1e-6);
+    }
+    let covariance = regularised.try_inverse()?;
+    let end_var = (covariance[(0, 0)] + covariance[(1, 1)])
+        .max(covariance[(2, 2)] + covariance[(3, 3)])
+        .max(0.0);
+    let path = Path::new(&p);
+    Some(PathFit {
+        ends_px,
+        mid_px: path.mid,
+        path_length_px: path.length(),
+        spot_sigma_px: sigma,
+        uncertainty_px: (end_var * residual_var).sqrt(),
+    })
+}
+
+/// Keeps the spot's widths, the amplitude, glow ratio, tone exponent and floor where they
+/// mean something, so that one wild step cannot carry the fit into a degenerate corner (a
+/// vanishing exponent with a huge amplitude fits a flat streak as well as anything).
+fn clamp_params(mut p: Params) -> Params {
+    // At most a half circle in one exposure.
+    let half_chord = 0.5 * (p[2] - p[0]).hypot(p[3] - p[1]);
+    p[4] = p[4].clamp(-half_chord, half_chord);
+    p[5] = p[5].clamp(SIGMA_RANGE_PX.0.ln(), SIGMA_RANGE_PX.1.ln());
+    // The glow is the wider and the dimmer of the two components.
+    p[6] = p[6].clamp(p[5], (2.0 * SIGMA_RANGE_PX.1).ln());
+    p[7] = p[7].max(1e-3);
+    p[8] = p[8].clamp(0.0, 1.0);
+    p[9] = p[9].clamp(TONE_RANGE.0, TONE_RANGE.1);
+    p[10] = p[10].clamp(0.0, 1.0);
+    p
+}
+
+/// Levenberg–Marquardt from `p` over the parameters marked `active` (the others stay
+/// put), at most [`MAX_ITERATIONS`] iterations. Returns the parameters and the cost.
+fn levenberg_marquardt(
+    samples: &Samples,
+    mut p: Params,
+    clip: f32,
+    active: &[bool; PARAMS],
+) -> Option<(Params, f32)> {
+    let mut cost = cost_of(samples, &p, clip)?;
+    let mut lambda = 1e-2f32;
+    for _ in 0..MAX_ITERATIONS {
+        let (mut jtj, mut jtr) = normal_equations(samples, &p, clip)?;
+        for (i, &on) in active.iter().enumerate() {
+            if !on {
+                jtj.row_mut(i).fill(0.0);
+                jtj.column_mut(i).fill(0.0);
+                jtj[(i, i)] = 1.0;
+                jtr[i] = 0.0;
+            }
+        }
+        let mut improved = false;
+        for _ in 0..4 {
+            let mut damped = jtj;
+            for i in 0..PARAMS {
+                damped[(i, i)] += lambda * jtj[(i, i)].max(1e-6);
+            }
+            let Some(mut step) = damped.cholesky().map(|c| c.solve(&jtr)) else {
+                lambda *= 10.0;
+                continue;
+            };
+            // A trust region on the path: no point of it moves more than a few pixels a step.
+            let reach = step.rows(0, 5).amax();
+            if reach > MAX_PATH_STEP_PX {
+                step *= MAX_PATH_STEP_PX / reach;
+            }
+            let trial = clamp_params(p + step);
+            match cost_of(samples, &trial, clip) {
+                Some(c) if c < cost => {
+                    let converged = (cost - c) < 1e-4 * cost;
+                    p = trial;
+                    cost = c;
+                    lambda = (lambda * 0.3).max(1e-6);
+                    improved = !converged;
+                    break;
+                }
+                _ => lambda *= 10.0,
+            }
+        }
+        if !improved {
+            break;
+        }
+    }
+    Some((p, cost))
+}
+
+fn dist(a: (f32, f32), b: (f32, f32)) -> f32 {
+    (a.0 - b.0).hypot(a.1 - b.1)
+}
+
+/// Signed distance of `mid` from the chord `a → b`, along the chord's left normal.
+fn sagitta_of(a: (f32, f32), b: (f32, f32), mid: (f32, f32)) -> f32 {
+    let (dx, dy) = (b.0 - a.0, b.1 - a.1);
+    let len = dx.hypot(dy);
+    if len < 1e-3 {
+        return 0.0;
+    }
+    let (mx, my) = (0.5 * (a.0 + b.0), 0.5 * (a.1 + b.1));
+    ((mid.0 - mx) * -dy + (mid.1 - my) * dx) / len
+}
+
+/// The arc of parameters `p`, drawn as [`PIECES`] straight pieces.
+struct Path {
+    /// Each piece's start, unit direction and length.
+    pieces: [Piece; PIECES],
+    length: f32,
+    mid: (f32, f32),
+    /// The core's and the glow's σ.
+    sigmas: [f32; 2],
+}
+
+#[derive(Clone, Copy, Default)]
+struct Piece {
+    start: (f32, f32),
+    unit: (f32, f32),
+    length: f32,
+}
+
+impl Path {
+    fn new(p: &Params) -> Path {
+        let (a, b) = ((p[0], p[1]), (p[2], p[3]));
+        let (dx, dy) = (b.0 - a.0, b.1 - a.1);
+        let len = dx.hypot(dy).max(1e-6);
+        let mid = (
+            0.5 * (a.0 + b.0) - p[4] * dy / len,
+            0.5 * (a.1 + b.1) + p[4] * dx / len,
+        );
+        // The quadratic Bézier through a, mid (at t = 1/2) and b.
+        let c = (
+            2.0 * mid.0 - 0.5 * (a.0 + b.0),
+            2.0 * mid.1 - 0.5 * (a.1 + b.1),
+        );
+        let point = |i: usize| {
+            let t = i as f32 / PIECES as f32;
+            let (u, v, w) = ((1.0 - t) * (1.0 - t), 2.0 * t * (1.0 - t), t * t);
+            (u * a.0 + v * c.0 + w * b.0, u * a.1 + v * c.1 + w * b.1)
+        };
+        let mut pieces = [Piece::default(); PIECES];
+        let mut length = 0.0;
+        for (i, piece) in pieces.iter_mut().enumerate() {
+            let (s, e) = (point(i), point(i + 1));
+            let l = dist(s, e);
+            let unit = if l > 1e-6 {
+                ((e.0 - s.0) / l, (e.1 - s.1) / l)
+            } else {
+                (1.0, 0.0)
+            };
+            *piece = Piece {
+                start: s,
+                unit,
+                length: l,
+            };
+            length += l;
+        }
+        Path {
+            pieces,
+            length,
+            mid,
+            sigmas: [p[5].exp(), p[6].exp()],
+        }
+    }
+
+    fn length(&self) -> f32 {
+        self.length
+    }
+
+    /// The swept Gaussians' light at `(x, y)` (core, glow), each relative to a still spot's
+    /// centre: the spot's line integral along the path over the path's length.
+    fn light2(&self, x: f32, y: f32) -> (f32, f32) {
+        let mut out = [0.0f32; 2];
+        for (light, &sigma) in out.iter_mut().zip(&self.sigmas) {
+            let inv = 1.0 / sigma;
+            if self.length < 1e-3 * sigma {
+                let (dx, dy) = (x - self.mid.0, y - self.mid.1);
+                *light = (-0.5 * (dx * dx + dy * dy) * inv * inv).exp();
+                continue;
+            }
+            let mut sum = 0.0;
+            for piece in &self.pieces {
+                if piece.length < 1e-6 {
+                    continue;
+                }
+                let (px, py) = (x - piece.start.0, y - piece.start.1);
+                let across = (px * -piece.unit.1 + py * piece.unit.0) * inv;
+                if across.abs() > 5.0 {
+                    continue;
+                }
+                let along = (px * piece.unit.0 + py * piece.unit.1) * inv;
+                let span = normal_cdf(along) - normal_cdf(along - piece.length * inv);
+                if span > 0.0 {
+                    sum += (-0.5 * across * across).exp() * span;
+                }
+            }
+            *light = sum * SQRT_TAU * sigma / self.length;
+        }
+        (out[0], out[1])
+    }
+}
+
+const SQRT_TAU: f32 = 2.506_628_3;
+
+/// The standard normal cumulative distribution (Abramowitz & Stegun 7.1.26, error < 2e-7).
+fn normal_cdf(z: f32) -> f32 {
+    if z > 5.5 {
+        return 1.0;
+    }
+    if z < -5.5 {
+        return 0.0;
+    }
+    let x = z.abs() * core::f32::consts::FRAC_1_SQRT_2;
+    let t = 1.0 / (1.0 + 0.327_591_1 * x);
+    let poly = t
+        * (0.254_829_6
+            + t * (-0.284_496_74 + t * (1.421_413_7 + t * (-1.453_152_1 + t * 1.061_405_4))));
+    let erfc = poly * (-x * x).exp();
+    if z >= 0.0 {
+        1.0 - 0.5 * erfc
+    } else {
+        0.5 * erfc
+    }
+}
+
+/// The model's luma at a pixel, `clip · (floor + A (core + r glow))^k`, with the light `Q =
+/// core + r glow` and the glow's light there.
+#[inline]
+fn model(path: &Path, p: &Params, x: f32, y: f32, clip: f32) -> (f32, (f32, f32)) {
+    let (core, glow) = path.light2(x, y);
+    let q = core + p[8].max(0.0) * glow;
+    let v = (p[10] + p[7] * q).max(1e-6);
+    (clip * (p[9] * v.ln()).exp(), (q, glow))
+}
+
+/// A sample's residual: luma minus model, or for a clipped pixel how far the model falls
+/// short of the clip level (zero when it reaches it).
+#[inline]
+fn residual(luma: f32, model: f32, clip: f32) -> f32 {
+    if luma >= clip {
+        (clip - model).max(0.0)
+    } else {
+        luma - model
+    }
+}
+
+fn cost_of(s: &Samples, p: &Params, clip: f32) -> Option<f32> {
+    let path = Path::new(p);
+    let mut cost = 0.0;
+    for (&(x, y), &luma) in s.xy.iter().zip(&s.luma).take(s.len) {
+        let r = residual(luma, model(&path, p, x, y, clip).0, clip);
+        cost += r * r;
+    }
+    cost.is_finite().then_some(cost)
+}
+
+/// `JᵀJ` and `Jᵀr` at `p`: numeric derivatives for the path and σ, analytic ones for the
+/// amplitude, exponent and floor.
+fn normal_equations(s: &Samples, p: &Params, clip: f32) -> Option<(Normal, Params)> {
+    const NUMERIC: usize = 7;
+    const STEP: [f32; NUMERIC] = [1e-2, 1e-2, 1e-2, 1e-2, 1e-2, 1e-3, 1e-3];
+    let base = Path::new(p);
+    let shifted: [(Path, Params); NUMERIC] = core::array::from_fn(|i| {
+        let mut q = *p;
+        q[i] += STEP[i];
+        (Path::new(&q), q)
+    });
+    let mut jtj = Normal::zeros();
+    let mut jtr = Params::zeros();
+    for (&(x, y), &luma) in s.xy.iter().zip(&s.luma).take(s.len) {
+        let (m, (q, glow)) = model(&base, p, x, y, clip);
+        let r = residual(luma, m, clip);
+        // A clipped pixel the model already reaches carries no gradient.
+        if luma >= clip && m >= clip {
+            continue;
+        }
+        let mut row = Params::zeros();
+        for (i, (path, shifted_p)) in shifted.iter().enumerate() {
+            row[i] = (model(path, shifted_p, x, y, clip).0 - m) / STEP[i];
+        }
+        let v = (p[10] + p[7] * q).max(1e-6);
+        let slope = p[9] * m / v;
+        row[7] = slope * q;
+        row[8] = slope * p[7] * glow;
+        row[9] = m * v.ln();
+        row[10] = slope;
+        jtj += row * row.transpose();
+        jtr += row * r;
+    }
+    (jtr.iter().all(|v| v.is_finite())).then_some((jtj, jtr))
+}
+
+/// Distance from `(x, y)` to the polyline `a → mid → b`.
+fn distance_to_rough(rough: &Rough, x: f32, y: f32) -> f32 {
+    let [a, b] = rough.ends_px;
+    segment_distance(a, rough.mid_px, x, y).min(segment_distance(rough.mid_px, b, x, y))
+}
+
+fn segment_distance(a: (f32, f32), b: (f32, f32), x: f32, y: f32) -> f32 {
+    let (dx, dy) = (b.0 - a.0, b.1 - a.1);
+    let l2 = dx * dx + dy * dy;
+    let t = if l2 > 0.0 {
+        (((x - a.0) * dx + (y - a.1) * dy) / l2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (x - a.0 - t * dx).hypot(y - a.1 - t * dy)
+}
+
+/// The pixels around the rough streak: every pixel of both end caps, and an even subsample
+/// of the body, [`MAX_FIT_PX`] at most.
+fn collect(frame: &Frame<'_>, rough: &Rough) -> Option<Samples> {
+    let half = 0.5 * rough.thickness_px;
+    let reach = half + REACH_PX;
+    let cap = half + CAP_PX;
+    let [a, b] = rough.ends_px;
+    let size = frame.size();
+    let lo = |v: f32| (v - reach - 1.0).floor().max(0.0) as usize;
+    let hi =
+        |v: f32, n: usize| ((v + reach + 1.0).ceil().max(0.0) as usize).min(n.saturating_sub(1));
+    let (x0, x1) = (
+        lo(a.0.min(b.0).min(rough.mid_px.0)),
+        hi(a.0.max(b.0).max(rough.mid_px.0), size.width()),
+    );
+    let (y0, y1) = (
+        lo(a.1.min(b.1).min(rough.mid_px.1)),
+        hi(a.1.max(b.1).max(rough.mid_px.1), size.height()),
+    );
+    let near = |x: f32, y: f32| distance_to_rough(rough, x, y) <= reach;
+    let in_cap = |x: f32, y: f32| dist((x, y), a) <= cap || dist((x, y), b) <= cap;
+    // First pass: count both kinds of pixel, to subsample each evenly.
+    let (mut caps, mut body) = (0usize, 0usize);
+    for y in y0..=y1 {
+        for x in x0..=x1 {
+            let (fx, fy) = (x as f32, y as f32);
+            if near(fx, fy) {
+                if in_cap(fx, fy) {
+                    caps += 1;
+                } else {
+                    body += 1;
+                }
+            }
+        }
+    }
+    let cap_stride = caps.div_ceil(MAX_FIT_PX - BODY_PX).max(1);
+    let body_stride = body.div_ceil(BODY_PX).max(1);
+    let mut s = Samples {
+        xy: [(0.0, 0.0); MAX_FIT_PX],
+        luma: [0.0; MAX_FIT_PX],
+        len: 0,
+    };
+    let (mut caps_seen, mut body_seen) = (0usize, 0usize);
+    for y in y0..=y1 {
+        for x in x0..=x1 {
+            let (fx, fy) = (x as f32, y as f32);
+            if !near(fx, fy) {
+                continue;
+            }
+            let (seen, stride) = if in_cap(fx, fy) {
+                (&mut caps_seen, cap_stride)
+            } else {
+                (&mut body_seen, body_stride)
+            };
+            *seen += 1;
+            if !(*seen - 1).is_multiple_of(stride) {
+                continue;
+            }
+            let Some(luma) = frame.luma(x, y) else {
+                continue;
+            };
+            let (Some(xy), Some(l)) = (s.xy.get_mut(s.len), s.luma.get_mut(s.len)) else {
+                continue;
+            };
+            *xy = (fx, fy);
+            *l = f32::from(luma);
+            s.len += 1;
+        }
+    }
+    (s.len > 2 * PARAMS).then_some(s)
+}
+
+/// The 20th percentile of the samples' luma: the floor around the streak.
+fn low_percentile(s: &Samples) -> f32 {
+    let mut histogram = [0u16; 256];
+    for &luma in s.luma.iter().take(s.len) {
+        if let Some(count) = histogram.get_mut(luma as usize) {
+            *count += 1;
+        }
+    }
+    let target = s.len / 5;
+    let mut seen = 0usize;
+    for (level, &count) in histogram.iter().enumerate() {
+        seen += usize::from(count);
+        if seen > target {
+            return level as f32;
+        }
+    }
+    0.0
+}

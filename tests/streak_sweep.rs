@@ -1,0 +1,289 @@
+//! Accuracy over a sweep of physical parameters (spot profile and width, brightness, gamma,
+//! noise, range, straight and curved paths), not at one renderer setting: every point of a
+//! seeded random subset of the sweep is held to the bounds.
+//!
+//! The default run takes [`DEFAULT_POINTS`] points; `GLINT_SWEEP_POINTS=N` takes the first N
+//! of the same sweep (the README's figures use 200), and `GLINT_SWEEP_SEED` another sweep.
+//!
+//! It measures `--streak-model fit` (`GLINT_STREAK_MODEL=ramps` measures the default ramps).
+//!
+//! NOT YET HELD: neither model holds these bounds on every point of the sweep yet (README,
+//! "Accuracy over the sweep"), so the test is ignored by default and run on purpose with
+//! `cargo test --test streak_sweep -- --ignored`. It prints every point's figures and the
+//! sweep's totals, then fails listing the points out of bounds.
+
+use glint::detect::streak::StreakModel;
+use glint::detect::DetectorConfig;
+use glint::frame::{Frame, FrameSize};
+use glint::pipeline::{Pipeline, PipelineConfig};
+use glint::source::FrameMeta;
+use glint::track::{TrackerConfig, VelocityMethod};
+use glint_tools::scene::{Scene, SweepPath, SweepPoint, Visibility};
+
+/// Points checked in the default test run.
+const DEFAULT_POINTS: usize = 24;
+/// The sweep's seed unless `GLINT_SWEEP_SEED` says otherwise.
+const DEFAULT_SEED: u64 = 11;
+
+const HEAD_MEDIAN_MAX_PX: f64 = 0.5;
+const HEAD_P95_MAX_PX: f64 = 1.5;
+const MID_MEDIAN_MAX_PX: f64 = 0.2;
+const MID_P95_MAX_PX: f64 = 0.5;
+const SPEED_MEDIAN_MAX: f64 = 0.03;
+const SPEED_P95_MAX: f64 = 0.10;
+/// Single-frame speed is held to its bounds on streaks at least this long.
+const SPEED_MIN_STREAK_PX: f64 = 8.0;
+
+/// The q-quantile by nearest rank (`None` for no values).
+fn quantile(values: &[f64], q: f64) -> Option<f64> {
+    if values.is_empty() {
+        return None;
+    }
+    let mut sorted = values.to_vec();
+    sorted.sort_by(f64::total_cmp);
+    let rank = ((q * sorted.len() as f64).ceil() as usize).clamp(1, sorted.len());
+    Some(sorted[rank - 1])
+}
+
+/// One sweep point's errors.
+#[derive(Default)]
+struct PointScore {
+    visible: usize,
+    found: usize,
+    false_reports: usize,
+    /// Current position, in frames after the first (the head needs a previous position).
+    head_px: Vec<f64>,
+    mid_px: Vec<f64>,
+    /// Relative single-frame speed errors on streaks of at least [`SPEED_MIN_STREAK_PX`].
+    speed: Vec<f64>,
+    /// Frames whose speed should have come from the streak but did not.
+    speed_missing: usize,
+}
+
+fn run_point(point: &SweepPoint, model: StreakModel) -> PointScore {
+    let scene = Scene::new(point.config()).expect("sweep scene");
+    let size = FrameSize::new(scene.width_px(), scene.height_px()).unwrap();
+    let config = PipelineConfig {
+        tracker: TrackerConfig {
+            exposure_us: Some(scene.exposure_us()),
+        },
+        detector: DetectorConfig {
+            streak_model: model,
+            ..DetectorConfig::default()
+        },
+    };
+    let mut pipeline = Pipeline::new(size, config).unwrap();
+    let mut bytes = vec![0u8; scene.frame_len_bytes()];
+    let mut s = PointScore::default();
+    let period_us = (1e6 / scene.fps()) as u64;
+    for index in 0..scene.frame_count() {
+        let truth = scene.render(index, &mut bytes).unwrap();
+        let frame = Frame::new_checked(&bytes, size, size.row_bytes()).unwrap();
+        let meta = FrameMeta {
+            index: index as u64,
+            sequence: index as u64,
+            dropped: 0,
+            timestamp_us: index as u64 * period_us,
+            monotonic_us: index as u64 * period_us,
+        };
+        let report = pipeline.process(&frame, meta);
+        match truth.visible {
+            Visibility::Hidden => s.false_reports += usize::from(report.position.is_some()),
+            Visibility::Partial => {}
+            Visibility::Visible => {
+                s.visible += 1;
+                let Some(e) = report.position else { continue };
+                s.found += 1;
+                let d = |(x, y): (f32, f32), tx: Option<f64>, ty: Option<f64>| {
+                    (f64::from(x) - tx.unwrap()).hypot(f64::from(y) - ty.unwrap())
+                };
+                s.mid_px.push(d(e.mid_px, truth.mid_x_px, truth.mid_y_px));
+                if index > 0 {
+                    s.head_px.push(d(e.position_px, truth.x_px, truth.y_px));
+                }
+                let streak_px = truth.streak_px.unwrap();
+                // The streak's speed needs its direction, which needs a previous frame.
+                if streak_px >= SPEED_MIN_STREAK_PX && index > 0 {
+                    let true_speed = truth.vx_px_s.unwrap().hypot(truth.vy_px_s.unwrap());
+                    match e.velocity_px_s {
+                        Some(((vx, vy), VelocityMethod::Streak)) => s.speed.push(
+                            (f64::from(vx).hypot(f64::from(vy)) - true_speed).abs() / true_speed,
+                        ),
+                        _ => s.speed_missing += 1,
+                    }
+                }
+            }
+        }
+    }
+    s
+}
+
+/// The issue's goal for a nearly still LED on real footage: x, y within this of the
+/// reference (p95).
+const STILL_P95_MAX_PX: f64 = 0.75;
+
+/// A still LED reads still: with the fitted model, the position of an LED that does not move
+/// stays within [`STILL_P95_MAX_PX`] of the truth for every spot, brightness, gamma, noise and
+/// range of the sweep (today's ramps jitter by pixels here, picking an "end" of a streak that
+/// has none).
+#[test]
+fn a_still_led_reads_still() {
+    let mut worst = Vec::new();
+    for mut point in SweepPoint::sweep(DEFAULT_SEED, 12) {
+        point.path = SweepPath::Line {
+            length_px: 0.0,
+            angle_rad: 0.0,
+        };
+        let s = run_point(&point, StreakModel::Fit);
+        assert_eq!(s.found, s.visible, "{point}");
+        let p95 = quantile(&s.head_px, 0.95).unwrap();
+        eprintln!("still: p95 {p95:.3} px: {point}");
+        worst.push((p95, point.to_string()));
+    }
+    for (p95, point) in worst {
+        assert!(p95 <= STILL_P95_MAX_PX, "{point}: p95 {p95:.3} px");
+    }
+}
+
+/// The fitted model on the spot it is made of (a Gaussian, seen through gamma 2.2, clipped)
+/// over a flat floor: the ends of a 20 px streak land within 0.3 px of the truth, and the
+/// reported uncertainty (`fit_px`) grows with the noise. (Over the presets' textured floor
+/// the same streak's ends are about 0.6 px off, and `fit_px` says so: the model's floor is
+/// flat. The sweep measures that case.)
+#[test]
+fn the_fit_finds_a_gaussian_streak_s_ends_and_knows_its_noise() {
+    use glint::detect::Detector;
+    let mut uncertainties = Vec::new();
+    for noise_luma in [0.0, 4.0] {
+        let mut point = SweepPoint::new(DEFAULT_SEED, 1);
+        point.spot = glint_tools::scene::SpotKind::Gaussian;
+        point.width_px = 1.5;
+        point.saturation = 4.0;
+        point.gamma = 2.2;
+        point.noise_luma = noise_luma;
+        point.path = SweepPath::Line {
+            length_px: 20.0,
+            angle_rad: 0.4,
+        };
+        let mut config = point.config();
+        config.floor.contrast = 0.0;
+        let scene = Scene::new(config).unwrap();
+        let size = FrameSize::new(scene.width_px(), scene.height_px()).unwrap();
+        let detector_config = DetectorConfig {
+            streak_model: StreakModel::Fit,
+            ..DetectorConfig::default()
+        };
+        let mut detector = Detector::new(size, detector_config).unwrap();
+        let mut bytes = vec![0u8; scene.frame_len_bytes()];
+        let truth = scene.render(1, &mut bytes).unwrap();
+        let frame = Frame::new_checked(&bytes, size, size.row_bytes()).unwrap();
+        let (_, streak) = detector.detect(&frame).best.expect("the streak is found");
+        let path = streak.path.expect("the fit converges");
+        let end = (truth.x_px.unwrap(), truth.y_px.unwrap());
+        let mid = (truth.mid_x_px.unwrap(), truth.mid_y_px.unwrap());
+        let start = (2.0 * mid.0 - end.0, 2.0 * mid.1 - end.1);
+        let d =
+            |(x, y): (f32, f32), (tx, ty): (f64, f64)| (f64::from(x) - tx).hypot(f64::from(y) - ty);
+        let [a, b] = path.ends_px;
+        let error = (d(a, start).max(d(b, end))).min(d(a, end).max(d(b, start)));
+        eprintln!(
+            "noise {noise_luma}: ends within {error:.3} px, fit_px {:?}",
+            path.fit_px
+        );
+        assert!(error <= 0.3, "noise {noise_luma}: ends {error:.3} px off");
+        uncertainties.push(path.fit_px.unwrap());
+    }
+    assert!(
+        uncertainties[1] > uncertainties[0],
+        "fit_px grows with the noise: {uncertainties:?}"
+    );
+}
+
+fn env_or<T: std::str::FromStr>(name: &str, default: T) -> T {
+    std::env::var(name)
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(default)
+}
+
+#[test]
+#[ignore = "the bounds are not yet held on every point of the sweep (README)"]
+fn every_sweep_point_holds_the_bounds() {
+    let seed = env_or("GLINT_SWEEP_SEED", DEFAULT_SEED);
+    let count = env_or("GLINT_SWEEP_POINTS", DEFAULT_POINTS);
+    let model = match std::env::var("GLINT_STREAK_MODEL").as_deref() {
+        Ok("ramps") => StreakModel::Ramps,
+        _ => StreakModel::Fit,
+    };
+    let mut failures = Vec::new();
+    let (mut all_head, mut all_mid60, mut all_speed) = (Vec::new(), Vec::new(), Vec::new());
+    for point in SweepPoint::sweep(seed, count) {
+        let s = run_point(&point, model);
+        let q = |v: &[f64], q: f64| quantile(v, q).unwrap_or(0.0);
+        eprintln!(
+            "{:>3} head {:.2}/{:.2} px, mid {:.2}/{:.2} px, speed {:.1}/{:.1} % ({} missing), \
+             found {}/{}: {point}",
+            point.index,
+            q(&s.head_px, 0.5),
+            q(&s.head_px, 0.95),
+            q(&s.mid_px, 0.5),
+            q(&s.mid_px, 0.95),
+            100.0 * q(&s.speed, 0.5),
+            100.0 * q(&s.speed, 0.95),
+            s.speed_missing,
+            s.found,
+            s.visible,
+        );
+        let mut fail =
+            |what: String| failures.push(format!("point {}: {what} ({point})", point.index));
+        if s.found != s.visible || s.visible == 0 {
+            fail(format!("found {} of {} visible frames", s.found, s.visible));
+        }
+        if s.false_reports > 0 {
+            fail(format!("{} false reports", s.false_reports));
+        }
+        if q(&s.head_px, 0.5) > HEAD_MEDIAN_MAX_PX || q(&s.head_px, 0.95) > HEAD_P95_MAX_PX {
+            fail(format!(
+                "head {:.2}/{:.2} px",
+                q(&s.head_px, 0.5),
+                q(&s.head_px, 0.95)
+            ));
+        }
+        if q(&s.mid_px, 0.5) > MID_MEDIAN_MAX_PX || q(&s.mid_px, 0.95) > MID_P95_MAX_PX {
+            fail(format!(
+                "middle {:.2}/{:.2} px",
+                q(&s.mid_px, 0.5),
+                q(&s.mid_px, 0.95)
+            ));
+        }
+        if point.path.length_px() >= SPEED_MIN_STREAK_PX
+            && (s.speed_missing * 10 > s.visible
+                || q(&s.speed, 0.5) > SPEED_MEDIAN_MAX
+                || q(&s.speed, 0.95) > SPEED_P95_MAX)
+        {
+            fail(format!(
+                "speed {:.1}/{:.1} %, {} frames without",
+                100.0 * q(&s.speed, 0.5),
+                100.0 * q(&s.speed, 0.95),
+                s.speed_missing
+            ));
+        }
+        all_head.extend(&s.head_px);
+        if point.path.length_px() == 60.0 {
+            all_mid60.extend(&s.mid_px);
+        }
+        all_speed.extend(&s.speed);
+    }
+    let q = |v: &[f64], q: f64| quantile(v, q).unwrap_or(f64::NAN);
+    eprintln!(
+        "{model:?}, sweep seed {seed}, {count} points: head {:.3}/{:.3} px, middle on 60 px streaks \
+         {:.3}/{:.3} px, speed on streaks >= 8 px {:.2}/{:.2} %",
+        q(&all_head, 0.5),
+        q(&all_head, 0.95),
+        q(&all_mid60, 0.5),
+        q(&all_mid60, 0.95),
+        100.0 * q(&all_speed, 0.5),
+        100.0 * q(&all_speed, 0.95),
+    );
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}

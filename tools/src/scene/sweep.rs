@@ -1,0 +1,353 @@
+//! A sweep of physical parameters, so that accuracy is asserted over the range a real camera
+//! can show rather than at one setting the tracker was tuned on.
+//!
+//! Each [`SweepPoint`] is one short scene: a spot profile (disk, Gaussian, Gaussian core with a
+//! wide glow) 0.8–3 px wide, an LED from barely to strongly saturating, a tone curve of gamma
+//! 1.8–2.4, read noise up to σ 4 luma, full or studio range, and a path that is still, a
+//! straight line (3–60 px streaks) or an arc. Points are drawn from a seed, so a test can
+//! take a reproducible random subset and a benchmark the whole sweep.
+
+use std::f64::consts::{PI, TAU};
+
+use super::camera::Range;
+use super::optics::{Led, Spot};
+use super::presets;
+use super::rng::{mix64, unit_from_bits, SplitMix64};
+use super::trajectory::{Point, Trajectory};
+use super::SceneConfig;
+
+/// Frame rate of every sweep scene: high enough that a 60 px streak (6000 px/s) stays in view
+/// for several frames.
+const FPS: f64 = 90.0;
+/// Exposure of every sweep scene.
+const EXPOSURE_US: u32 = 10_000;
+/// Frames per sweep scene, unless a fast LED would leave the view sooner.
+const MAX_FRAMES: usize = 10;
+/// The path stays this far inside the frame.
+const MARGIN_PX: f64 = 40.0;
+/// Spot widths (disk radius, Gaussian σ).
+const WIDTH_RANGE_PX: (f64, f64) = (0.8, 3.0);
+/// Level of the streak's unclipped core in multiples of the clip level.
+const SATURATION_RANGE: (f64, f64) = (1.3, 30.0);
+const GAMMA_RANGE: (f64, f64) = (1.8, 2.4);
+const NOISE_MAX_LUMA: f64 = 4.0;
+/// The glow of a blooming spot: this many times wider than the core...
+const GLOW_WIDTH_RANGE: (f64, f64) = (3.0, 6.0);
+/// ... and this bright at its centre relative to the core's.
+const GLOW_RATIO_RANGE: (f64, f64) = (0.02, 0.08);
+
+/// The shape of the LED's spot in a sweep point.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SpotKind {
+    /// A uniform disk.
+    Disk,
+    /// A Gaussian.
+    Gaussian,
+    /// A Gaussian core inside a wide glow.
+    Bloom,
+}
+
+/// How the LED moves in a sweep point.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum SweepPath {
+    /// A straight line at constant speed, `length_px` per exposure (0: standing still).
+    Line {
+        /// Streak length.
+        length_px: f64,
+        /// Direction of travel.
+        angle_rad: f64,
+    },
+    /// A circle of `radius_px`, `length_px` of arc per exposure.
+    Arc {
+        /// The circle's radius.
+        radius_px: f64,
+        /// Arc length per exposure.
+        length_px: f64,
+    },
+}
+
+impl SweepPath {
+    /// The streak's length.
+    pub fn length_px(self) -> f64 {
+        match self {
+            SweepPath::Line { length_px, .. } | SweepPath::Arc { length_px, .. } => length_px,
+        }
+    }
+}
+
+/// One point of the sweep.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SweepPoint {
+    /// Index in the sweep.
+    pub index: usize,
+    /// Spot profile.
+    pub spot: SpotKind,
+    /// Disk radius or Gaussian σ of the core.
+    pub width_px: f64,
+    /// Glow σ over core σ, and glow centre over core centre (bloom only).
+    pub glow: (f64, f64),
+    /// Level of the streak's core, in multiples of the clip level.
+    pub saturation: f64,
+    /// The camera's tone-curve exponent.
+    pub gamma: f64,
+    /// Read noise, in luma levels of a linear camera.
+    pub noise_luma: f64,
+    /// Output range.
+    pub range: Range,
+    /// The LED's path.
+    pub path: SweepPath,
+    /// Seed of the floor texture and the noise.
+    pub seed: u64,
+}
+
+/// Uniform in `[lo, hi)`.
+fn uniform(rng: &mut SplitMix64, (lo, hi): (f64, f64)) -> f64 {
+    lo + (hi - lo) * unit_from_bits(rng.next_u64())
+}
+
+/// Log-uniform in `[lo, hi)`.
+fn log_uniform(rng: &mut SplitMix64, (lo, hi): (f64, f64)) -> f64 {
+    uniform(rng, (lo.ln(), hi.ln())).exp()
+}
+
+impl SweepPoint {
+    /// Point `index` of the sweep drawn from `seed`. Indices cycle through four kinds of path
+    /// so that any run of four points covers them all: a still or barely moving LED (streaks
+    /// up to 2 px), a line of 3–20 px, a 60 px line, an arc of 8–40 px on a circle of 15–80 px.
+    pub fn new(seed: u64, index: usize) -> SweepPoint {
+        let mut rng = SplitMix64::new(mix64(seed ^ mix64(index as u64)));
+        let spot = match rng.next_u64() % 3 {
+            0 => SpotKind::Disk,
+            1 => SpotKind::Gaussian,
+            _ => SpotKind::Bloom,
+        };
+        let width_px = uniform(&mut rng, WIDTH_RANGE_PX);
+        let glow = (
+            uniform(&mut rng, GLOW_WIDTH_RANGE),
+            uniform(&mut rng, GLOW_RATIO_RANGE),
+        );
+        let saturation = log_uniform(&mut rng, SATURATION_RANGE);
+        let gamma = uniform(&mut rng, GAMMA_RANGE);
+        let noise_luma = uniform(&mut rng, (0.0, NOISE_MAX_LUMA));
+        let range = if rng.next_u64().is_multiple_of(2) {
+            Range::Full
+        } else {
+            Range::Studio
+        };
+        let angle_rad = uniform(&mut rng, (0.0, TAU));
+        let path = match index % 4 {
+            0 => SweepPath::Line {
+                length_px: uniform(&mut rng, (0.0, 2.0)),
+                angle_rad,
+            },
+            1 => SweepPath::Line {
+                length_px: uniform(&mut rng, (3.0, 20.0)),
+                angle_rad,
+            },
+            2 => SweepPath::Line {
+                length_px: 60.0,
+                angle_rad,
+            },
+            _ => {
+                let radius_px = uniform(&mut rng, (15.0, 80.0));
+                // At most a quarter turn per exposure.
+                let longest = (0.5 * PI * radius_px).min(40.0);
+                SweepPath::Arc {
+                    radius_px,
+                    length_px: uniform(&mut rng, (8.0, longest)),
+                }
+            }
+        };
+        SweepPoint {
+            index,
+            spot,
+            width_px,
+            glow,
+            saturation,
+            gamma,
+            noise_luma,
+            range,
+            path,
+            seed: rng.next_u64(),
+        }
+    }
+
+    /// The first `count` points of the sweep drawn from `seed`.
+    pub fn sweep(seed: u64, count: usize) -> Vec<SweepPoint> {
+        (0..count).map(|i| SweepPoint::new(seed, i)).collect()
+    }
+
+    /// The LED's spot.
+    fn led(&self) -> Led {
+        let spot = match self.spot {
+            SpotKind::Disk => Spot::Disk,
+            SpotKind::Gaussian => Spot::Gaussian {
+                sigma_px: self.width_px,
+            },
+            SpotKind::Bloom => Spot::Bloom {
+                sigma_px: self.width_px,
+                glow_sigma_px: self.glow.0 * self.width_px,
+                glow_ratio: self.glow.1,
+            },
+        };
+        // The centre of a long streak is lit for the time the spot's core takes to pass:
+        // its level is the spot's peak times (core's line integral / streak length).
+        let core_span_px = match self.spot {
+            SpotKind::Disk => 2.0 * self.width_px,
+            _ => (TAU).sqrt() * self.width_px,
+        };
+        let smear = (self.path.length_px() / core_span_px).max(1.0);
+        Led {
+            radius_px: match self.spot {
+                SpotKind::Disk => self.width_px,
+                _ => 2.0 * self.width_px,
+            },
+            spot,
+            peak: self.saturation * smear,
+            glow_peak: 0.0,
+            glow_radius_px: 0.0,
+        }
+    }
+
+    /// The scene of this point: 640×480 at 90 fps, 10 ms exposure, the presets' floor.
+    pub fn config(&self) -> SceneConfig {
+        let mut config = presets::base(
+            &format!("sweep-{}", self.index),
+            &self.to_string(),
+            EXPOSURE_US,
+            MAX_FRAMES,
+            Trajectory::Line {
+                start_px: Point::default(),
+                velocity_px_s: Point::default(),
+            },
+        );
+        config.fps = FPS;
+        config.seed = self.seed;
+        config.led = self.led();
+        config.camera.range = self.range;
+        config.camera.gamma = self.gamma;
+        config.camera.noise_sigma = self.noise_luma / 255.0;
+        let exposure_s = f64::from(EXPOSURE_US) * 1e-6;
+        let centre = Point::new(
+            0.5 * f64::from(config.width_px),
+            0.5 * f64::from(config.height_px),
+        );
+        let (trajectory, frames) = match self.path {
+            SweepPath::Line {
+                length_px,
+                angle_rad,
+            } => {
+                let speed = length_px / exposure_s;
+                let per_frame_px = speed / FPS;
+                let room_px = f64::from(config.height_px) - 2.0 * MARGIN_PX;
+                let frames = if per_frame_px > 0.0 {
+                    ((room_px / per_frame_px) as usize).clamp(2, MAX_FRAMES)
+                } else {
+                    MAX_FRAMES
+                };
+                let (dx, dy) = (angle_rad.cos(), angle_rad.sin());
+                let half_s = 0.5 * frames as f64 / FPS;
+                (
+                    Trajectory::Line {
+                        start_px: Point::new(
+                            centre.x - speed * half_s * dx,
+                            centre.y - speed * half_s * dy,
+                        ),
+                        velocity_px_s: Point::new(speed * dx, speed * dy),
+                    },
+                    frames,
+                )
+            }
+            SweepPath::Arc {
+                radius_px,
+                length_px,
+            } => (
+                Trajectory::Circle {
+                    centre_px: centre,
+                    radius_px,
+                    rev_per_s: length_px / exposure_s / (TAU * radius_px),
+                    phase_rad: 0.0,
+                },
+                MAX_FRAMES,
+            ),
+        };
+        config.trajectory = trajectory;
+        config.frame_count = frames;
+        config
+    }
+}
+
+impl std::fmt::Display for SweepPoint {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let path = match self.path {
+            SweepPath::Line { length_px, .. } => format!("line {length_px:.1} px"),
+            SweepPath::Arc {
+                radius_px,
+                length_px,
+            } => format!("arc {length_px:.1} px on r {radius_px:.0} px"),
+        };
+        write!(
+            f,
+            "{:?} {:.2} px{}, core {:.1}× clip, gamma {:.2}, noise {:.1} luma, {:?} range, {path}",
+            self.spot,
+            self.width_px,
+            if self.spot == SpotKind::Bloom {
+                format!(
+                    " (glow {:.1}× wide, {:.3} bright)",
+                    self.glow.0, self.glow.1
+                )
+            } else {
+                String::new()
+            },
+            self.saturation,
+            self.gamma,
+            self.noise_luma,
+            self.range,
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::Scene;
+
+    #[test]
+    fn every_point_builds_and_four_in_a_row_cover_every_path() {
+        let points = SweepPoint::sweep(7, 40);
+        for p in &points {
+            let scene = Scene::new(p.config()).unwrap_or_else(|e| panic!("{p}: {e}"));
+            assert!(scene.frame_count() >= 2);
+            let t = scene.truth(1);
+            let length = t.streak_px.unwrap();
+            assert!((length - p.path.length_px()).abs() < 1e-3, "{p}: {length}");
+        }
+        let widths: Vec<f64> = points.iter().map(|p| p.width_px).collect();
+        assert!(widths.iter().any(|&w| w < 1.2) && widths.iter().any(|&w| w > 2.6));
+        assert_eq!(
+            SweepPoint::new(7, 5),
+            points[5],
+            "a point is its seed and index"
+        );
+    }
+
+    #[test]
+    fn a_barely_saturating_streak_clips_only_in_its_core() {
+        let mut p = SweepPoint::new(3, 2);
+        p.saturation = 1.3;
+        p.noise_luma = 0.0;
+        p.spot = SpotKind::Gaussian;
+        let scene = Scene::new(p.config()).unwrap();
+        let mut frame = vec![0u8; scene.frame_len_bytes()];
+        scene.render(1, &mut frame).unwrap();
+        let white = scene.white_luma();
+        let clipped = frame.iter().step_by(2).filter(|&&y| y == white).count();
+        // A 60 px streak clipped only where the core is above 1/1.3 of its peak: a band
+        // about 1.4 σ wide (2 σ sqrt(2 ln 1.3) ≈ 1.45 σ).
+        let band = clipped as f64 / 60.0;
+        assert!(
+            band > 0.5 * p.width_px && band < 3.0 * p.width_px,
+            "{band} px wide"
+        );
+    }
+}
