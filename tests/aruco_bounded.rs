@@ -115,7 +115,9 @@ fn glint_calibrate_logs_capped_frames() {
     let out = common::glint()
         .args(["calibrate", "--input"])
         .arg(&dump)
-        .args(["--size", "640x480", "--marker", "98:20", "--lens", "ideal", "--out"])
+        .args([
+            "--size", "640x480", "--marker", "98:20", "--lens", "ideal", "--out",
+        ])
         .arg(dir.path().join("calib.toml"))
         .output()
         .unwrap();

@@ -7,7 +7,7 @@
 //! Sequence numbers are given here, as each message is framed, so they count the messages put
 //! on the line: a gap at the receiver is a loss on the line, not a message replaced unsent.
 
-use std::io::{self, Write};
+use std::io;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Condvar, Mutex, MutexGuard, PoisonError};
 use std::time::{Duration, Instant};
@@ -19,7 +19,7 @@ use mavlink::dialects::common::{
 use mavlink::MavHeader;
 use serialport::TTYPort;
 
-use crate::sink::serial::{open_port, REOPEN_BACKOFF_MAX, REOPEN_BACKOFF_MIN, WRITE_TIMEOUT};
+use crate::sink::serial::{open_port, write_all, REOPEN_BACKOFF_MAX, REOPEN_BACKOFF_MIN};
 
 /// Wall-clock time between heartbeats: MAVLink components announce themselves at 1 Hz.
 pub const HEARTBEAT_INTERVAL: Duration = Duration::from_secs(1);
@@ -29,9 +29,6 @@ const MAX_FRAME_BYTES: usize = 10 + 255 + 2;
 
 /// `mavlink_version` of a heartbeat: the protocol's, 3 since MAVLink 1.0.
 const HEARTBEAT_MAVLINK_VERSION: u8 = 3;
-
-/// Pause before retrying a write the kernel refused for want of room.
-const WOULD_BLOCK_PAUSE: Duration = Duration::from_millis(1);
 
 /// Who glint is on the MAVLink network.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -287,24 +284,4 @@ fn heartbeat_message() -> MavMessage {
         system_status: MavState::MAV_STATE_ACTIVE,
         mavlink_version: HEARTBEAT_MAVLINK_VERSION,
     })
-}
-
-/// Writes all of `bytes` within about [`WRITE_TIMEOUT`] on a non-blocking port.
-fn write_all(port: &mut TTYPort, mut bytes: &[u8]) -> io::Result<()> {
-    let deadline = Instant::now() + WRITE_TIMEOUT;
-    while !bytes.is_empty() {
-        if Instant::now() >= deadline {
-            return Err(io::ErrorKind::TimedOut.into());
-        }
-        match port.write(bytes) {
-            Ok(0) => return Err(io::ErrorKind::WriteZero.into()),
-            Ok(n) => bytes = bytes.get(n..).unwrap_or(&[]),
-            Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
-            Err(e) if e.kind() == io::ErrorKind::WouldBlock => {
-                std::thread::sleep(WOULD_BLOCK_PAUSE)
-            }
-            Err(e) => return Err(e),
-        }
-    }
-    Ok(())
 }

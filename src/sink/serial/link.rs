@@ -292,7 +292,7 @@ impl Link {
 
 /// Writes all of `bytes` within about [`WRITE_TIMEOUT`] (each write waits for room at most
 /// that long, and no new write starts after it).
-fn write_all(port: &mut TTYPort, mut bytes: &[u8]) -> io::Result<()> {
+pub(crate) fn write_all(port: &mut TTYPort, mut bytes: &[u8]) -> io::Result<()> {
     let deadline = Instant::now() + WRITE_TIMEOUT;
     while !bytes.is_empty() {
         if Instant::now() >= deadline {

@@ -35,8 +35,9 @@ pub use link::{
 };
 pub use stamp::SentLed;
 pub use updates::{Located, Updates, HEARTBEAT_INTERVAL_US};
-// The MAVLink sink (`super::mavlink`) opens its port the same way.
+// The MAVLink sink (`super::mavlink`) opens and writes its port the same way.
 pub use link::open_port;
+pub(crate) use link::write_all;
 
 use super::Sink;
 use crate::pipeline::FrameReport;
