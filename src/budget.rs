@@ -30,6 +30,8 @@ pub const FIXED_BYTES: u64 = 4 * BYTES_PER_MB;
 const LED_BIT_IMAGES: u64 = 9;
 /// The LED detector's run table (boxed, about 80 KiB) with room to spare.
 const LED_TABLE_BYTES: u64 = 128 * 1024;
+/// Byte planes the marker detector keeps at the frame's size: the luma and the mask.
+const MARKER_PLANES: u64 = 2;
 /// The marker detector's scratch per pixel of frame width (column sums, prefix sums, a luma
 /// row) and per pixel of the longest border it traces (the contour, the edge samples).
 const MARKER_BYTES_PER_COLUMN: u64 = 16;
@@ -181,10 +183,11 @@ pub fn background_bytes(size: FrameSize, frames: usize) -> u64 {
     (frames as u64 + 1).saturating_mul(size.pixels() as u64)
 }
 
-/// The marker detector's scratch: a threshold mask of the frame, a few rows, and the
-/// longest border it traces (`max_perimeter_px`).
+/// The marker detector's scratch: the frame's luma plane, loaded once for all its threshold
+/// passes, and a threshold mask of it; a few rows; and the longest border it traces
+/// (`max_perimeter_px`).
 pub fn marker_detector_bytes(size: FrameSize, max_perimeter_px: usize) -> u64 {
-    size.pixels() as u64
+    MARKER_PLANES * size.pixels() as u64
         + MARKER_BYTES_PER_COLUMN * (size.width() as u64 + 1)
         + MARKER_BYTES_PER_PERIMETER_PX * max_perimeter_px as u64
 }

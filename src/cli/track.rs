@@ -194,6 +194,15 @@ impl TrackSettings {
                 budget::led_detector_bytes(size),
             ),
         }
+        // A calibration with a marker map re-detects its markers while tracking; whether the
+        // file holds a map is known only once it is read, so the plan assumes it does.
+        if self.floor.calib.is_some() && !self.floor.no_recheck {
+            plan.add(
+                "the marker re-check",
+                format!("--calib without --no-recheck, --size {size}"),
+                budget::marker_detector_bytes(size, self.floor.max_perimeter_px()),
+            );
+        }
         if self.detector == DetectorArg::Bgdiff {
             plan.add(
                 "the background model",
