@@ -538,7 +538,7 @@ fn options_that_need_too_much_memory_are_refused_up_front() {
                 "--out",
                 "/nonexistent/calib.toml",
             ],
-            "the frame buffer (--size 16384x16384) takes 512 MB",
+            "the marker detector (--size 16384x16384) takes 513 MB",
         ),
         (
             &[
