@@ -124,22 +124,16 @@ fn reference_floor() -> glint::geometry::FloorStage {
 /// undistorted ray met with a plane.
 fn lens_floor() -> glint::geometry::FloorStage {
     use glint::geometry::{CameraModel, FloorStage, FloorUnit, Lens, Pose};
-    use nalgebra::{Matrix3, Vector3};
+    use nalgebra::Vector3;
     let centre = Vector3::new(10.0, -70.0, -130.0);
-    let forward = (Vector3::new(10.0, -5.0, 0.0) - centre).normalize();
-    let right = forward.cross(&Vector3::new(0.0, 0.0, -1.0)).normalize();
-    let r = Matrix3::from_rows(&[
-        right.transpose(),
-        forward.cross(&right).transpose(),
-        forward.transpose(),
-    ]);
+    let target = Vector3::new(10.0, -5.0, 0.0);
     let camera = CameraModel {
         lens: Lens {
             k1: -0.30,
             k2: 0.09,
             ..Lens::ideal(460.0, 460.0, 319.5, 239.5)
         },
-        pose: Pose::new(r, -(r * centre)).unwrap(),
+        pose: Pose::looking_at(centre, target).unwrap(),
     };
     FloorStage::from_camera(camera, FloorUnit::Cm)
         .with_led_height(12.0)
@@ -342,7 +336,7 @@ fn the_marker_recheck_and_a_pose_refit_allocate_nothing() {
     use glint::geometry::recheck::MarkerRecheck;
     use glint::geometry::{CameraModel, FloorStage, FloorUnit, Lens, MarkerPlacement, Pose};
     use glint::source::FrameMeta;
-    use nalgebra::{Matrix3, Vector3};
+    use nalgebra::Vector3;
 
     // The knocked scene's true camera before the knock: the mild lens over the reference pose.
     let config = Scene::preset_config("knocked").unwrap();
@@ -350,13 +344,7 @@ fn the_marker_recheck_and_a_pose_refit_allocate_nothing() {
     let knock_frame = view.knock.unwrap().frame;
     let l = view.lens;
     let centre = Vector3::new(10.0, -70.0, -130.0);
-    let forward = (Vector3::new(10.0, -5.0, 0.0) - centre).normalize();
-    let right = forward.cross(&Vector3::new(0.0, 0.0, -1.0)).normalize();
-    let r = Matrix3::from_rows(&[
-        right.transpose(),
-        forward.cross(&right).transpose(),
-        forward.transpose(),
-    ]);
+    let target = Vector3::new(10.0, -5.0, 0.0);
     let camera = CameraModel {
         lens: Lens {
             fx: l.fx,
@@ -369,7 +357,7 @@ fn the_marker_recheck_and_a_pose_refit_allocate_nothing() {
             p1: l.p1,
             p2: l.p2,
         },
-        pose: Pose::new(r, -(r * centre)).unwrap(),
+        pose: Pose::looking_at(centre, target).unwrap(),
     };
     let map: Vec<MarkerPlacement> = view.markers.iter().map(|m| m.placement()).collect();
     let scene = Scene::new(config).unwrap();

@@ -287,6 +287,22 @@ impl Pose {
         })
     }
 
+    /// A camera at `centre` looking at `target` (floor coordinates, z down into the floor),
+    /// held level: its image x axis is horizontal. `NotARotation` when it looks straight up or
+    /// down, or at its own centre, where "level" means nothing.
+    pub fn looking_at(centre: Vector3<f64>, target: Vector3<f64>) -> Result<Pose, CameraError> {
+        let forward = (target - centre)
+            .try_normalize(f64::EPSILON)
+            .ok_or(CameraError::NotARotation)?;
+        let right = forward
+            .cross(&Vector3::new(0.0, 0.0, -1.0))
+            .try_normalize(f64::EPSILON)
+            .ok_or(CameraError::NotARotation)?;
+        let down = forward.cross(&right);
+        let r = Matrix3::from_rows(&[right.transpose(), down.transpose(), forward.transpose()]);
+        Pose::new(r, -(r * centre))
+    }
+
     /// The camera's centre in floor coordinates.
     pub fn centre(&self) -> Vector3<f64> {
         -(self.rotation.inverse() * self.translation)
@@ -452,6 +468,15 @@ mod tests {
         let centre = Vector3::new(10.0, -70.0, -130.0);
         let pose = Pose::new(r, -(r * centre)).unwrap();
         assert!((pose.height() - 130.0).abs() < 1e-9);
+        // The same camera, set up by where it looks.
+        let looking = Pose::looking_at(centre, centre + forward).unwrap();
+        assert!((looking.rotation.matrix() - r).amax() < 1e-12);
+        assert!((looking.translation - pose.translation).amax() < 1e-9);
+        assert_eq!(
+            Pose::looking_at(centre, Vector3::new(10.0, -70.0, 0.0)),
+            Err(CameraError::NotARotation),
+            "straight down has no level"
+        );
         let camera = CameraModel { lens: wide(), pose };
         for (floor, h) in [(Point::new(0.0, 0.0), 0.0), (Point::new(-40.0, 60.0), 12.0)] {
             let px = camera.project(&floor, h).unwrap();

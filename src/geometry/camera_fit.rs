@@ -595,7 +595,6 @@ fn floor_per_px(camera: &CameraModel, q: &Point) -> Option<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use nalgebra::Matrix3;
 
     fn size() -> FrameSize {
         FrameSize::new(640, 480).unwrap()
@@ -604,14 +603,9 @@ mod tests {
     /// The reference camera of the accuracy tests: 1.3 m up, looking obliquely down.
     fn truth(lens: Lens) -> CameraModel {
         let centre = Vector3::new(10.0, -70.0, -130.0);
-        let look = Vector3::new(10.0, -5.0, 0.0);
-        let forward = (look - centre).normalize();
-        let right = forward.cross(&Vector3::new(0.0, 0.0, -1.0)).normalize();
-        let down = forward.cross(&right);
-        let r = Matrix3::from_rows(&[right.transpose(), down.transpose(), forward.transpose()]);
         CameraModel {
             lens,
-            pose: Pose::new(r, -(r * centre)).unwrap(),
+            pose: Pose::looking_at(centre, Vector3::new(10.0, -5.0, 0.0)).unwrap(),
         }
     }
 

@@ -346,20 +346,15 @@ mod tests {
     fn through_a_lens_the_led_above_the_floor_maps_to_the_point_under_it() {
         use crate::geometry::camera::{Lens, Pose};
         use nalgebra::Vector3;
+        let centre = Vector3::new(10.0, -70.0, -130.0);
         let forward = Vector3::new(0.0, 0.5f64.cos(), 0.5f64.sin());
-        let right = Vector3::new(-1.0, 0.0, 0.0);
-        let r = Matrix3::from_rows(&[
-            right.transpose(),
-            forward.cross(&right).transpose(),
-            forward.transpose(),
-        ]);
         let camera = CameraModel {
             lens: Lens {
                 k1: -0.3,
                 k2: 0.09,
                 ..Lens::ideal(460.0, 460.0, 319.5, 239.5)
             },
-            pose: Pose::new(r, -(r * Vector3::new(10.0, -70.0, -130.0))).unwrap(),
+            pose: Pose::looking_at(centre, centre + forward).unwrap(),
         };
         let s = FloorStage::from_camera(camera, FloorUnit::Cm)
             .with_led_height(12.0)

@@ -205,13 +205,8 @@ fn corners_that_disagree_with_the_matrix_are_refused() {
 /// A version-2 file, as `glint calibrate` writes it: the wide lens over two markers.
 fn good_v2() -> (String, CameraModel) {
     use crate::geometry::calibration_record::{CalibrationRecord, RecordedMarker};
+    let centre = Vector3::new(10.0, -70.0, -130.0);
     let forward = Vector3::new(0.0, 1.1f64.cos(), 1.1f64.sin());
-    let right = Vector3::new(-1.0, 0.0, 0.0);
-    let r = Matrix3::from_rows(&[
-        right.transpose(),
-        forward.cross(&right).transpose(),
-        forward.transpose(),
-    ]);
     let camera = CameraModel {
         lens: Lens {
             k1: -0.3,
@@ -219,7 +214,7 @@ fn good_v2() -> (String, CameraModel) {
             p1: 0.001,
             ..Lens::ideal(460.0, 460.0, 319.5, 239.5)
         },
-        pose: Pose::new(r, -(r * Vector3::new(10.0, -70.0, -130.0))).unwrap(),
+        pose: Pose::looking_at(centre, centre + forward).unwrap(),
     };
     let markers = [(23, 0.0, 0.0), (7, 40.0, 30.0)].map(|(id, x, y)| {
         let placement = MarkerPlacement {
