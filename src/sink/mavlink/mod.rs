@@ -178,11 +178,7 @@ impl Sink for MavlinkSink {
     /// `, mavlink up|down (sent N, stale M, reopened K)`.
     fn status(&self, out: &mut fmt::Formatter<'_>) -> fmt::Result {
         let stats = self.stats();
-        let state = if stats.losses > stats.reopens {
-            "down"
-        } else {
-            "up"
-        };
+        let state = crate::sink::serial::link_state(stats.losses, stats.reopens);
         write!(
             out,
             ", mavlink {state} (sent {}, stale {}, reopened {})",

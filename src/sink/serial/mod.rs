@@ -306,6 +306,16 @@ fn frame_clock_origin_us(meta: &FrameMeta) -> i64 {
     i64::try_from(monotonic).unwrap_or(i64::MAX)
 }
 
+/// `down` from a port's loss until its reopening, else `up`: the state the status line shows
+/// for a port written by a reopening writer thread (this sink's, or the MAVLink sink's).
+pub(crate) fn link_state(losses: u64, reopens: u64) -> &'static str {
+    if losses > reopens {
+        "down"
+    } else {
+        "up"
+    }
+}
+
 impl Sink for SerialSink {
     /// Never fails: link faults are handled (and counted) by the writer thread.
     fn write(&mut self, report: &FrameReport) -> io::Result<()> {
@@ -327,11 +337,7 @@ impl Sink for SerialSink {
     /// its reopening.
     fn status(&self, out: &mut fmt::Formatter<'_>) -> fmt::Result {
         let stats = self.stats();
-        let state = if stats.losses > stats.reopens {
-            "down"
-        } else {
-            "up"
-        };
+        let state = link_state(stats.losses, stats.reopens);
         write!(
             out,
             ", serial {state} (sent {}, dropped {}, reopened {})",
