@@ -14,7 +14,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use common::{glint, parse_jsonl, render};
 use glint::geometry::aruco::Dictionary;
@@ -340,4 +340,177 @@ fn mavlink_without_a_calibration_is_refused_with_one_line() {
     let out = common::track(&r, &["--mavlink"]);
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("--serial"));
+}
+
+/// Reads a pty master on a thread until told to stop, then until it has been quiet for 200 ms.
+struct PtyReader {
+    stop: Arc<AtomicBool>,
+    thread: std::thread::JoinHandle<Vec<u8>>,
+}
+
+impl PtyReader {
+    fn start(mut master: TTYPort) -> Self {
+        let stop = Arc::new(AtomicBool::new(false));
+        let thread = {
+            let stop = Arc::clone(&stop);
+            std::thread::spawn(move || {
+                // Heartbeats come once a second: quiet is measured in time, not in reads.
+                master
+                    .set_timeout(Duration::from_millis(10))
+                    .expect("read timeout");
+                let mut bytes = Vec::new();
+                let mut buf = [0u8; 4096];
+                let mut last_byte = Instant::now();
+                while !stop.load(Ordering::Relaxed)
+                    || last_byte.elapsed() < Duration::from_millis(200)
+                {
+                    if let Ok(n @ 1..) = master.read(&mut buf) {
+                        bytes.extend_from_slice(&buf[..n]);
+                        last_byte = Instant::now();
+                    }
+                }
+                bytes
+            })
+        };
+        PtyReader { stop, thread }
+    }
+
+    /// Stops reading (the master end closes when the thread ends) and gives what was read.
+    fn finish(self) -> Vec<u8> {
+        self.stop.store(true, Ordering::Relaxed);
+        self.thread.join().unwrap()
+    }
+}
+
+/// A pty pair whose ends are not inherited by glint, and the slave's name.
+fn cloexec_pty() -> (TTYPort, TTYPort, String) {
+    let (master, slave) = TTYPort::pair().expect("pty pair");
+    for end in [&master, &slave] {
+        fcntl(end.as_raw_fd(), FcntlArg::F_SETFD(FdFlag::FD_CLOEXEC)).expect("close-on-exec");
+    }
+    let name = slave.name().expect("slave name");
+    (master, slave, name)
+}
+
+#[test]
+fn an_unplugged_mavlink_port_is_reopened_and_sends_whole_frames_again() {
+    python();
+    let dir = tempfile::tempdir().unwrap();
+    let calib = calibrate(dir.path());
+    let r = render("figure-eight");
+    let frame_bytes = r.scene.width_px() as usize * r.scene.height_px() as usize * 2;
+    let dump = std::fs::read(&r.dump).unwrap();
+    let frames: Vec<&[u8]> = dump.chunks_exact(frame_bytes).collect();
+    assert!(frames.len() >= 60, "{} frames", frames.len());
+
+    // The port is reached through a link, as /dev/serial/by-id/... names an adapter.
+    let link = dir.path().join("autopilot");
+    let (master, slave, name) = cloexec_pty();
+    std::os::unix::fs::symlink(&name, &link).unwrap();
+    let before = PtyReader::start(master);
+    let size = format!("{}x{}", r.scene.width_px(), r.scene.height_px());
+    let mut child = glint()
+        .args(["-v", "track", "--input", "-"])
+        .args(["--size", &size, "--fps", &r.scene.fps().to_string()])
+        .args(["--exposure-us", &r.scene.exposure_us().to_string()])
+        .arg("--calib")
+        .arg(&calib)
+        .arg("--serial")
+        .arg(&link)
+        .arg("--mavlink")
+        .args(["--mavlink-yaw-offset-deg", &YAW_OFFSET_DEG.to_string()])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stdin = child.stdin.take().unwrap();
+    let stdout = {
+        let mut out = child.stdout.take().unwrap();
+        std::thread::spawn(move || {
+            let mut bytes = Vec::new();
+            out.read_to_end(&mut bytes).unwrap();
+            bytes
+        })
+    };
+    let stderr = {
+        let mut err = child.stderr.take().unwrap();
+        std::thread::spawn(move || {
+            let mut text = String::new();
+            err.read_to_string(&mut text).unwrap();
+            text
+        })
+    };
+    let pace = Duration::from_millis(30);
+    let third = frames.len() / 3;
+    for frame in &frames[..third] {
+        stdin.write_all(frame).unwrap();
+        std::thread::sleep(pace);
+    }
+
+    // Unplugged: both ends and the name go away while frames go on.
+    let first_bytes = before.finish();
+    drop(slave);
+    std::fs::remove_file(&link).unwrap();
+    for frame in &frames[third..2 * third] {
+        stdin.write_all(frame).unwrap();
+        std::thread::sleep(pace);
+    }
+
+    // Plugged back in under the same name.
+    let (master, _slave, name) = cloexec_pty();
+    std::os::unix::fs::symlink(&name, &link).unwrap();
+    let after = PtyReader::start(master);
+    for frame in &frames[2 * third..] {
+        stdin.write_all(frame).unwrap();
+        std::thread::sleep(pace);
+    }
+    // The back-off is at most 5 s; give the writer time to find the port again.
+    std::thread::sleep(Duration::from_millis(1500));
+    drop(stdin);
+    let status = child.wait().unwrap();
+    let reports = parse_jsonl(&stdout.join().unwrap());
+    let log = stderr.join().unwrap();
+    let second_bytes = after.finish();
+    assert!(status.success(), "{log}");
+    assert_eq!(reports.len(), frames.len(), "every frame reported: {log}");
+    assert!(!first_bytes.is_empty(), "sent before the unplugging");
+
+    assert_eq!(summary_count(&log, "losses"), 1, "{log}");
+    assert_eq!(summary_count(&log, "reopens"), 1, "{log}");
+    assert!(summary_count(&log, "port_down") > 0, "{log}");
+
+    // What comes after the reopening decodes whole: the writer never resumes mid-frame.
+    let (messages, _) = decode(&second_bytes);
+    assert!(!messages.is_empty(), "nothing sent after reopening: {log}");
+    assert!(
+        messages.iter().all(|m| m["type"] != "BAD_DATA"),
+        "{messages:?}"
+    );
+    // Sequence numbers run on without a break from the first frame after the reopening.
+    for pair in messages.windows(2) {
+        let (a, b) = (pair[0]["seq"].as_u64(), pair[1]["seq"].as_u64());
+        assert_eq!(b, a.map(|a| (a + 1) % 256), "{pair:?}");
+    }
+    // The positions are those of frames after the reopening, as reported.
+    let positions: Vec<&Value> = messages
+        .iter()
+        .filter(|m| m["type"] == "VISION_POSITION_ESTIMATE")
+        .collect();
+    assert!(!positions.is_empty(), "positions after reopening");
+    let unplugged_at_us = f(&reports[third]["t"]) * 1e6;
+    for p in positions {
+        let usec = p["fields"]["usec"].as_u64().unwrap() as f64;
+        let report = reports
+            .iter()
+            .find(|r| (f(&r["t"]) * 1e6 - usec).abs() < 0.5)
+            .unwrap_or_else(|| panic!("no report at {usec} µs"));
+        assert!(
+            usec >= unplugged_at_us,
+            "{usec} µs was sent before the unplugging"
+        );
+        let (n, e) = north_east_m(f(&report["floor_x"]), f(&report["floor_y"]));
+        assert!((f(&p["fields"]["x"]) - n).abs() < POSITION_TOLERANCE_M);
+        assert!((f(&p["fields"]["y"]) - e).abs() < POSITION_TOLERANCE_M);
+    }
 }
