@@ -9,9 +9,11 @@
 //! - [`plot`]: a JSON-lines track as a PNG of the trajectory and the speed over time (the
 //!   `glint-plot` binary).
 //! - [`stats`]: medians and percentiles of per-frame errors and times.
+//! - [`rig`]: parts of the robot-in-the-loop rig (so far the simulated differential drive).
 
 pub mod markers;
 pub mod overlay;
 pub mod plot;
+pub mod rig;
 pub mod scene;
 pub mod stats;
