@@ -28,7 +28,8 @@ const SEARCH_STEP_RAD: f32 = 0.005;
 /// other branch where the figure crosses itself.
 const SEARCH_BEHIND_RAD: f32 = 0.1;
 const SEARCH_AHEAD_RAD: f32 = 0.25;
-/// Below this speed, glint's velocity says nothing about the heading, mm/s.
+/// Below this speed, glint's velocity says nothing about the heading, mm/s: the robot is then
+/// taken to face along the path where it is (as it is put down at the start).
 const MIN_HEADING_SPEED_MM_S: f32 = 50.0;
 
 /// The planned path: `x = a sin φ, y = b sin 2φ` (a figure-eight `2a` wide and `2b` high,
@@ -113,6 +114,10 @@ pub struct PursuitParams {
 pub struct WheelCommand {
     /// The position update it answers.
     pub seq: u8,
+    /// That update's capture timestamp (glint's frame clock), µs.
+    pub timestamp_us: u32,
+    /// The light was in view: a command to follow the path, not to stop.
+    pub steering: bool,
     /// Left wheel, mm/s.
     pub left_mm_s: i32,
     /// Right wheel, mm/s.
@@ -127,7 +132,8 @@ pub struct WheelCommand {
 struct Pose {
     x_mm: f32,
     y_mm: f32,
-    heading_rad: f32,
+    /// `None` at rest, when glint's velocity gives no direction.
+    heading_rad: Option<f32>,
 }
 
 /// The controller: positions and ages in, one [`WheelCommand`] per update out.
@@ -173,28 +179,27 @@ impl PurePursuit {
         self.ready.take()
     }
 
-    /// The pose glint measured, or `None` if it cannot be steered from.
+    /// The pose glint measured and the speed, or `None` if it cannot be steered from.
     fn measured_pose(p: &Position) -> Option<(Pose, f32)> {
         if p.units != Units::Floor || p.status == Status::Lost {
             return None;
         }
         let (vx, vy) = (f32::from(p.vx_per_s), f32::from(p.vy_per_s));
         let speed = hypotf(vx, vy);
-        if speed < MIN_HEADING_SPEED_MM_S {
-            return None;
-        }
         let pose = Pose {
             x_mm: f32::from(p.x),
             y_mm: f32::from(p.y),
-            heading_rad: atan2f(vy, vx),
+            heading_rad: (speed >= MIN_HEADING_SPEED_MM_S).then(|| atan2f(vy, vx)),
         };
         Some((pose, speed))
     }
 
     /// `pose` moved on for `age_s` at `speed_mm_s` along an arc of the last turn rate.
     fn moved_on(&self, pose: Pose, speed_mm_s: f32, age_s: f32) -> Pose {
+        let Some(h) = pose.heading_rad else {
+            return pose;
+        };
         let turn = self.turn_rad_s * age_s;
-        let h = pose.heading_rad;
         let (dx, dy) = if turn.abs() < 1e-6 {
             (speed_mm_s * age_s * cosf(h), speed_mm_s * age_s * sinf(h))
         } else {
@@ -207,7 +212,7 @@ impl PurePursuit {
         Pose {
             x_mm: pose.x_mm + dx,
             y_mm: pose.y_mm + dy,
-            heading_rad: h + turn,
+            heading_rad: Some(h + turn),
         }
     }
 
@@ -225,7 +230,11 @@ impl PurePursuit {
         self.phase_rad = Some(phase);
         let goal = path.point(path.ahead(phase, self.params.lookahead_mm));
         let (dx, dy) = (goal.0 - pose.x_mm, goal.1 - pose.y_mm);
-        let (sin, cos) = (sinf(pose.heading_rad), cosf(pose.heading_rad));
+        let heading = pose.heading_rad.unwrap_or_else(|| {
+            let (a, b) = (path.point(phase), path.point(phase + SEARCH_STEP_RAD));
+            atan2f(b.1 - a.1, b.0 - a.0)
+        });
+        let (sin, cos) = (sinf(heading), cosf(heading));
         let lateral = -sin * dx + cos * dy;
         let chord2 = (dx * dx + dy * dy).max(1.0);
         let curvature_per_mm = 2.0 * lateral / chord2;
@@ -237,7 +246,8 @@ impl PurePursuit {
 
     /// Computes the command for `p`, `age` old (zero when not compensating or unknown).
     fn command_for(&mut self, p: &Position, age: Option<ArrivedAge>, now_us: Option<u32>) {
-        let (left, right) = match Self::measured_pose(p) {
+        let measured = Self::measured_pose(p);
+        let (left, right) = match measured {
             Some((pose, speed)) => {
                 let age_s = match (self.params.compensate, age, now_us) {
                     (true, Some(a), Some(now)) => a.age_at_us(now) as f32 / US_PER_S,
@@ -253,6 +263,8 @@ impl PurePursuit {
         };
         self.ready = Some(WheelCommand {
             seq: p.seq,
+            timestamp_us: p.timestamp_us,
+            steering: measured.is_some(),
             left_mm_s: left as i32,
             right_mm_s: right as i32,
             age,
@@ -377,13 +389,23 @@ mod tests {
     }
 
     #[test]
+    fn a_robot_at_rest_on_the_path_sets_off_along_it() {
+        // At the crossing, the path heads up-right at 45°: no turn needed.
+        let mut c = PurePursuit::new(PARAMS);
+        c.on_position(&position(1, (0.0, 0.0), (0.0, 0.0)));
+        let cmd = c.take_command().unwrap();
+        assert!(cmd.steering);
+        assert!((cmd.left_mm_s - 500).abs() < 30 && (cmd.right_mm_s - 500).abs() < 30);
+    }
+
+    #[test]
     fn a_lost_light_or_screen_units_stop_the_robot() {
         let mut c = PurePursuit::new(PARAMS);
         let mut p = position(1, (600.0, 0.0), (0.0, -500.0));
         p.status = Status::Lost;
         c.on_position(&p);
         let cmd = c.take_command().unwrap();
-        assert_eq!((cmd.left_mm_s, cmd.right_mm_s), (0, 0));
+        assert_eq!((cmd.left_mm_s, cmd.right_mm_s, cmd.steering), (0, 0, false));
         let mut p = position(2, (600.0, 0.0), (0.0, -500.0));
         p.units = Units::Pixels;
         c.on_position(&p);

@@ -5,9 +5,10 @@
 //!   ([`PurePursuit`]), with a LED that answers glint's requests.
 //! - UART1 (`-serial` 2) carries text lines to and from the rig's simulated robot. In, once at
 //!   start: `compensate on` or `compensate off`; the firmware answers `ready compensate=1|0`.
-//!   Out: `W seq left_mm_s right_mm_s age_us` per position update (`age_us` is `-` without an
-//!   age frame; otherwise the position's age as this firmware reckons it when it writes the
-//!   line), and `L 0|1` when the LED switches.
+//!   Out: `W seq timestamp_us steering left_mm_s right_mm_s age_us` per position update
+//!   (`steering` 1 when the light was in view; `age_us` is `-` without an age frame, otherwise
+//!   the position's age as this firmware reckons it when it writes the line), and `L 0|1` when
+//!   the LED switches.
 //! - The clock is TIMER0, a 32-bit down counter at the board's 25 MHz, extended to 64 bits in
 //!   software at every reading (readings come at least once per update; the counter wraps
 //!   every 172 s).
@@ -240,16 +241,19 @@ mod target {
             robot.tick(now_us());
             if let Some(cmd) = robot.control.take_command() {
                 let mut out = Uart(UART1);
+                let _ = write!(
+                    out,
+                    "W {} {} {} {} {} ",
+                    cmd.seq,
+                    cmd.timestamp_us,
+                    u8::from(cmd.steering),
+                    cmd.left_mm_s,
+                    cmd.right_mm_s
+                );
+                // The age last, read as late as possible: the line's first bytes are out.
                 let _ = match cmd.age {
-                    Some(age) => writeln!(
-                        out,
-                        "W {} {} {} {}",
-                        cmd.seq,
-                        cmd.left_mm_s,
-                        cmd.right_mm_s,
-                        age.age_at_us(now_us())
-                    ),
-                    None => writeln!(out, "W {} {} {} -", cmd.seq, cmd.left_mm_s, cmd.right_mm_s),
+                    Some(age) => writeln!(out, "{}", age.age_at_us(now_us())),
+                    None => writeln!(out, "-"),
                 };
             }
         }
