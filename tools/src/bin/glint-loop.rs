@@ -28,7 +28,7 @@ use glint_tools::rig::{run_loop, LoopConfig, LoopReport};
 /// Run the robot-in-the-loop rig: renderer → glint run → firmware in qemu → robot.
 #[derive(Parser, Debug)]
 #[command(version, about)]
-struct Args {
+pub(crate) struct Args {
     /// Seconds of frames (at 30 fps).
     #[arg(long, default_value_t = 20.0, value_parser = parse_seconds)]
     seconds: f64,
@@ -172,6 +172,11 @@ fn print_details(r: &LoopReport) {
             d.median, d.p95, d.max, d.count
         ),
         None => println!("loop: no update carried an age"),
+    }
+    if !r.kept_real_time() {
+        println!(
+            "loop: this machine did not keep the loop in real time: the figures measure its load"
+        );
     }
     if r.garbled > 0 {
         println!("loop: {} garbled lines from the firmware", r.garbled);

@@ -90,16 +90,18 @@ impl Board {
         std::io::Write::write_all(&mut self.uart1, format!("compensate {mode}\n").as_bytes())?;
         let deadline = Instant::now() + READY_TIMEOUT;
         let mut seen = Vec::new();
-        let mut buf = [0u8; 64];
+        // A byte at a time: what follows the answer (the LED's first line) is the reader's.
+        let mut buf = [0u8; 1];
         while Instant::now() < deadline {
             match self.uart1.read(&mut buf) {
                 Ok(n) => seen.extend_from_slice(buf.get(..n).unwrap_or(&[])),
                 Err(e) if e.kind() == std::io::ErrorKind::TimedOut => {}
                 Err(e) => return Err(e).context("reading the board's UART1"),
             }
-            if String::from_utf8_lossy(&seen)
-                .lines()
-                .any(|l| l.trim() == expected)
+            if seen.ends_with(b"\n")
+                && String::from_utf8_lossy(&seen)
+                    .lines()
+                    .any(|l| l.trim() == expected)
             {
                 return Ok(());
             }

@@ -50,6 +50,8 @@ const HISTORY_S: f64 = 0.5;
 const TRACE_EVERY_STEPS: u64 = 10;
 /// Microseconds per second.
 const US_PER_S: f64 = 1e6;
+/// Ages on arrival beyond this (p95) mean the machine could not keep the loop in real time, ms.
+const REAL_TIME_AGE_MS: f64 = 100.0;
 /// How long glint may take to finish after its input ends.
 const GLINT_EXIT_WAIT: Duration = Duration::from_secs(10);
 
@@ -476,6 +478,13 @@ fn report(w: &World, handed: &[Handed]) -> Result<LoopReport> {
 }
 
 impl LoopReport {
+    /// Whether the loop kept real time: every frame handed to glint within a frame period of
+    /// its exposure, and the updates back within 100 ms (p95). A machine too busy for that
+    /// measures its own load, not the loop.
+    pub fn kept_real_time(&self) -> bool {
+        self.delivery_ms.p95 <= 1e3 / FPS && self.age_on_arrival_ms.p95 <= REAL_TIME_AGE_MS
+    }
+
     /// The last line `glint-loop` prints.
     pub fn summary_line(&self) -> String {
         format!(

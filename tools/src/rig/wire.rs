@@ -18,7 +18,7 @@ const BITS_PER_BYTE: u64 = 10;
 /// How long a read waits before looking at the stop flag again.
 pub const POLL: Duration = Duration::from_millis(50);
 /// Sleeps shorter than this are spun instead: a sleep overshoots by tens of µs.
-const SPIN_US: u64 = 200;
+const SPIN_US: u64 = 60;
 
 /// Nanoseconds one byte takes on the line at `baud`.
 pub fn byte_time_ns(baud: u32) -> u64 {
