@@ -21,6 +21,7 @@ use std::process::{Command, ExitCode};
 
 use anyhow::{bail, Context, Result};
 use clap::Parser;
+use glint_tools::overlay::Canvas;
 use glint_tools::rig::path::FigureEight;
 use glint_tools::rig::run::tail;
 use glint_tools::rig::{run_loop, LoopConfig, LoopReport};
@@ -50,8 +51,8 @@ pub(crate) struct Args {
     /// qemu-system-arm.
     #[arg(long, default_value = "qemu-system-arm")]
     qemu: PathBuf,
-    /// Also write the driven path against the planned one as an SVG.
-    #[arg(long, value_name = "FILE.svg")]
+    /// Also draw the driven path over the planned one, as a PNG.
+    #[arg(long, value_name = "FILE.png")]
     plot: Option<PathBuf>,
 }
 
@@ -143,7 +144,8 @@ fn run(args: Args) -> Result<()> {
     };
     print_details(&report);
     if let Some(out) = &args.plot {
-        std::fs::write(out, svg(&report))
+        plot(&report)
+            .save_png(out)
             .with_context(|| format!("cannot write {}", out.display()))?;
     }
     println!("{}", report.summary_line());
@@ -183,36 +185,49 @@ fn print_details(r: &LoopReport) {
     }
 }
 
-/// The driven path (red) over the planned one (grey), 1 px = 2 mm.
-fn svg(r: &LoopReport) -> String {
-    const SCALE_PX_PER_M: f64 = 500.0;
-    const MARGIN_PX: f64 = 20.0;
+/// Pixels per metre of the plot: 1 px = 2 mm.
+const PLOT_PX_PER_M: f64 = 500.0;
+/// Room around the figure, and for the caption, px.
+const PLOT_MARGIN_PX: f64 = 24.0;
+/// Half the width of the planned path's band, px (5 mm).
+const PLANNED_HALF_WIDTH_PX: i64 = 2;
+
+/// The driven path (red) over the planned one (a grey band 10 mm wide), drawn with the
+/// overlay's canvas and font as `glint-plot` draws its tracks.
+fn plot(r: &LoopReport) -> Canvas {
     let (w, h) = (
-        1.2 * SCALE_PX_PER_M + 2.0 * MARGIN_PX,
-        0.6 * SCALE_PX_PER_M + 2.0 * MARGIN_PX,
+        1.2 * PLOT_PX_PER_M + 2.0 * PLOT_MARGIN_PX,
+        0.6 * PLOT_PX_PER_M + 3.0 * PLOT_MARGIN_PX,
     );
+    let mut canvas = Canvas::new(w as usize, h as usize, [255, 255, 255]);
     let px = |(x, y): (f64, f64)| {
-        format!(
-            "{:.1},{:.1}",
-            w / 2.0 + x * SCALE_PX_PER_M,
-            h / 2.0 - y * SCALE_PX_PER_M
+        (
+            (w / 2.0 + x * PLOT_PX_PER_M).round() as i64,
+            (PLOT_MARGIN_PX + (h - PLOT_MARGIN_PX) / 2.0 - y * PLOT_PX_PER_M).round() as i64,
         )
     };
-    let line = |points: &[(f64, f64)]| points.iter().map(|&p| px(p)).collect::<Vec<_>>().join(" ");
-    let planned: Vec<(f64, f64)> = FigureEight::RIG
-        .polyline()
-        .into_iter()
-        .step_by(10)
-        .collect();
-    format!(
-        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{w}\" height=\"{h}\" viewBox=\"0 0 {w} {h}\">\n\
-         <rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n\
-         <polyline points=\"{}\" fill=\"none\" stroke=\"#bbb\" stroke-width=\"6\"/>\n\
-         <polyline points=\"{}\" fill=\"none\" stroke=\"#c22\" stroke-width=\"1\"/>\n\
-         <text x=\"{MARGIN_PX}\" y=\"14\" font-family=\"sans-serif\" font-size=\"12\">planned (grey, 12 mm wide) and driven (red): {}</text>\n\
-         </svg>\n",
-        line(&planned),
-        line(&r.driven_m),
-        r.summary_line().trim_start_matches("loop: ")
-    )
+    for p in FigureEight::RIG.polyline() {
+        let (x, y) = px(p);
+        canvas.disk(x, y, PLANNED_HALF_WIDTH_PX, [190, 190, 190]);
+    }
+    for pair in r.driven_m.windows(2) {
+        let ((x0, y0), (x1, y1)) = (px(pair[0]), px(pair[1]));
+        canvas.line(x0, y0, x1, y1, [200, 30, 30]);
+    }
+    canvas.text(
+        6,
+        4,
+        "planned (grey, 10 mm wide) and driven (red)",
+        1,
+        [0, 0, 0],
+    );
+    let figures = format!(
+        "path error p50 {:.1} p95 {:.1} mm; age p50 {:.1} p95 {:.1} ms",
+        r.path_error_mm.median,
+        r.path_error_mm.p95,
+        r.age_on_arrival_ms.median,
+        r.age_on_arrival_ms.p95
+    );
+    canvas.text(6, 14, &figures, 1, [0, 0, 0]);
+    canvas
 }
