@@ -21,6 +21,9 @@ mod cli;
 #[path = "../tools/src/bin/glint-demo.rs"]
 mod glint_demo;
 #[allow(dead_code)]
+#[path = "../tools/src/bin/glint-loop.rs"]
+mod glint_loop;
+#[allow(dead_code)]
 #[path = "../tools/src/bin/glint-plot.rs"]
 mod glint_plot;
 #[allow(dead_code)]
@@ -152,6 +155,9 @@ fn parse(argv: &[String]) -> Result<(), String> {
             .map(drop)
             .map_err(render),
         Some("glint-view") => glint_view::Args::try_parse_from(&argv)
+            .map(drop)
+            .map_err(render),
+        Some("glint-loop") => glint_loop::Args::try_parse_from(&argv)
             .map(drop)
             .map_err(render),
         _ => {

@@ -41,6 +41,8 @@
 #                    (board/raspberry-pi/check.sh)
 #   python3-venv     the venv of pymavlink, which decodes `--mavlink` output (tools/setup-python.sh)
 #   apt              apt-get download of the kernel package the V4L2 VM boots (tests/vm/prepare.sh)
+#   qemu-system-arm  the example firmware on an emulated Cortex-M4 board (mps2-an386) in the
+#                    robot-in-the-loop rig (tools/src/rig, tools/tests/rig.rs)
 #
 # The VM runs host-built (glibc) test programs: tests/vm/prepare.sh copies the C libraries they
 # need into the guest, so no extra Rust target is needed.
@@ -49,7 +51,8 @@ set -eu
 BUILD_PACKAGES="gcc libc6-dev linux-libc-dev libclang-dev"
 TEST_PACKAGES="qemu-system-x86 busybox-static v4l-utils cpio kmod xz-utils binutils socat g++
     gcc-aarch64-linux-gnu gcc-arm-linux-gnueabihf libc6-dev-arm64-cross libc6-dev-armhf-cross
-    linux-libc-dev-arm64-cross linux-libc-dev-armhf-cross qemu-user chromium systemd python3 python3-venv apt"
+    linux-libc-dev-arm64-cross linux-libc-dev-armhf-cross qemu-user chromium systemd python3 python3-venv apt
+    qemu-system-arm"
 
 here=$(cd "$(dirname "$0")" && pwd)
 

@@ -12,6 +12,9 @@ fi
 
 cargo build --release --locked --target "$TARGET"
 cargo clippy --release --locked --target "$TARGET" -- -D warnings
+# The board qemu emulates for the robot-in-the-loop rig (tools/src/rig).
+cargo build --release --locked --target "$TARGET" --features mps2-an386 --bin glint-firmware-mps2
+cargo clippy --release --locked --target "$TARGET" --features mps2-an386 -- -D warnings
 cargo fmt --check
 # The link and control-loop logic is plain Rust over embedded-io traits: test it on the host.
 cargo test --locked

@@ -9,9 +9,12 @@
 //! - [`plot`]: a JSON-lines track as a PNG of the trajectory and the speed over time (the
 //!   `glint-plot` binary).
 //! - [`stats`]: medians and percentiles of per-frame errors and times.
+//! - [`rig`]: the robot-in-the-loop rig (`glint-loop`): a simulated robot, filmed by the
+//!   renderer, tracked by `glint run`, steered by the example firmware in qemu.
 
 pub mod markers;
 pub mod overlay;
 pub mod plot;
+pub mod rig;
 pub mod scene;
 pub mod stats;

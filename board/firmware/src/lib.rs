@@ -14,6 +14,7 @@ pub mod control;
 pub mod demo;
 pub mod led;
 pub mod link;
+pub mod pursuit;
 
 pub use clock::Clock;
 pub use control::{ArrivedAge, ControlLoop, HoldPosition};

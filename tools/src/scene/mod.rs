@@ -252,6 +252,20 @@ fn add_glare_and_occluders(config: &SceneConfig, static_radiance: &mut [f32], wi
 }
 
 impl Scene {
+    /// Replaces the LED's trajectory (checked as [`Scene::new`] checks it) and keeps the
+    /// static picture: a renderer driven from outside frame by frame (the robot-in-the-loop rig)
+    /// moves the LED as it goes without rendering the floor again.
+    pub fn set_trajectory(&mut self, trajectory: Trajectory) -> Result<(), SceneError> {
+        trajectory
+            .validate()
+            .map_err(|reason| SceneError::Invalid {
+                field: "trajectory",
+                reason,
+            })?;
+        self.config.trajectory = trajectory;
+        Ok(())
+    }
+
     /// A preset by its stable name (see [`Scene::names`]).
     pub fn preset(name: &str) -> Option<Scene> {
         Scene::new(presets::config(name)?).ok()

@@ -1,0 +1,109 @@
+//! The lines the firmware writes to the rig on its UART1 (see board/firmware/src/bin/mps2.rs),
+//! parsed. Every line is checked: a garbled one is counted, never trusted.
+
+/// One wheel command, as the firmware sent it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Command {
+    /// The position update it answers.
+    pub seq: u8,
+    /// That update's frame time, µs (glint's frame clock: frame index × period).
+    pub timestamp_us: u32,
+    /// The light was in view.
+    pub steering: bool,
+    /// Wheel speeds, mm/s.
+    pub left_mm_s: i32,
+    pub right_mm_s: i32,
+    /// The position's age as the firmware reckoned it when writing the line, µs.
+    pub age_us: Option<u32>,
+}
+
+/// A line from the firmware.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Line {
+    /// `W seq timestamp_us steering left right age|-`
+    Wheels(Command),
+    /// `L 0|1`: the LED switched.
+    Led(bool),
+    /// `ready compensate=…` (also at start) or anything else the rig does not act on.
+    Other,
+}
+
+/// Parses one line (without its newline); `None` when it is garbled.
+pub fn parse(line: &str) -> Option<Line> {
+    let mut words = line.split_ascii_whitespace();
+    match words.next()? {
+        "W" => {
+            let mut next = || words.next();
+            let seq = next()?.parse().ok()?;
+            let timestamp_us = next()?.parse().ok()?;
+            let steering = match next()? {
+                "0" => false,
+                "1" => true,
+                _ => return None,
+            };
+            let left_mm_s = next()?.parse().ok()?;
+            let right_mm_s = next()?.parse().ok()?;
+            let age_us = match next()? {
+                "-" => None,
+                age => Some(age.parse().ok()?),
+            };
+            if next().is_some() {
+                return None;
+            }
+            Some(Line::Wheels(Command {
+                seq,
+                timestamp_us,
+                steering,
+                left_mm_s,
+                right_mm_s,
+                age_us,
+            }))
+        }
+        "L" => match (words.next()?, words.next()) {
+            ("0", None) => Some(Line::Led(false)),
+            ("1", None) => Some(Line::Led(true)),
+            _ => None,
+        },
+        "ready" => Some(Line::Other),
+        _ => None,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_firmwares_lines_parse_and_garbage_does_not() {
+        assert_eq!(
+            parse("W 7 233333 1 512 -488 5775"),
+            Some(Line::Wheels(Command {
+                seq: 7,
+                timestamp_us: 233_333,
+                steering: true,
+                left_mm_s: 512,
+                right_mm_s: -488,
+                age_us: Some(5_775),
+            }))
+        );
+        assert!(matches!(
+            parse("W 7 0 0 0 0 -"),
+            Some(Line::Wheels(Command { age_us: None, .. }))
+        ));
+        assert_eq!(parse("L 0"), Some(Line::Led(false)));
+        assert_eq!(parse("ready compensate=1"), Some(Line::Other));
+        for bad in [
+            "",
+            "W",
+            "W 7 0 2 0 0 -",
+            "W 300 0 1 0 0 -",
+            "W 7 0 1 0 0 5 extra",
+            "W 7 0 1 x 0 -",
+            "L 2",
+            "L 1 1",
+            "Q",
+        ] {
+            assert_eq!(parse(bad), None, "{bad:?}");
+        }
+    }
+}
