@@ -21,12 +21,14 @@
 //! [`source`] → [`frame`] → [`detect`] (threshold → morphology → blobs → streak) → [`track`]
 //! (or [`track::marker`] for a robot carrying an ArUco marker) → [`geometry::floor`] (screen →
 //! floor, with a calibration) → [`pipeline`] → [`sink`]. [`pipeline::Pipeline::process`] reads
-//! top to bottom.
+//! top to bottom. With several robots and a link to them, [`identify`] binds tracks to robot ids
+//! by asking each robot to blink.
 
 pub mod budget;
 pub mod detect;
 pub mod frame;
 pub mod geometry;
+pub mod identify;
 pub mod latency;
 pub mod monitor;
 pub mod options;

@@ -461,3 +461,44 @@ fn mavlink_sink_allocates_nothing_per_frame() {
     );
     assert_eq!(allocations, 0, "allocations during {count} frames");
 }
+
+/// Identification (asking robots in turn, judging the frames after each request, unbinding
+/// tracks that meet) allocates nothing per frame.
+#[test]
+fn identification_allocates_nothing_per_frame() {
+    use glint::identify::{Identifier, IdentifyConfig, TrackSeen};
+
+    const PERIOD_US: u64 = 33_333;
+    let mut id = Identifier::<16>::new(IdentifyConfig::new(4, PERIOD_US)).unwrap();
+    let mut tracks = [TrackSeen::default(); 4];
+    // Robot k's LED is off during off[k]; robots 2 and 3 meet halfway through.
+    let mut off = [(0u64, 0u64); 4];
+    let mut bound = 0;
+    let allocations = allocations_during(|| {
+        for frame in 1..=900u64 {
+            let now_us = frame * PERIOD_US;
+            let meeting = (400..430).contains(&frame);
+            for (k, t) in tracks.iter_mut().enumerate() {
+                let (from, until) = off[k];
+                t.visible = !(from..until).contains(&now_us);
+                t.x_px = if meeting && k >= 2 {
+                    300.0 + k as f32
+                } else {
+                    100.0 * k as f32
+                };
+                t.y_px = 50.0;
+            }
+            let step = id.step(now_us, &tracks);
+            if let Some(r) = step.request {
+                let from = now_us + 10_000 + u64::from(r.delay_us);
+                off[usize::from(r.robot) - 1] = (from, from + u64::from(r.off_us));
+            }
+            bound = (0..4)
+                .filter(|&s| id.robot_of(s) == Some(s as u8 + 1))
+                .count();
+        }
+    });
+    assert_eq!(bound, 4, "every robot identified by the end");
+    assert!(id.stats().unbound >= 2, "the meeting unbound two tracks");
+    assert_eq!(allocations, 0);
+}
