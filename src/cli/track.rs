@@ -9,6 +9,7 @@ use std::sync::Arc;
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
 
+use super::serial_ports::{self, SerialArg, SerialPlan};
 use super::{calib_args, input, memory, signals};
 
 use glint::budget::{self, MemoryPlan};
@@ -87,9 +88,12 @@ pub struct TrackSettings {
     #[command(flatten)]
     pub floor: calib_args::FloorArgs,
 
-    /// Also send position packets to the robot on this serial port (board/protocol/SPEC.md).
-    #[arg(long, value_name = "PORT", overrides_with = "no_serial")]
-    pub serial: Option<String>,
+    /// Also send position packets to the robots (board/protocol/SPEC.md): `PORT`, one line
+    /// every robot listens on (a UART, or a radio bridge to all of them), or `ID=PORT` for robot
+    /// ID's own line (repeat it per robot; ids 1 to 16, each once).
+    #[arg(long, value_name = "PORT|ID=PORT", overrides_with = "no_serial",
+          action = clap::ArgAction::Append, value_parser = serial_ports::parse_serial)]
+    pub serial: Vec<SerialArg>,
 
     /// No serial link, whatever a --serial before it (or the settings file's `serial`) says:
     /// try a Pi's settings on a dump without its UART.
@@ -248,6 +252,8 @@ pub struct Opened {
 /// opens the serial link, in that order; from then on Ctrl-C and SIGTERM stop the run cleanly.
 pub fn open(settings: &TrackSettings, plan: &MemoryPlan) -> Result<Opened> {
     settings.memory.check(plan)?;
+    // A bad combination of --serial values is refused before anything is opened.
+    settings.serial_plan()?;
     let stop = Arc::new(AtomicBool::new(false));
     signals::stop_on_signals(&stop)?;
     let input::Input {
@@ -280,9 +286,21 @@ pub fn open(settings: &TrackSettings, plan: &MemoryPlan) -> Result<Opened> {
 
 /// Opens `--serial` with glint's packets, or with MAVLink under `--mavlink`.
 fn open_serial(settings: &TrackSettings, pipeline: &Pipeline) -> Result<SerialLink> {
-    let Some(port) = settings.serial.as_deref() else {
-        return Ok(Tee::new(None, None));
+    let port = match settings.serial_plan()? {
+        SerialPlan::None => return Ok(Tee::new(None, None)),
+        SerialPlan::Shared(port) => port,
+        SerialPlan::PerRobot(ports) => {
+            if settings.mavlink {
+                bail!("--mavlink talks to one autopilot: give one --serial PORT, not ID=PORT");
+            }
+            // One robot followed: its own line is the only line.
+            match ports.into_iter().collect::<Vec<_>>().as_slice() {
+                [(1, port)] => port.clone(),
+                _ => bail!("--serial ID=PORT: glint follows one robot here, robot 1"),
+            }
+        }
     };
+    let port = port.as_str();
     if !settings.mavlink {
         let sink = SerialSink::open(port, settings.baud)?;
         let sink = match settings.predict {
@@ -310,6 +328,13 @@ fn open_serial(settings: &TrackSettings, pipeline: &Pipeline) -> Result<SerialLi
     };
     let sink = MavlinkSink::open(port, settings.baud, identity, local)?;
     Ok(Tee::new(None, Some(sink)))
+}
+
+impl TrackSettings {
+    /// The `--serial` values, checked together.
+    pub fn serial_plan(&self) -> Result<SerialPlan> {
+        serial_ports::plan(&self.serial).map_err(anyhow::Error::msg)
+    }
 }
 
 pub fn run(args: TrackArgs) -> Result<ExitCode> {
