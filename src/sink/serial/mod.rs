@@ -3,7 +3,9 @@
 //!
 //! Every update is followed by its age on arrival (protocol version 2): how old the position is
 //! when the last byte leaves the host, stamped by the writer as it writes (`stamp`). On request
-//! ([`SerialSink::request_led`]) a LED request goes out too.
+//! ([`SerialSink::request_led`]) a LED request goes out too. On a line shared by several robots
+//! ([`SerialSink::send_robots`]), each frame carries one robot position (protocol version 3) per
+//! robot, each numbered in that robot's own sequence, in one write.
 //!
 //! The capture thread only builds messages (on the stack) and posts them into a one-slot-per-kind
 //! `mailbox`; a writer thread owns the port and does the blocking I/O. A slow line therefore
@@ -40,11 +42,12 @@ pub use link::open_port;
 pub(crate) use link::write_all;
 
 use super::Sink;
+use crate::identify::MAX_ROBOTS;
 use crate::pipeline::FrameReport;
 use crate::source::clock::monotonic_now_us;
 use crate::source::FrameMeta;
 use link::{Counters, Link};
-use mailbox::{Mailbox, Post, SLOT_BYTES};
+use mailbox::{Mailbox, Post, RobotUpdates, SLOT_BYTES};
 use stamp::{PendingLed, PendingUpdate, Prediction};
 
 use super::predict::Predictor;
@@ -152,6 +155,8 @@ pub struct SerialSink {
     frame_clock_origin_us: Option<i64>,
     /// With `--predict arrival`: the motion each update is moved on by, at write time.
     predictor: Option<Predictor>,
+    /// Per robot on a shared line (index: id − 1): its sequence numbers and last position.
+    robots: [Updates; MAX_ROBOTS],
     clamp_warned: bool,
 }
 
@@ -186,6 +191,7 @@ impl SerialSink {
             next_led_request: 0,
             frame_clock_origin_us: None,
             predictor: None,
+            robots: core::array::from_fn(|_| Updates::new()),
             clamp_warned: false,
         })
     }
@@ -229,7 +235,44 @@ impl SerialSink {
             measured: quantised.position,
             prediction,
             captured_monotonic_us: meta.monotonic_us,
+            robot: None,
         }));
+    }
+
+    /// Posts one frame's updates for several robots on this shared line: for each `(robot,
+    /// located)`, robot `robot` (1..=[`MAX_ROBOTS`]) found at `located`, or lost without (the
+    /// robot's last position repeated, as for one robot). Each robot's updates carry its own
+    /// sequence numbers. Robots out of range are skipped; `--predict arrival` applies to one
+    /// robot's line only. A heartbeat goes out when due, as with [`SerialSink::send`].
+    pub fn send_robots(&mut self, meta: &FrameMeta, robots: &[(u8, Option<Located>)]) {
+        if let Some(heartbeat) = self.updates.heartbeat(meta) {
+            self.posted_heartbeats += 1;
+            self.post_heartbeat(&Message::Heartbeat(heartbeat));
+        }
+        self.frame_clock_origin_us = Some(frame_clock_origin_us(meta));
+        let mut posted = RobotUpdates::new();
+        for (robot, located) in robots {
+            let Some(updates) = usize::from(*robot)
+                .checked_sub(1)
+                .and_then(|i| self.robots.get_mut(i))
+            else {
+                continue;
+            };
+            let quantised = updates.position(meta, located.as_ref());
+            let pending = PendingUpdate {
+                measured: quantised.position,
+                prediction: None,
+                captured_monotonic_us: meta.monotonic_us,
+                robot: Some(*robot),
+            };
+            if posted.push(pending).is_err() {
+                break;
+            }
+        }
+        self.posted_updates += posted.len() as u64;
+        if !posted.is_empty() {
+            self.mailbox.post(Post::Robots(&posted));
+        }
     }
 
     /// Asks robot `robot` (0: every robot) to switch its LED off for `off_us`, `delay_us` after
