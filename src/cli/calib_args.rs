@@ -6,8 +6,8 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use clap::Args;
 
+use glint::detect::aruco::{DetectorConfig, Dictionary};
 use glint::frame::FrameSize;
-use glint::geometry::aruco::{DetectorConfig, Dictionary};
 use glint::geometry::recheck::MarkerRecheck;
 use glint::geometry::CalibrationFile;
 use glint::pipeline::{Pipeline, PipelineConfig};

@@ -1,8 +1,7 @@
-//! Screen ↔ floor geometry: the homography between the two planes, the ArUco / AprilTag marker
-//! detector that finds the points it is fitted from, the calibration that joins them (and its
-//! file), and the floor stage that maps each frame's estimate onto the floor.
+//! Screen ↔ floor geometry: the homography between the two planes, the calibration that joins
+//! them from markers found by [`crate::detect::aruco`] (and its file), and the floor stage that
+//! maps each frame's estimate onto the floor.
 
-pub mod aruco;
 pub mod calibration;
 pub mod calibration_file;
 pub mod calibration_record;

@@ -9,8 +9,8 @@
 
 use core::fmt;
 
+use crate::detect::aruco::{self, DetectorConfig, Dictionary, Marker};
 use crate::frame::{Frame, FrameSize};
-use crate::geometry::aruco::{self, DetectorConfig, Dictionary, Marker};
 use crate::geometry::Point;
 
 use super::{Estimate, PositionMethod, VelocityMethod};
