@@ -20,8 +20,10 @@
 //!
 //! [`source`] → [`frame`] → [`detect`] (threshold → morphology → blobs → streak) → [`track`]
 //! (or [`track::marker`] for a robot carrying an ArUco marker) → [`geometry::floor`] (screen →
-//! floor, with a calibration) → [`pipeline`] → [`sink`]. [`pipeline::Pipeline::process`] reads
-//! top to bottom.
+//! floor, with a calibration) → [`report`] → [`sink`]. [`pipeline::Pipeline::process`] calls
+//! the stages in order and reads top to bottom; it fills a [`report::FrameReport`], the one
+//! thing the sinks read (they never import the pipeline). The number of robots is bounded at
+//! compile time ([`report::MAX_ROBOTS`]): every per-robot table is sized for it.
 
 pub mod budget;
 pub mod detect;
@@ -31,6 +33,7 @@ pub mod latency;
 pub mod monitor;
 pub mod options;
 pub mod pipeline;
+pub mod report;
 pub mod sink;
 pub mod small_file;
 pub mod source;

@@ -12,11 +12,12 @@ use crate::detect::blobs::Overflow;
 use crate::detect::threshold::Levels;
 use crate::detect::{Detection, Detector, DetectorConfig};
 use crate::frame::{Frame, FrameSize};
-use crate::geometry::recheck::{CalibStatus, MarkerRecheck};
-use crate::geometry::{FloorFix, FloorStage};
+use crate::geometry::recheck::MarkerRecheck;
+use crate::geometry::FloorStage;
+use crate::report::{FrameReport, IdSource, TrackReport, Tracks};
 use crate::sink::Sink;
 use crate::source::{FrameMeta, FrameSource};
-use crate::track::{Choice, Estimate, MarkerPose, MarkerTracker, Tracker, TrackerConfig};
+use crate::track::{Choice, MarkerTracker, TrackState, Tracker, TrackerConfig};
 
 /// Settings of the whole per-frame path.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -25,38 +26,6 @@ pub struct PipelineConfig {
     pub detector: DetectorConfig,
     /// The tracking stage.
     pub tracker: TrackerConfig,
-}
-
-/// Everything known about one processed frame.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct FrameReport {
-    /// Index, sequence and time of the frame.
-    pub meta: FrameMeta,
-    /// The LED detection stage's findings (empty when tracking a marker).
-    pub detection: Detection,
-    /// The LED's (or marker's) position and velocity, when found. Positions are image pixels,
-    /// (0, 0) the centre of the top-left pixel.
-    pub position: Option<Estimate>,
-    /// Several candidates and no way yet to tell the LED from glare (or the tracked marker id
-    /// seen twice).
-    pub ambiguous: bool,
-    /// The tracked marker's corners and heading, when tracking a marker and it was found.
-    pub marker: Option<MarkerPose>,
-    /// When tracking a marker: the marker detector hit its cost cap on this frame, so part of
-    /// the frame was not searched.
-    pub markers_capped: bool,
-    /// Floor position, velocity and heading, when a calibration is loaded and `position` is
-    /// known.
-    pub floor: Option<FloorFix>,
-    /// Which calibration the floor numbers used, when its markers are re-checked.
-    pub calib: Option<CalibStatus>,
-}
-
-impl FrameReport {
-    /// Frame time in seconds since the first frame.
-    pub fn t_s(&self) -> f64 {
-        self.meta.timestamp_us as f64 * 1e-6
-    }
 }
 
 /// What finds the robot in a frame.
@@ -129,7 +98,8 @@ impl Pipeline {
     /// the candidates, analyse that one blob's streak, update the track; marker: detect and
     /// pick the id), then map the result to the floor.
     pub fn process(&mut self, frame: &Frame<'_>, meta: FrameMeta) -> FrameReport {
-        let (detection, position, ambiguous, marker, markers_capped) = match &mut self.front {
+        let (detection, position, ambiguous, marker, markers_capped, state) = match &mut self.front
+        {
             Front::Led { detector, tracker } => {
                 let mut detection = detector.segment(frame);
                 let choice = tracker.choose(detector.candidates(), meta.index, meta.timestamp_us);
@@ -152,17 +122,25 @@ impl Pipeline {
                     choice == Choice::Ambiguous,
                     None,
                     false,
+                    tracker.state(),
                 )
             }
             Front::Marker(tracker) => {
                 let found = tracker.process(frame, meta.timestamp_us);
                 let capped = found.markers_capped;
+                // The marker tracker predicts nothing: a frame without the marker searches.
+                let state = if found.estimate.is_some() {
+                    TrackState::Tracking
+                } else {
+                    TrackState::Searching
+                };
                 (
                     no_detection(),
                     found.estimate,
                     found.ambiguous,
                     found.pose,
                     capped,
+                    state,
                 )
             }
         };
@@ -173,9 +151,27 @@ impl Pipeline {
             _ => None,
         };
         let floor = match (&self.floor, &position) {
-            (Some(stage), Some(p)) => Some(stage.map(p, marker.as_ref().map(|m| &m.corners_px))),
+            (Some(stage), Some(p)) => Some(stage.map(
+                p.position_px,
+                p.velocity_px_s.map(|(v, _)| v),
+                marker.as_ref().map(|m| &m.corners_px),
+            )),
             _ => None,
         };
+        let mut tracks = Tracks::new();
+        // One robot: its track is the run's one robot, whose id is certain.
+        let single = TrackReport {
+            id: 1,
+            provisional: false,
+            id_source: IdSource::Continuity,
+            state,
+            merged: false,
+            estimate: position,
+            blob: detection.best.filter(|_| position.is_some()),
+            floor,
+        };
+        // A bounded list of MAX_ROBOTS ≥ 1 always holds the first entry.
+        let _ = tracks.push(single);
         FrameReport {
             meta,
             detection,
@@ -185,6 +181,7 @@ impl Pipeline {
             markers_capped,
             floor,
             calib,
+            tracks,
         }
     }
 

@@ -199,7 +199,7 @@ fn floor_mapping_and_marker_tracking_allocate_nothing_per_frame() {
     let tracker = glint::track::MarkerTracker::new(size, Dictionary::Aruco6x6_250, 7).unwrap();
     let mut pipeline = Pipeline::marker(tracker).with_floor(lens_floor());
     let mut source = DumpSource::new(Cursor::new(&dump), size, 30.0);
-    let mut reports: heapless::Vec<glint::pipeline::FrameReport, 8> = heapless::Vec::new();
+    let mut reports: heapless::Vec<glint::report::FrameReport, 8> = heapless::Vec::new();
     let allocations = allocations_during(|| {
         while let Some((frame, meta)) = glint::source::FrameSource::next_frame(&mut source).unwrap()
         {

@@ -7,8 +7,8 @@
 
 use glint::detect::aruco::{Detector, DetectorConfig, Dictionary, Marker};
 use glint::frame::{Frame, FrameSize};
+use glint::geometry::marker_heading_deg;
 use glint::geometry::Point;
-use glint::track::marker_heading_deg;
 
 /// A fixture: name, its PNG, its detections file, and the bounds on glint's corner distance
 /// from where the corners were drawn (px), mean and worst.

@@ -8,6 +8,7 @@ pub mod calibration_record;
 pub mod camera;
 pub mod camera_fit;
 pub mod floor;
+pub mod heading;
 pub mod homography;
 pub mod lens_file;
 pub mod recheck;
@@ -18,4 +19,5 @@ pub use calibration_record::{CalibrationRecord, RecordedMarker, CALIBRATION_VERS
 pub use camera::{CameraError, CameraModel, Lens, Pose};
 pub use camera_fit::{fit_camera, CameraFit, CameraFitError, LensChoice};
 pub use floor::{FloorEstimate, FloorFix, FloorStage, FloorUnit, NeedsCameraPose};
+pub use heading::marker_heading_deg;
 pub use homography::{FloorMapping, Homography, HomographyError, Point};

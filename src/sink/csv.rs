@@ -3,8 +3,8 @@
 use std::io::{self, Write};
 
 use super::Sink;
-use crate::geometry::FloorFix;
-use crate::pipeline::FrameReport;
+use crate::report::FloorFix;
+use crate::report::FrameReport;
 
 /// The header line.
 pub const CSV_HEADER: &str = "frame,t,found,x,y,mid_x,mid_y,pos_method,vx,vy,v_method,area_px,\

@@ -9,7 +9,7 @@
 //! calibration it used, `"calib":{"age_s":…,"residual_px":…}` (seconds since markers last
 //! confirmed the pose, and their rms residual then), and floor numbers get `floor_stale: true`
 //! once no marker has been seen for a while (the camera may have moved). Headings are degrees
-//! from +x towards +y of their coordinates ([`crate::track::marker_heading_deg`]). With
+//! from +x towards +y of their coordinates ([`crate::geometry::marker_heading_deg`]). With
 //! `--predict arrival`, a found frame with a known velocity gets `predicted`: `{"x", "y" (px),
 //! "ahead_ms"}`, the position extrapolated to the moment the line is written, `ahead_ms` after
 //! the end of the exposure (see [`super::predict`]). Then the detection's diagnostics, among
@@ -20,8 +20,8 @@ use std::io::{self, Write};
 
 use super::predict::{Predictor, Reference};
 use super::Sink;
-use crate::geometry::FloorFix;
-use crate::pipeline::FrameReport;
+use crate::report::FloorFix;
+use crate::report::FrameReport;
 use crate::source::clock::monotonic_now_us;
 
 /// Writes reports as JSON lines; flushes after each line when `live`, so a consumer reading a

@@ -29,6 +29,7 @@
 //!   one frame; otherwise the velocity comes from consecutive streak middles and frame times.
 
 pub mod marker;
+pub mod state;
 pub mod statics;
 
 use heapless::HistoryBuf;
@@ -37,7 +38,8 @@ use crate::detect::blobs::Blob;
 use crate::detect::streak::Streak;
 use statics::{Known, Statics};
 
-pub use marker::{marker_heading_deg, MarkerPose, MarkerTracker};
+pub use marker::{MarkerPose, MarkerTracker};
+pub use state::TrackState;
 
 /// Frames the history ring keeps.
 pub const HISTORY_FRAMES: usize = 16;

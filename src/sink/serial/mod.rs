@@ -40,9 +40,8 @@ pub use link::open_port;
 pub(crate) use link::write_all;
 
 use super::Sink;
-use crate::pipeline::FrameReport;
+use crate::report::{FrameMeta, FrameReport, TrackState};
 use crate::source::clock::monotonic_now_us;
-use crate::source::FrameMeta;
 use link::{Counters, Link};
 use mailbox::{Mailbox, Post, SLOT_BYTES};
 use stamp::{PendingLed, PendingUpdate, Prediction};
@@ -198,8 +197,9 @@ impl SerialSink {
     }
 
     /// Posts the frame's position update (found with `located`, lost without) and, when due,
-    /// a heartbeat. Returns at once: the writer thread sends them.
-    pub fn send(&mut self, meta: &FrameMeta, located: Option<&Located>) {
+    /// a heartbeat carrying the tracker's `state`. Returns at once: the writer thread sends
+    /// them.
+    pub fn send(&mut self, meta: &FrameMeta, located: Option<&Located>, state: TrackState) {
         let quantised = self.updates.position(meta, located);
         if quantised.clamped.any() && !self.clamp_warned {
             self.clamp_warned = true;
@@ -209,7 +209,7 @@ impl SerialSink {
                 meta.index
             );
         }
-        if let Some(heartbeat) = self.updates.heartbeat(meta) {
+        if let Some(heartbeat) = self.updates.heartbeat(meta, state) {
             self.posted_heartbeats += 1;
             self.post_heartbeat(&Message::Heartbeat(heartbeat));
         }
@@ -323,7 +323,7 @@ impl Sink for SerialSink {
             .position
             .as_ref()
             .map(|e| Located::from_estimate(e, report.floor.as_ref()));
-        self.send(&report.meta, located.as_ref());
+        self.send(&report.meta, located.as_ref(), report.single_state());
         Ok(())
     }
 
