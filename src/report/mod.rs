@@ -18,11 +18,9 @@ pub use crate::detect::Detection;
 pub use crate::geometry::floor::{FloorEstimate, FloorFix, FloorUnit};
 pub use crate::geometry::recheck::CalibStatus;
 pub use crate::source::FrameMeta;
-pub use crate::track::{Estimate, MarkerPose, PositionMethod, TrackState, VelocityMethod};
-
-/// The most robots one run can follow: every table that grows with the number of robots is
-/// sized for this many at compile time, and `--robots` is refused above it.
-pub const MAX_ROBOTS: usize = 16;
+pub use crate::track::{
+    Estimate, MarkerPose, PositionMethod, TrackState, VelocityMethod, MAX_ROBOTS,
+};
 
 /// Where a track's id came from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

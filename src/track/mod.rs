@@ -28,7 +28,9 @@
 //! - With the exposure time known, the path length over the exposure is the speed within
 //!   one frame; otherwise the velocity comes from consecutive streak middles and frame times.
 
+pub mod assign;
 pub mod marker;
+pub mod multi;
 pub mod state;
 pub mod statics;
 
@@ -39,6 +41,7 @@ use crate::detect::streak::Streak;
 use statics::{Known, Statics};
 
 pub use marker::{MarkerPose, MarkerTracker};
+pub use multi::{MultiTracker, RobotsOutOfRange, TrackChoice, MAX_ROBOTS};
 pub use state::TrackState;
 
 /// Frames the history ring keeps.
