@@ -142,7 +142,7 @@ fn lens_floor() -> glint::geometry::FloorStage {
 
 #[test]
 fn floor_mapping_and_marker_tracking_allocate_nothing_per_frame() {
-    use glint::geometry::aruco::Dictionary;
+    use glint::detect::aruco::Dictionary;
     use glint::geometry::{FloorFix, Point};
     use glint_tools::markers::{reference_camera, MarkerScene, PlacedMarker};
 
@@ -199,7 +199,7 @@ fn floor_mapping_and_marker_tracking_allocate_nothing_per_frame() {
     let tracker = glint::track::MarkerTracker::new(size, Dictionary::Aruco6x6_250, 7).unwrap();
     let mut pipeline = Pipeline::marker(tracker).with_floor(lens_floor());
     let mut source = DumpSource::new(Cursor::new(&dump), size, 30.0);
-    let mut reports: heapless::Vec<glint::pipeline::FrameReport, 8> = heapless::Vec::new();
+    let mut reports: heapless::Vec<glint::report::FrameReport, 8> = heapless::Vec::new();
     let allocations = allocations_during(|| {
         while let Some((frame, meta)) = glint::source::FrameSource::next_frame(&mut source).unwrap()
         {
@@ -331,8 +331,8 @@ fn the_stop_aware_file_source_allocates_nothing_per_frame() {
 /// knock) allocates nothing per frame either.
 #[test]
 fn the_marker_recheck_and_a_pose_refit_allocate_nothing() {
+    use glint::detect::aruco::Dictionary;
     use glint::frame::Frame;
-    use glint::geometry::aruco::Dictionary;
     use glint::geometry::recheck::MarkerRecheck;
     use glint::geometry::{CameraModel, FloorStage, FloorUnit, Lens, MarkerPlacement, Pose};
     use glint::source::FrameMeta;

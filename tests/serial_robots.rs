@@ -7,6 +7,7 @@ use std::io::Read;
 use std::sync::mpsc;
 use std::time::Duration;
 
+use glint::report::TrackState;
 use glint::sink::serial::Located;
 use glint::sink::SerialSink;
 use glint::source::clock::monotonic_now_us;
@@ -75,6 +76,7 @@ fn a_shared_line_carries_each_robots_update_and_age_in_its_own_sequence() {
                 (2, robot_2),
                 (1, Some(located(1000.0))),
             ],
+            TrackState::Tracking,
         );
         // Wait for this frame's three updates and ages before the next, so none is stale.
         let mut ages = 0;

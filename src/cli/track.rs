@@ -27,7 +27,7 @@ use glint::source::dump::DumpSource;
 use glint::source::interruptible::Interruptible;
 use glint::source::stoppable::Stoppable;
 use glint::source::FrameSource;
-use glint::track::TrackerConfig;
+use glint::track::{RobotsOutOfRange, TrackerConfig, MAX_ROBOTS};
 
 /// Output buffer size: a few hundred report lines.
 const OUTPUT_BUFFER_BYTES: usize = 64 * 1024;
@@ -84,6 +84,14 @@ pub struct TrackSettings {
     #[arg(long, default_value_t = 60, value_name = "LUMA", allow_negative_numbers = true,
           value_parser = clap::value_parser!(u8).range(1..))]
     diff: u8,
+
+    /// Follow up to N LEDs, one per robot, 1 to 16: each frame's report then holds one track
+    /// per robot (`tracks` in JSON lines, one CSV row per robot and frame). Robots are told
+    /// apart by continuity only, so with more than one, --serial is refused: no update may go
+    /// out under a robot's id before that robot is identified.
+    #[arg(long, default_value_t = 1, value_name = "N", allow_negative_numbers = true,
+          value_parser = parse_robots)]
+    pub robots: usize,
 
     #[command(flatten)]
     pub floor: calib_args::FloorArgs,
@@ -142,6 +150,17 @@ pub enum Predict {
 
 /// The serial link: glint's own packets, or MAVLink with `--mavlink` (never both).
 pub type SerialLink = Tee<Option<SerialSink>, Option<MavlinkSink>>;
+
+/// A number of robots the tracker's tables hold.
+fn parse_robots(text: &str) -> Result<usize, String> {
+    let robots = text
+        .parse::<usize>()
+        .map_err(|_| format!("{text:?} is not a number of robots (1 to {MAX_ROBOTS})"))?;
+    if robots == 0 || robots > MAX_ROBOTS {
+        return Err(RobotsOutOfRange(robots).to_string());
+    }
+    Ok(robots)
+}
 
 /// A finite bearing within ±360°.
 fn parse_yaw_offset_deg(text: &str) -> Result<f64, String> {
@@ -266,6 +285,7 @@ pub fn open(settings: &TrackSettings, plan: &MemoryPlan) -> Result<Opened> {
         &settings.floor,
         settings.size,
         aruco,
+        settings.robots,
         settings.pipeline_config(),
     )?;
     if let Some(path) = &settings.background {
@@ -301,6 +321,14 @@ fn open_serial(settings: &TrackSettings, pipeline: &Pipeline) -> Result<SerialLi
         }
     };
     let port = port.as_str();
+    if settings.robots > 1 {
+        bail!(
+            "--serial with --robots {}: the robots are told apart by continuity only, not \
+             identified, so no update can be sent under a robot's id; use --robots 1, or \
+             leave out --serial",
+            settings.robots
+        );
+    }
     if !settings.mavlink {
         let sink = SerialSink::open(port, settings.baud)?;
         let sink = match settings.predict {

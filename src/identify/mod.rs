@@ -29,8 +29,7 @@ use core::fmt;
 
 use observe::{Observation, Verdict};
 
-/// The most robots identification (and `--serial ID=PORT`) is sized for.
-pub const MAX_ROBOTS: usize = 16;
+pub use crate::report::MAX_ROBOTS;
 
 /// How identification asks and judges. Times are in µs of the frame clock (the clock of the
 /// frames' capture timestamps, which the LED request's `at_us` also uses).

@@ -26,7 +26,7 @@ use serialport::{DataBits, FlowControl, Parity, SerialPort, StopBits, TTYPort};
 
 use super::mailbox::{Batch, Mailbox, Take, SLOT_BYTES};
 use super::stamp::{encode_led, encode_update, SentLed};
-use crate::identify::MAX_ROBOTS;
+use crate::report::MAX_ROBOTS;
 use crate::source::clock::monotonic_now_us;
 
 /// Bytes of the longest write: a delimiter, a heartbeat, a LED request, an update and its age,

@@ -17,7 +17,7 @@ use std::time::Duration;
 use glint_protocol::MAX_ENCODED_LEN;
 use heapless::Vec as BoundedVec;
 
-use crate::identify::MAX_ROBOTS;
+use crate::report::MAX_ROBOTS;
 
 use super::stamp::{PendingLed, PendingUpdate};
 

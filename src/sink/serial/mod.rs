@@ -42,10 +42,8 @@ pub use link::open_port;
 pub(crate) use link::write_all;
 
 use super::Sink;
-use crate::identify::MAX_ROBOTS;
-use crate::pipeline::FrameReport;
+use crate::report::{FrameMeta, FrameReport, TrackState, MAX_ROBOTS};
 use crate::source::clock::monotonic_now_us;
-use crate::source::FrameMeta;
 use link::{Counters, Link};
 use mailbox::{Mailbox, Post, RobotUpdates, SLOT_BYTES};
 use stamp::{PendingLed, PendingUpdate, Prediction};
@@ -204,8 +202,9 @@ impl SerialSink {
     }
 
     /// Posts the frame's position update (found with `located`, lost without) and, when due,
-    /// a heartbeat. Returns at once: the writer thread sends them.
-    pub fn send(&mut self, meta: &FrameMeta, located: Option<&Located>) {
+    /// a heartbeat carrying the tracker's `state`. Returns at once: the writer thread sends
+    /// them.
+    pub fn send(&mut self, meta: &FrameMeta, located: Option<&Located>, state: TrackState) {
         let quantised = self.updates.position(meta, located);
         if quantised.clamped.any() && !self.clamp_warned {
             self.clamp_warned = true;
@@ -215,7 +214,7 @@ impl SerialSink {
                 meta.index
             );
         }
-        if let Some(heartbeat) = self.updates.heartbeat(meta) {
+        if let Some(heartbeat) = self.updates.heartbeat(meta, state) {
             self.posted_heartbeats += 1;
             self.post_heartbeat(&Message::Heartbeat(heartbeat));
         }
@@ -243,9 +242,15 @@ impl SerialSink {
     /// located)`, robot `robot` (1..=[`MAX_ROBOTS`]) found at `located`, or lost without (the
     /// robot's last position repeated, as for one robot). Each robot's updates carry its own
     /// sequence numbers. Robots out of range are skipped; `--predict arrival` applies to one
-    /// robot's line only. A heartbeat goes out when due, as with [`SerialSink::send`].
-    pub fn send_robots(&mut self, meta: &FrameMeta, robots: &[(u8, Option<Located>)]) {
-        if let Some(heartbeat) = self.updates.heartbeat(meta) {
+    /// robot's line only. A heartbeat (with `state`, the line's tracker state) goes out when
+    /// due, as with [`SerialSink::send`].
+    pub fn send_robots(
+        &mut self,
+        meta: &FrameMeta,
+        robots: &[(u8, Option<Located>)],
+        state: TrackState,
+    ) {
+        if let Some(heartbeat) = self.updates.heartbeat(meta, state) {
             self.posted_heartbeats += 1;
             self.post_heartbeat(&Message::Heartbeat(heartbeat));
         }
@@ -366,7 +371,7 @@ impl Sink for SerialSink {
             .position
             .as_ref()
             .map(|e| Located::from_estimate(e, report.floor.as_ref()));
-        self.send(&report.meta, located.as_ref());
+        self.send(&report.meta, located.as_ref(), report.single_state());
         Ok(())
     }
 
