@@ -502,3 +502,47 @@ fn identification_allocates_nothing_per_frame() {
     assert!(id.stats().unbound >= 2, "the meeting unbound two tracks");
     assert_eq!(allocations, 0);
 }
+
+#[test]
+fn several_robots_allocate_nothing_per_frame() {
+    use glint::sink::Tee;
+    use glint::track::{MultiTracker, TrackerConfig, MAX_ROBOTS};
+    use glint_tools::scene::Fleet;
+
+    let fleet = Fleet::preset("fleet-meeting").unwrap();
+    let scene = fleet.robot(0).unwrap();
+    let size = FrameSize::new(scene.width_px(), scene.height_px()).unwrap();
+    let mut bytes = vec![0u8; scene.frame_len_bytes() * scene.frame_count()];
+    for (i, out) in bytes.chunks_exact_mut(scene.frame_len_bytes()).enumerate() {
+        fleet.render(i, out).unwrap();
+    }
+    let tracker = TrackerConfig {
+        exposure_us: Some(scene.exposure_us()),
+    };
+    let config = PipelineConfig {
+        tracker,
+        ..PipelineConfig::default()
+    };
+    // The largest tables, with a floor stage mapping every track.
+    let tracks = MultiTracker::new(MAX_ROBOTS, tracker).unwrap();
+    let mut pipeline = Pipeline::several(size, config, tracks)
+        .unwrap()
+        .with_floor(reference_floor());
+    let mut source = DumpSource::new(Cursor::new(&bytes), size, 30.0);
+    let out = || BufWriter::with_capacity(64 * 1024, io::sink());
+    let mut sink = Tee::new(JsonLinesSink::new(out(), false), CsvSink::new(out(), false));
+    let mut summary = None;
+    let allocations = allocations_during(|| {
+        let (s, result) = pipeline::run(&mut source, &mut pipeline, &mut sink);
+        result.unwrap();
+        summary = Some(s);
+    });
+    let summary = summary.unwrap();
+    assert_eq!(summary.frames, scene.frame_count() as u64);
+    assert!(summary.found > summary.frames / 2, "tracked: {summary:?}");
+    assert_eq!(
+        allocations, 0,
+        "allocations during {} frames",
+        summary.frames
+    );
+}

@@ -1,0 +1,198 @@
+//! Several robots (`--robots N`) against the scene renderer's truth: crossing paths, two LEDs
+//! passing through each other, two robots meeting and standing side by side, a robot leaving
+//! the view and coming back, an occlusion, and glare in view all along.
+//!
+//! For every robot: detected in at least [`MIN_DETECTED`] of its visible frames (counted from
+//! the frame after it first moved: a light that has stood still since it appeared is never
+//! taken, by design), never a change of the id it is reported under, and the single-robot
+//! accuracy bounds of `tests/replay_accuracy.rs` on its unmerged frames. No report anywhere
+//! but at a robot: the glare is never a track.
+
+use glint::frame::{Frame, FrameSize};
+use glint::pipeline::{Pipeline, PipelineConfig};
+use glint::report::FrameReport;
+use glint::source::FrameMeta;
+use glint::track::{MultiTracker, TrackerConfig};
+use glint_tools::scene::{Fleet, Truth, Visibility};
+
+/// The share of a robot's visible frames it must be found in.
+const MIN_DETECTED: f64 = 0.99;
+
+/// A report farther than this from every robot is a false report; one this near a robot is
+/// that robot (the LEDs are farther apart except while merged).
+const REPORT_TOLERANCE_PX: f64 = 3.0;
+
+/// How far from a robot's true middle a report of it may lie when the picture holds less than
+/// its whole light: a merged blob's middle lies between the two touching LEDs it holds, a
+/// partly hidden LED's visible part within its disk; either is within one LED diameter.
+fn tolerance_px(led_radius_px: f64, merged: bool, truth: &Truth) -> f64 {
+    if merged || truth.visible == Visibility::Partial {
+        REPORT_TOLERANCE_PX + 2.0 * led_radius_px
+    } else {
+        REPORT_TOLERANCE_PX
+    }
+}
+
+/// A robot has moved once it is this far from where it started (the static table's drift).
+const MOVED_PX: f64 = glint::track::statics::DRIFT_PX as f64;
+
+/// The single-robot bounds (tests/replay_accuracy.rs): streak middle, then current position.
+const MID_MEDIAN_MAX_PX: f64 = 0.2;
+const MID_P95_MAX_PX: f64 = 0.5;
+const POS_MEDIAN_MAX_PX: f64 = 0.5;
+const POS_P95_MAX_PX: f64 = 1.5;
+
+fn run(fleet: &Fleet) -> Vec<(FrameReport, Vec<Truth>)> {
+    let first = fleet.robot(0).unwrap();
+    let size = FrameSize::new(first.width_px(), first.height_px()).unwrap();
+    let tracker = TrackerConfig {
+        exposure_us: Some(first.exposure_us()),
+    };
+    let config = PipelineConfig {
+        tracker,
+        ..PipelineConfig::default()
+    };
+    let tracks = MultiTracker::new(fleet.robots(), tracker).unwrap();
+    let mut pipeline = Pipeline::several(size, config, tracks).unwrap();
+    let mut buffer = vec![0u8; first.frame_len_bytes()];
+    let frame_us = 1e6 / first.fps();
+    (0..first.frame_count())
+        .map(|i| {
+            let truths = fleet.render(i, &mut buffer).unwrap();
+            let frame = Frame::new_checked(&buffer, size, size.row_bytes()).unwrap();
+            let t_us = (i as f64 * frame_us) as u64;
+            let meta = FrameMeta {
+                index: i as u64,
+                sequence: i as u64,
+                dropped: 0,
+                timestamp_us: t_us,
+                monotonic_us: t_us,
+            };
+            (pipeline.process(&frame, meta), truths)
+        })
+        .collect()
+}
+
+fn quantile(values: &[f64], q: f64) -> f64 {
+    let mut sorted = values.to_vec();
+    sorted.sort_by(f64::total_cmp);
+    let rank = ((q * sorted.len() as f64).ceil() as usize).clamp(1, sorted.len());
+    sorted[rank - 1]
+}
+
+fn distance(p: (f32, f32), x: Option<f64>, y: Option<f64>) -> Option<f64> {
+    Some((f64::from(p.0) - x?).hypot(f64::from(p.1) - y?))
+}
+
+/// Scores a run; returns the number of merged track reports seen.
+fn check(name: &str) -> usize {
+    let fleet = Fleet::preset(name).expect("a fleet preset");
+    let runs = run(&fleet);
+    let robots = fleet.robots();
+    let led_radius_px = fleet.robot(0).unwrap().led_radius_px();
+    let mut merged_reports = 0;
+    for k in 0..robots {
+        let start = runs[0].1[k].clone();
+        let moved_from = runs
+            .iter()
+            .position(|(_, t)| {
+                distance(
+                    (start.x_px.unwrap() as f32, start.y_px.unwrap() as f32),
+                    t[k].x_px,
+                    t[k].y_px,
+                )
+                .is_some_and(|d| d > MOVED_PX)
+            })
+            .expect("every robot moves");
+        let (mut visible, mut detected, mut switches) = (0, 0, 0);
+        let mut id = None;
+        let (mut mid_errors, mut pos_errors) = (Vec::new(), Vec::new());
+        for (i, (report, truths)) in runs.iter().enumerate().skip(moved_from + 1) {
+            let truth = &truths[k];
+            if truth.visible != Visibility::Visible {
+                continue;
+            }
+            visible += 1;
+            let near = report.tracks.iter().find(|t| {
+                t.estimate.is_some_and(|e| {
+                    distance(e.mid_px, truth.mid_x_px, truth.mid_y_px)
+                        .is_some_and(|d| d <= tolerance_px(led_radius_px, t.merged, truth))
+                })
+            });
+            let Some(track) = near else {
+                eprintln!("{name}: robot {k} frame {i}: not found");
+                continue;
+            };
+            detected += 1;
+            // A merged blob is both robots': its ids say nothing of which is where.
+            if track.merged {
+                continue;
+            }
+            if *id.get_or_insert(track.id) != track.id {
+                switches += 1;
+                eprintln!("{name}: robot {k} frame {i}: id {:?} → {}", id, track.id);
+                id = Some(track.id);
+            }
+            let e = track.estimate.unwrap();
+            mid_errors.push(distance(e.mid_px, truth.mid_x_px, truth.mid_y_px).unwrap());
+            pos_errors.push(distance(e.position_px, truth.x_px, truth.y_px).unwrap());
+        }
+        let share = detected as f64 / visible as f64;
+        let (mid_median, mid_p95) = (quantile(&mid_errors, 0.5), quantile(&mid_errors, 0.95));
+        let (pos_median, pos_p95) = (quantile(&pos_errors, 0.5), quantile(&pos_errors, 0.95));
+        eprintln!(
+            "{name}: robot {k}: found in {detected} of {visible} visible frames, {switches} id \
+             switches; middle error median {mid_median:.3} px, p95 {mid_p95:.3} px; position \
+             error median {pos_median:.3} px, p95 {pos_p95:.3} px"
+        );
+        assert!(
+            share >= MIN_DETECTED,
+            "{name}: robot {k} found in {share:.3}"
+        );
+        assert_eq!(switches, 0, "{name}: robot {k} changed ids");
+        assert!(
+            mid_median <= MID_MEDIAN_MAX_PX,
+            "{name}: robot {k} middle median"
+        );
+        assert!(mid_p95 <= MID_P95_MAX_PX, "{name}: robot {k} middle p95");
+        assert!(
+            pos_median <= POS_MEDIAN_MAX_PX,
+            "{name}: robot {k} position median"
+        );
+        assert!(pos_p95 <= POS_P95_MAX_PX, "{name}: robot {k} position p95");
+    }
+    // Every report is at a robot: no glare, no ghost.
+    for (i, (report, truths)) in runs.iter().enumerate() {
+        for t in &report.tracks {
+            let Some(e) = t.estimate else { continue };
+            merged_reports += usize::from(t.merged);
+            let at_a_robot = truths.iter().any(|truth| {
+                let tolerance = tolerance_px(led_radius_px, t.merged, truth);
+                distance(e.mid_px, truth.mid_x_px, truth.mid_y_px).is_some_and(|d| d <= tolerance)
+            });
+            assert!(
+                at_a_robot,
+                "{name}: frame {i}: track {} at {:?}",
+                t.id, e.mid_px
+            );
+        }
+        assert_eq!(report.tracks.len(), robots, "one track per robot");
+    }
+    merged_reports
+}
+
+#[test]
+fn crossing_paths_among_glare() {
+    check("fleet-crossing");
+}
+
+#[test]
+fn passing_through_each_other_is_merged_and_meeting_robots_keep_their_ids() {
+    let merged = check("fleet-meeting");
+    assert!(merged >= 2, "the head-on pair is merged while one blob");
+}
+
+#[test]
+fn leaving_the_view_and_an_occlusion() {
+    check("fleet-leave-return");
+}
