@@ -15,7 +15,8 @@ use crate::detect::{Detection, Detector, DetectorConfig};
 use crate::frame::{Frame, FrameSize};
 use crate::geometry::recheck::MarkerRecheck;
 use crate::geometry::FloorStage;
-use crate::report::{Estimate, FrameReport, IdSource, TrackReport, Tracks};
+use crate::identify::{Identifier, IdentifyConfig, IdentifyError, TrackSeen};
+use crate::report::{Estimate, FrameReport, IdSource, TrackReport, Tracks, MAX_ROBOTS};
 use crate::sink::Sink;
 use crate::source::{FrameMeta, FrameSource};
 use crate::track::{Choice, MarkerTracker, MultiTracker, TrackState, Tracker, TrackerConfig};
@@ -54,6 +55,8 @@ pub struct Pipeline {
     floor: Option<FloorStage>,
     /// The calibration's markers re-checked while tracking.
     recheck: Option<MarkerRecheck>,
+    /// With several robots and a link to them: which track is which robot.
+    identify: Option<Identifier<MAX_ROBOTS>>,
 }
 
 impl Pipeline {
@@ -66,6 +69,7 @@ impl Pipeline {
             },
             floor: None,
             recheck: None,
+            identify: None,
         })
     }
 
@@ -83,6 +87,7 @@ impl Pipeline {
             },
             floor: None,
             recheck: None,
+            identify: None,
         })
     }
 
@@ -92,7 +97,19 @@ impl Pipeline {
             front: Front::Marker(tracker),
             floor: None,
             recheck: None,
+            identify: None,
         }
+    }
+
+    /// Identifies the robots by their own LEDs (several robots, each with a link): every frame's
+    /// report then carries the LED request to send ([`FrameReport::blink`]), and a track's id is
+    /// its robot's once bound (`id_source` blink), or provisional, above every robot's id, until
+    /// then. Only for several LEDs; a single robot's id is certain.
+    pub fn with_identify(mut self, config: IdentifyConfig) -> Result<Self, IdentifyError> {
+        if matches!(self.front, Front::Leds { .. }) {
+            self.identify = Some(Identifier::new(config)?);
+        }
+        Ok(self)
     }
 
     /// Adds the floor stage: every found frame also gets floor coordinates.
@@ -197,6 +214,10 @@ impl Pipeline {
                 });
             }
         }
+        let blink = self
+            .identify
+            .as_mut()
+            .and_then(|identify| identify_tracks(identify, meta.timestamp_us, &mut tracks));
         let (position, floor) = match tracks.as_slice() {
             [one] => (one.estimate, one.floor),
             _ => (None, None),
@@ -211,6 +232,7 @@ impl Pipeline {
             floor,
             calib,
             tracks,
+            blink,
         }
     }
 
@@ -226,6 +248,42 @@ impl Pipeline {
     pub fn floor(&self) -> Option<&FloorStage> {
         self.floor.as_ref()
     }
+}
+
+/// Steps identification on this frame's tracks (visible: found in this frame) and gives each
+/// track its identity: a bound track its robot's id, an unbound one a provisional id above every
+/// robot's (`MAX_ROBOTS` + 1 + its slot), so that no id is shown twice. Returns the LED request
+/// to send.
+fn identify_tracks(
+    identify: &mut Identifier<MAX_ROBOTS>,
+    timestamp_us: u64,
+    tracks: &mut Tracks,
+) -> Option<crate::identify::BlinkRequest> {
+    let mut seen = [TrackSeen::default(); MAX_ROBOTS];
+    for (s, t) in seen.iter_mut().zip(tracks.iter()) {
+        let position_px = t.estimate.map_or((0.0, 0.0), |e| e.position_px);
+        *s = TrackSeen {
+            visible: t.state == TrackState::Tracking,
+            x_px: position_px.0,
+            y_px: position_px.1,
+        };
+    }
+    let step = identify.step(timestamp_us, seen.get(..tracks.len()).unwrap_or(&[]));
+    for (slot, t) in tracks.iter_mut().enumerate() {
+        match identify.robot_of(slot) {
+            Some(robot) => {
+                t.id = robot;
+                t.provisional = false;
+                t.id_source = IdSource::Blink;
+            }
+            None => {
+                t.id = u8::try_from(MAX_ROBOTS + 1 + slot).unwrap_or(u8::MAX);
+                t.provisional = true;
+                t.id_source = IdSource::Continuity;
+            }
+        }
+    }
+    step.request
 }
 
 /// The report of a run's one robot, whose id is certain.

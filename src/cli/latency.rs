@@ -63,7 +63,9 @@ pub fn run(args: LatencyArgs) -> Result<ExitCode> {
         serial,
         ..
     } = track::open(&args.settings, &args.settings.memory_plan())?;
-    let (serial, mavlink) = serial.into_parts();
+    let (glint_link, mavlink) = serial.into_parts();
+    // A line per robot is refused above: the first part is the one shared line, if any.
+    let (serial, _) = glint_link.into_parts();
     if mavlink.is_some() {
         bail!("glint latency asks the robot in glint's own protocol: drop --mavlink");
     }

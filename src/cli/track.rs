@@ -17,10 +17,12 @@ use glint::detect::bgdiff::MAX_BACKGROUND_FRAMES;
 use glint::detect::MaskMethod;
 use glint::frame::FrameSize;
 use glint::geometry::CalibrationFile;
+use glint::identify::IdentifyConfig;
 use glint::monitor::{self, Monitor};
 use glint::options::{parse_fps, LedArgs};
 use glint::pipeline::{self, Pipeline, PipelineConfig, RunSummary};
 use glint::sink::mavlink::{self, Identity, ToLocal};
+use glint::sink::serial::RobotLines;
 use glint::sink::{serial, CsvSink, JsonLinesSink, MavlinkSink, SerialSink, Tee};
 use glint::small_file;
 use glint::source::dump::DumpSource;
@@ -148,8 +150,13 @@ pub enum Predict {
     Arrival,
 }
 
-/// The serial link: glint's own packets, or MAVLink with `--mavlink` (never both).
-pub type SerialLink = Tee<Option<SerialSink>, Option<MavlinkSink>>;
+/// The frame rate identification assumes without `--fps` (a camera's usual rate): it sizes the
+/// LED's off time and the frames judged after each request.
+const DEFAULT_IDENTIFY_FPS: f64 = 30.0;
+
+/// The serial link: glint's own packets (one line, or one per robot), or MAVLink with
+/// `--mavlink` (never both).
+pub type SerialLink = Tee<Tee<Option<SerialSink>, Option<RobotLines>>, Option<MavlinkSink>>;
 
 /// A number of robots the tracker's tables hold.
 fn parse_robots(text: &str) -> Result<usize, String> {
@@ -294,6 +301,15 @@ pub fn open(settings: &TrackSettings, plan: &MemoryPlan) -> Result<Opened> {
         }
         learn_background(&mut pipeline, path, settings, &stop)?;
     }
+    if settings.robots > 1 && settings.serial_plan()? != SerialPlan::None {
+        // A link to the robots: identify them by their LEDs. Without one, continuity only.
+        let fps = settings.fps.unwrap_or(DEFAULT_IDENTIFY_FPS);
+        let frame_period_us = (1e6 / fps).round() as u64;
+        let robots = u8::try_from(settings.robots).context("--robots")?;
+        pipeline = pipeline
+            .with_identify(IdentifyConfig::new(robots, frame_period_us))
+            .context("identifying the robots")?;
+    }
     let serial = open_serial(settings, &pipeline)?;
     Ok(Opened {
         source: Stoppable::new(source, stop),
@@ -304,30 +320,43 @@ pub fn open(settings: &TrackSettings, plan: &MemoryPlan) -> Result<Opened> {
     })
 }
 
-/// Opens `--serial` with glint's packets, or with MAVLink under `--mavlink`.
+/// Opens `--serial` with glint's packets, or with MAVLink under `--mavlink`. With several
+/// robots: one line shared by all (robot positions), or a line per robot.
 fn open_serial(settings: &TrackSettings, pipeline: &Pipeline) -> Result<SerialLink> {
+    let several = settings.robots > 1;
     let port = match settings.serial_plan()? {
-        SerialPlan::None => return Ok(Tee::new(None, None)),
-        SerialPlan::Shared(port) => port,
+        SerialPlan::None => return Ok(Tee::new(Tee::new(None, None), None)),
         SerialPlan::PerRobot(ports) => {
             if settings.mavlink {
                 bail!("--mavlink talks to one autopilot: give one --serial PORT, not ID=PORT");
             }
-            // One robot followed: its own line is the only line.
-            match ports.into_iter().collect::<Vec<_>>().as_slice() {
-                [(1, port)] => port.clone(),
-                _ => bail!("--serial ID=PORT: glint follows one robot here, robot 1"),
+            if let Some(robot) = ports.keys().find(|&&k| usize::from(k) > settings.robots) {
+                bail!(
+                    "--serial {robot}={}: glint follows {} robot(s) (--robots), ids 1 to {}",
+                    ports.get(robot).map_or("", String::as_str),
+                    settings.robots,
+                    settings.robots
+                );
             }
+            if several && settings.predict == Predict::Arrival {
+                bail!("--predict arrival follows one robot: leave it out with --robots");
+            }
+            let ports: Vec<(u8, String)> = ports.into_iter().collect();
+            let lines = RobotLines::open(&ports, settings.baud)?;
+            return Ok(Tee::new(Tee::new(None, Some(lines)), None));
         }
+        SerialPlan::Shared(port) => port,
     };
     let port = port.as_str();
-    if settings.robots > 1 {
-        bail!(
-            "--serial with --robots {}: the robots are told apart by continuity only, not \
-             identified, so no update can be sent under a robot's id; use --robots 1, or \
-             leave out --serial",
-            settings.robots
-        );
+    if several {
+        if settings.mavlink {
+            bail!("--mavlink talks to one autopilot: leave it out with --robots");
+        }
+        if settings.predict == Predict::Arrival {
+            bail!("--predict arrival follows one robot: leave it out with --robots");
+        }
+        let sink = SerialSink::open(port, settings.baud)?;
+        return Ok(Tee::new(Tee::new(Some(sink), None), None));
     }
     if !settings.mavlink {
         let sink = SerialSink::open(port, settings.baud)?;
@@ -335,7 +364,7 @@ fn open_serial(settings: &TrackSettings, pipeline: &Pipeline) -> Result<SerialLi
             Predict::Arrival => sink.predicting(),
             Predict::None => sink,
         };
-        return Ok(Tee::new(Some(sink), None));
+        return Ok(Tee::new(Tee::new(Some(sink), None), None));
     }
     let (Some(path), Some(floor)) = (settings.floor.calib.as_deref(), pipeline.floor()) else {
         bail!("--mavlink needs --calib: an autopilot takes positions in metres on the floor");
@@ -355,7 +384,7 @@ fn open_serial(settings: &TrackSettings, pipeline: &Pipeline) -> Result<SerialLi
         component_id: mavlink::VISION_COMPONENT_ID,
     };
     let sink = MavlinkSink::open(port, settings.baud, identity, local)?;
-    Ok(Tee::new(None, Some(sink)))
+    Ok(Tee::new(Tee::new(None, None), Some(sink)))
 }
 
 impl TrackSettings {

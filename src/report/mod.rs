@@ -17,6 +17,7 @@ pub use crate::detect::streak::Streak;
 pub use crate::detect::Detection;
 pub use crate::geometry::floor::{FloorEstimate, FloorFix, FloorUnit};
 pub use crate::geometry::recheck::CalibStatus;
+pub use crate::identify::BlinkRequest;
 pub use crate::source::FrameMeta;
 pub use crate::track::{
     Estimate, MarkerPose, PositionMethod, TrackState, VelocityMethod, MAX_ROBOTS,
@@ -27,6 +28,9 @@ pub use crate::track::{
 pub enum IdSource {
     /// Followed from frame to frame: only as good as the last time two tracks came close.
     Continuity,
+    /// The robot switched its LED off when asked, and this track went dark in exactly those
+    /// frames (see `identify`); held since by continuity, but never across a loss or a meeting.
+    Blink,
 }
 
 impl IdSource {
@@ -34,6 +38,7 @@ impl IdSource {
     pub fn name(self) -> &'static str {
         match self {
             IdSource::Continuity => "continuity",
+            IdSource::Blink => "blink",
         }
     }
 }
@@ -91,6 +96,8 @@ pub struct FrameReport {
     /// One report per robot followed (one with a single robot, mirroring `position` and
     /// `floor`).
     pub tracks: Tracks,
+    /// The LED request identification asks for on this frame: the serial link sends it.
+    pub blink: Option<BlinkRequest>,
 }
 
 impl FrameReport {

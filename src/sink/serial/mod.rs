@@ -19,6 +19,7 @@
 //! The mailbox, the writer's buffer and the thread are set up in [`SerialSink::open`]. Per frame
 //! the sink allocates nothing: messages are built on the stack and copied into fixed slots.
 
+mod lines;
 mod link;
 mod mailbox;
 mod stamp;
@@ -32,6 +33,7 @@ use std::thread::JoinHandle;
 
 use glint_protocol::{encode, LedRequest, Message};
 
+pub use lines::RobotLines;
 pub use link::{
     line_time, BITS_PER_BYTE, DRAIN_LIMIT, REOPEN_BACKOFF_MAX, REOPEN_BACKOFF_MIN, WRITE_TIMEOUT,
 };
@@ -42,8 +44,9 @@ pub use link::open_port;
 pub(crate) use link::write_all;
 
 use super::Sink;
-use crate::report::{FrameMeta, FrameReport, TrackState, MAX_ROBOTS};
+use crate::report::{FrameMeta, FrameReport, TrackReport, TrackState, MAX_ROBOTS};
 use crate::source::clock::monotonic_now_us;
+use heapless::Vec as BoundedVec;
 use link::{Counters, Link};
 use mailbox::{Mailbox, Post, RobotUpdates, SLOT_BYTES};
 use stamp::{PendingLed, PendingUpdate, Prediction};
@@ -347,6 +350,57 @@ impl SerialSink {
     }
 }
 
+impl SerialSink {
+    /// One frame on a line shared by several robots: robot k (1..=the number of tracks) gets
+    /// the track bound to it by identification, found or lost; a provisional track goes out
+    /// under no robot's id. The frame's LED request (identification's) goes in the same write.
+    fn write_robots(&mut self, report: &FrameReport) {
+        let mut robots: BoundedVec<(u8, Option<Located>), MAX_ROBOTS> = BoundedVec::new();
+        let mut state = TrackState::Searching;
+        for robot in (1..=MAX_ROBOTS).take(report.tracks.len()) {
+            let id = u8::try_from(robot).unwrap_or(u8::MAX);
+            let bound = bound_track(report, id);
+            if let Some(t) = bound {
+                state = busier(state, t.state);
+            }
+            let located = bound.and_then(|t| {
+                t.estimate
+                    .map(|e| Located::from_estimate(&e, t.floor.as_ref()))
+            });
+            // Cannot fail: at most MAX_ROBOTS robots.
+            let _ = robots.push((id, located));
+        }
+        if let Some(blink) = report.blink {
+            self.request_led(blink.robot, blink.delay_us, blink.off_us);
+        }
+        self.send_robots(&report.meta, &robots, state);
+    }
+}
+
+/// The track bound to robot `robot` by identification, if any: a provisional track is no
+/// robot's.
+pub(crate) fn bound_track(report: &FrameReport, robot: u8) -> Option<&TrackReport> {
+    report
+        .tracks
+        .iter()
+        .find(|t| !t.provisional && t.id == robot)
+}
+
+/// The state a line of several robots reports: tracking if any of its robots is, else
+/// coasting if any is, else searching.
+fn busier(a: TrackState, b: TrackState) -> TrackState {
+    let rank = |s: TrackState| match s {
+        TrackState::Searching => 0,
+        TrackState::Coasting => 1,
+        TrackState::Tracking => 2,
+    };
+    if rank(b) > rank(a) {
+        b
+    } else {
+        a
+    }
+}
+
 /// Where frame time 0 lies on the monotonic clock, by `meta`: exact for a camera (both are the
 /// driver's timestamps), the latest frame's arrival for a file or a pipe.
 fn frame_clock_origin_us(meta: &FrameMeta) -> i64 {
@@ -367,6 +421,10 @@ pub(crate) fn link_state(losses: u64, reopens: u64) -> &'static str {
 impl Sink for SerialSink {
     /// Never fails: link faults are handled (and counted) by the writer thread.
     fn write(&mut self, report: &FrameReport) -> io::Result<()> {
+        if report.several() {
+            self.write_robots(report);
+            return Ok(());
+        }
         let located = report
             .position
             .as_ref()
