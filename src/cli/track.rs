@@ -88,9 +88,9 @@ pub struct TrackSettings {
     diff: u8,
 
     /// Follow up to N LEDs, one per robot, 1 to 16: each frame's report then holds one track
-    /// per robot (`tracks` in JSON lines, one CSV row per robot and frame). Robots are told
-    /// apart by continuity only, so with more than one, --serial is refused: no update may go
-    /// out under a robot's id before that robot is identified.
+    /// per robot (`tracks` in JSON lines, one CSV row per robot and frame). With --serial, each
+    /// robot is identified by switching its LED off when asked (`id_source` blink), and no
+    /// update goes out under a robot's id before that; without, ids come from continuity.
     #[arg(long, default_value_t = 1, value_name = "N", allow_negative_numbers = true,
           value_parser = parse_robots)]
     pub robots: usize,
