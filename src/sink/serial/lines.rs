@@ -40,10 +40,11 @@ impl Sink for RobotLines {
                     .map(|e| Located::from_estimate(&e, t.floor.as_ref()))
             });
             let state = bound.map_or(crate::report::TrackState::Searching, |t| t.state);
+            line.send(&report.meta, located.as_ref(), state);
+            // After the frame's update, so that the request's host time counts from this frame.
             if let Some(blink) = report.blink.filter(|b| b.robot == *robot) {
                 line.request_led(blink.robot, blink.delay_us, blink.off_us);
             }
-            line.send(&report.meta, located.as_ref(), state);
         }
         Ok(())
     }

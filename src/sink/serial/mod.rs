@@ -370,10 +370,11 @@ impl SerialSink {
             // Cannot fail: at most MAX_ROBOTS robots.
             let _ = robots.push((id, located));
         }
+        self.send_robots(&report.meta, &robots, state);
+        // After the frame's updates, so that the request's host time counts from this frame.
         if let Some(blink) = report.blink {
             self.request_led(blink.robot, blink.delay_us, blink.off_us);
         }
-        self.send_robots(&report.meta, &robots, state);
     }
 }
 
