@@ -546,3 +546,73 @@ fn several_robots_allocate_nothing_per_frame() {
         summary.frames
     );
 }
+
+/// Identification in the pipeline and the shared line's robot positions and LED requests
+/// allocate nothing per frame either (the robots here never answer: every attempt is retried).
+#[test]
+fn identifying_several_robots_over_a_shared_line_allocates_nothing_per_frame() {
+    use glint::identify::IdentifyConfig;
+    use glint::sink::Tee;
+    use glint::track::{MultiTracker, TrackerConfig, MAX_ROBOTS};
+    use glint_tools::scene::Fleet;
+    use serialport::SerialPort;
+    use std::io::Read;
+    use std::sync::atomic::{AtomicBool, Ordering};
+    use std::sync::Arc;
+
+    let fleet = Fleet::preset("fleet-crossing").unwrap();
+    let scene = fleet.robot(0).unwrap();
+    let size = FrameSize::new(scene.width_px(), scene.height_px()).unwrap();
+    let mut bytes = vec![0u8; scene.frame_len_bytes() * scene.frame_count()];
+    for (i, out) in bytes.chunks_exact_mut(scene.frame_len_bytes()).enumerate() {
+        fleet.render(i, out).unwrap();
+    }
+    let tracker = TrackerConfig {
+        exposure_us: Some(scene.exposure_us()),
+    };
+    let config = PipelineConfig {
+        tracker,
+        ..PipelineConfig::default()
+    };
+    let tracks = MultiTracker::new(MAX_ROBOTS, tracker).unwrap();
+    let identify = IdentifyConfig::new(MAX_ROBOTS as u8, (1e6 / scene.fps()).round() as u64);
+    let mut pipeline = Pipeline::several(size, config, tracks)
+        .unwrap()
+        .with_identify(identify)
+        .unwrap();
+    let (mut master, slave) = serialport::TTYPort::pair().expect("pty pair");
+    let name = slave.name().expect("slave name");
+    let stop = Arc::new(AtomicBool::new(false));
+    let reader = {
+        let stop = Arc::clone(&stop);
+        std::thread::spawn(move || {
+            let mut buf = [0u8; 1024];
+            while !stop.load(Ordering::Relaxed) {
+                let _ = master.read(&mut buf);
+            }
+        })
+    };
+    let mut source = DumpSource::new(Cursor::new(&bytes), size, scene.fps());
+    let json = JsonLinesSink::new(BufWriter::with_capacity(64 * 1024, io::sink()), false);
+    let mut sink = Tee::new(
+        json,
+        SerialSink::open(&name, 115_200).expect("open the pty"),
+    );
+    let allocations = allocations_during(|| {
+        pipeline::run(&mut source, &mut pipeline, &mut sink)
+            .1
+            .unwrap();
+    });
+    stop.store(true, Ordering::Relaxed);
+    reader.join().unwrap();
+    let (_, serial) = sink.into_parts();
+    let stats = serial.stats();
+    assert!(stats.led_requests >= 2, "identification asked: {stats:?}");
+    assert!(stats.updates > 0, "{stats:?}");
+    assert_eq!(
+        allocations,
+        0,
+        "allocations during {} frames",
+        scene.frame_count()
+    );
+}
