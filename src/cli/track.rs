@@ -150,8 +150,8 @@ pub enum Predict {
     Arrival,
 }
 
-/// The frame rate identification assumes without `--fps` (a camera's usual rate): it sizes the
-/// LED's off time and the frames judged after each request.
+/// The frame rate identification starts from without `--fps` (a camera's usual rate), until it
+/// has measured the period from the frames' timestamps.
 const DEFAULT_IDENTIFY_FPS: f64 = 30.0;
 
 /// The serial link: glint's own packets (one line, or one per robot), or MAVLink with

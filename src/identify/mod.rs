@@ -37,7 +37,9 @@ pub use crate::report::MAX_ROBOTS;
 pub struct IdentifyConfig {
     /// Robots with a link, ids 1..=`robots`.
     pub robots: u8,
-    /// The camera's frame period.
+    /// The camera's frame period, until it is measured: identification counts in frames, and
+    /// takes the period from the frames' own timestamps (the shortest of the last
+    /// [`PERIOD_SAMPLES`] intervals: drops only lengthen an interval) once it has seen two.
     pub frame_period_us: u64,
     /// How far ahead of the request the LED goes off, in frames: the request must reach the
     /// robot first.
@@ -45,9 +47,9 @@ pub struct IdentifyConfig {
     /// How long the LED stays off, in frames (F).
     pub off_frames: u32,
     /// The longest time from a frame's capture to the robot receiving a request sent on that
-    /// frame (processing, queueing, line time, the robot's receive latency): the LED goes off
-    /// between `lead` and `lead + send_allowance_us` after the frame that asked.
-    pub send_allowance_us: u64,
+    /// frame (processing, queueing, line time, the robot's receive latency), in frames: the LED
+    /// goes off between `lead` and `lead + send_allowance_frames` after the frame that asked.
+    pub send_allowance_frames: u32,
     /// A bound track not seen for this many frames in a row is lost: whatever light it finds
     /// next is identified again.
     pub lost_after_frames: u32,
@@ -70,7 +72,7 @@ impl IdentifyConfig {
             frame_period_us,
             lead_frames: 1,
             off_frames: 5,
-            send_allowance_us: 2 * frame_period_us,
+            send_allowance_frames: 2,
             lost_after_frames: 3,
             close_px: 24.0,
             attempts_before_backoff: 3,
@@ -88,6 +90,55 @@ impl IdentifyConfig {
     pub fn off_us(&self) -> u64 {
         self.frame_period_us
             .saturating_mul(u64::from(self.off_frames))
+    }
+
+    /// The send allowance: `send_allowance_frames` frame periods.
+    pub fn send_allowance_us(&self) -> u64 {
+        self.frame_period_us
+            .saturating_mul(u64::from(self.send_allowance_frames))
+    }
+}
+
+/// Frame intervals the period is measured over.
+pub const PERIOD_SAMPLES: usize = 16;
+
+/// The frame period, from the frames' timestamps.
+#[derive(Debug, Clone, Copy)]
+struct Period {
+    last_us: Option<u64>,
+    intervals_us: [u64; PERIOD_SAMPLES],
+    next: usize,
+}
+
+impl Period {
+    fn new() -> Self {
+        Period {
+            last_us: None,
+            intervals_us: [0; PERIOD_SAMPLES],
+            next: 0,
+        }
+    }
+
+    fn frame(&mut self, now_us: u64) {
+        if let Some(interval_us) = self.last_us.and_then(|last| now_us.checked_sub(last)) {
+            if interval_us > 0 {
+                if let Some(slot) = self.intervals_us.get_mut(self.next) {
+                    *slot = interval_us;
+                }
+                self.next = (self.next + 1) % PERIOD_SAMPLES;
+            }
+        }
+        self.last_us = Some(now_us);
+    }
+
+    /// The shortest interval seen lately, or `guess_us` before any.
+    fn us(&self, guess_us: u64) -> u64 {
+        self.intervals_us
+            .iter()
+            .copied()
+            .filter(|&i| i > 0)
+            .min()
+            .unwrap_or(guess_us)
     }
 }
 
@@ -252,6 +303,7 @@ pub struct Identifier<const N: usize> {
     /// The robot asked next, round robin over unbound ones (index: id − 1).
     next_robot: usize,
     asking: Option<Observation<N>>,
+    period: Period,
     stats: IdentifyStats,
 }
 
@@ -268,7 +320,7 @@ impl<const N: usize> Identifier<N> {
             return Err(IdentifyError::FramePeriod);
         }
         let needed_us = config
-            .send_allowance_us
+            .send_allowance_us()
             .saturating_add(config.frame_period_us.saturating_mul(2));
         if config.off_us() < needed_us {
             return Err(IdentifyError::OffTooShort {
@@ -285,6 +337,7 @@ impl<const N: usize> Identifier<N> {
             robots: [Robot::default(); N],
             next_robot: 0,
             asking: None,
+            period: Period::new(),
             stats: IdentifyStats::default(),
         })
     }
@@ -313,6 +366,7 @@ impl<const N: usize> Identifier<N> {
     /// past the end are not visible; past `N` are ignored). Updates the bindings and says what
     /// to send.
     pub fn step(&mut self, now_us: u64, tracks: &[TrackSeen]) -> Step {
+        self.period.frame(now_us);
         let seen = |slot: usize| tracks.get(slot).copied().unwrap_or_default();
         let close = self.close_pairs(tracks);
         self.drop_doubtful_bindings(tracks, &close);
@@ -396,7 +450,7 @@ impl<const N: usize> Identifier<N> {
     fn failed(&mut self, robot: u8, now_us: u64) {
         self.stats.retried += 1;
         let backoff_us = self
-            .config
+            .measured()
             .frame_period_us
             .saturating_mul(u64::from(self.config.backoff_frames));
         if let Some(r) = robot_index(robot).and_then(|i| self.robots.get_mut(i)) {
@@ -436,13 +490,22 @@ impl<const N: usize> Identifier<N> {
         for (slot, w) in watched.iter_mut().enumerate() {
             *w = watchable(slot);
         }
-        self.asking = Some(Observation::new(id, now_us, &self.config, watched));
+        let config = self.measured();
+        self.asking = Some(Observation::new(id, now_us, &config, watched));
         self.stats.requests += 1;
         Some(BlinkRequest {
             robot: id,
-            delay_us: u32::try_from(self.config.delay_us()).unwrap_or(u32::MAX),
-            off_us: u32::try_from(self.config.off_us()).unwrap_or(u32::MAX),
+            delay_us: u32::try_from(config.delay_us()).unwrap_or(u32::MAX),
+            off_us: u32::try_from(config.off_us()).unwrap_or(u32::MAX),
         })
+    }
+
+    /// The configuration at the measured frame period.
+    fn measured(&self) -> IdentifyConfig {
+        IdentifyConfig {
+            frame_period_us: self.period.us(self.config.frame_period_us),
+            ..self.config
+        }
     }
 }
 

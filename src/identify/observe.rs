@@ -56,7 +56,7 @@ impl<const N: usize> Observation<N> {
         watched: [bool; N],
     ) -> Self {
         let off_from_us = asked_us.saturating_add(config.delay_us());
-        let latest_off_us = off_from_us.saturating_add(config.send_allowance_us);
+        let latest_off_us = off_from_us.saturating_add(config.send_allowance_us());
         Observation {
             robot,
             on_until_us: off_from_us,

@@ -64,6 +64,8 @@ struct Sim {
     /// Frames the camera drops (not handed to the identifier).
     drop_frames: std::ops::Range<u64>,
     frame_no: u64,
+    /// The camera's real frame period.
+    period_us: u64,
 }
 
 impl Sim {
@@ -80,6 +82,7 @@ impl Sim {
             requests: Vec::new(),
             drop_frames: 0..0,
             frame_no: 0,
+            period_us: P_US,
         }
     }
 
@@ -112,7 +115,7 @@ impl Sim {
     /// Runs `frames` frames; every request goes out to every robot that answers to its id.
     fn run(&mut self, frames: u32) {
         for _ in 0..frames {
-            self.now_us += P_US;
+            self.now_us += self.period_us;
             self.frame_no += 1;
             if self.drop_frames.contains(&self.frame_no) {
                 continue;
@@ -208,7 +211,7 @@ fn the_request_is_off_for_f_frames_after_a_lead() {
 
 #[test]
 fn any_latency_within_the_allowance_and_any_exposure_identify_correctly() {
-    let allowance_us = config(2).send_allowance_us;
+    let allowance_us = config(2).send_allowance_us();
     for latency_us in (0..=allowance_us).step_by(5_000) {
         for exposure_us in [1_000, 8_000, 16_000, P_US] {
             let robots = vec![SimRobot::at(1, 100.0), SimRobot::at(2, 400.0)];
@@ -426,6 +429,30 @@ fn a_wrong_binding_is_corrected_by_the_robots_own_answer() {
     sim.id.bind(0, 1);
     sim.run(3 * ATTEMPT_FRAMES);
     assert_eq!(sim.bindings(), [Some(2), Some(1)]);
+}
+
+#[test]
+fn the_frame_period_is_measured_from_the_frames_whatever_was_configured() {
+    // Configured for 30 fps; the camera runs at 15 and at 60 fps, with a dropped frame.
+    for period_us in [66_667, 16_667] {
+        let robots = vec![SimRobot::at(1, 100.0), SimRobot::at(2, 400.0)];
+        let mut sim = Sim::new(config(2), robots, vec![Some(1), Some(0)]);
+        sim.period_us = period_us;
+        sim.drop_frames = 3..4;
+        sim.run(3 * ATTEMPT_FRAMES);
+        assert_eq!(
+            sim.bindings(),
+            [Some(2), Some(1)],
+            "period {period_us} µs: {:?}",
+            sim.outcomes
+        );
+        // The second request is sized in the measured frames: 5 frames off, one ahead.
+        let last = sim.requests.last().expect("asked");
+        assert_eq!(
+            (last.delay_us, last.off_us),
+            (period_us as u32, 5 * period_us as u32)
+        );
+    }
 }
 
 #[test]
