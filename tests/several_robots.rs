@@ -6,7 +6,8 @@
 //! the frame after it first moved: a light that has stood still since it appeared is never
 //! taken, by design), never a change of the id it is reported under, and the single-robot
 //! accuracy bounds of `tests/replay_accuracy.rs` on its unmerged frames. No report anywhere
-//! but at a robot: the glare is never a track.
+//! but at a robot: the glare is never a track. The crossing is repeated over a small sweep of
+//! LED sizes and brightnesses, exposures, noise and tone curves.
 
 use glint::frame::{Frame, FrameSize};
 use glint::pipeline::{Pipeline, PipelineConfig};
@@ -84,10 +85,14 @@ fn distance(p: (f32, f32), x: Option<f64>, y: Option<f64>) -> Option<f64> {
     Some((f64::from(p.0) - x?).hypot(f64::from(p.1) - y?))
 }
 
-/// Scores a run; returns the number of merged track reports seen.
+/// Scores a fleet preset's run; returns the number of merged track reports seen.
 fn check(name: &str) -> usize {
-    let fleet = Fleet::preset(name).expect("a fleet preset");
-    let runs = run(&fleet);
+    check_fleet(name, &Fleet::preset(name).expect("a fleet preset"))
+}
+
+/// Scores a run of `fleet`, labelled `name`; returns the number of merged track reports seen.
+fn check_fleet(name: &str, fleet: &Fleet) -> usize {
+    let runs = run(fleet);
     let robots = fleet.robots();
     let led_radius_px = fleet.robot(0).unwrap().led_radius_px();
     let mut merged_reports = 0;
@@ -195,6 +200,31 @@ fn passing_through_each_other_is_merged_and_meeting_robots_keep_their_ids() {
 #[test]
 fn leaving_the_view_and_an_occlusion() {
     check("fleet-leave-return");
+}
+
+/// The crossing again across the LED's size and brightness, the exposure (streak length), the
+/// sensor's noise and tone curve, and the floor's seed: the same bounds at every point.
+#[test]
+fn crossing_over_a_sweep_of_leds_exposures_and_noise() {
+    let points = [
+        // (LED radius px, peak × clip, exposure µs, noise σ, gamma, seed)
+        (2.5, 8.0, 4_000, 0.01, 1.0, 11),
+        (5.5, 30.0, 16_000, 0.03, 2.2, 12),
+        (4.0, 12.0, 12_000, 0.02, 1.8, 13),
+    ];
+    for (radius_px, peak, exposure_us, noise_sigma, gamma, seed) in points {
+        let (mut config, trajectories) = Fleet::preset_config("fleet-crossing").unwrap();
+        let glow_per_radius = config.led.glow_radius_px / config.led.radius_px;
+        config.led.radius_px = radius_px;
+        config.led.glow_radius_px = glow_per_radius * radius_px;
+        config.led.peak = peak;
+        config.exposure_us = exposure_us;
+        config.camera.noise_sigma = noise_sigma;
+        config.camera.gamma = gamma;
+        config.seed = seed;
+        let label = format!("fleet-crossing r {radius_px} px, {exposure_us} µs, σ {noise_sigma}");
+        check_fleet(&label, &Fleet::new(&config, &trajectories).unwrap());
+    }
 }
 
 /// A short two-robot dump, written to a temporary file.
