@@ -317,8 +317,13 @@ pub(crate) fn link_state(losses: u64, reopens: u64) -> &'static str {
 }
 
 impl Sink for SerialSink {
-    /// Never fails: link faults are handled (and counted) by the writer thread.
+    /// Never fails: link faults are handled (and counted) by the writer thread. A report of
+    /// several robots sends nothing: none of them is identified, so no update may go out under
+    /// a robot's id (`glint` refuses `--serial` with `--robots` > 1 for that reason).
     fn write(&mut self, report: &FrameReport) -> io::Result<()> {
+        if report.several() {
+            return Ok(());
+        }
         let located = report
             .position
             .as_ref()
