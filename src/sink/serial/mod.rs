@@ -420,7 +420,9 @@ pub(crate) fn link_state(losses: u64, reopens: u64) -> &'static str {
 }
 
 impl Sink for SerialSink {
-    /// Never fails: link faults are handled (and counted) by the writer thread.
+    /// Never fails: link faults are handled (and counted) by the writer thread. A report of
+    /// several robots sends a robot position per robot, found only for the tracks bound to it
+    /// by identification (see `write_robots`).
     fn write(&mut self, report: &FrameReport) -> io::Result<()> {
         if report.several() {
             self.write_robots(report);

@@ -55,6 +55,12 @@ impl Fleet {
         Fleet::new(&config, &trajectories).ok()
     }
 
+    /// A fleet preset's shared configuration and its robots' trajectories, to change (frames,
+    /// seed...) before [`Fleet::new`].
+    pub fn preset_config(name: &str) -> Option<(SceneConfig, Vec<Trajectory>)> {
+        preset(name)
+    }
+
     /// The fleet preset names.
     pub fn names() -> &'static [&'static str] {
         NAMES
