@@ -306,8 +306,16 @@ pub fn open(settings: &TrackSettings, plan: &MemoryPlan) -> Result<Opened> {
         let fps = settings.fps.unwrap_or(DEFAULT_IDENTIFY_FPS);
         let frame_period_us = (1e6 / fps).round() as u64;
         let robots = u8::try_from(settings.robots).context("--robots")?;
+        let mut identify = IdentifyConfig::new(robots, frame_period_us);
+        if let SerialPlan::PerRobot(ports) = settings.serial_plan()? {
+            // Only the robots with a line can be asked.
+            identify.linked = ports
+                .keys()
+                .filter_map(|&id| 1u32.checked_shl(u32::from(id).saturating_sub(1)))
+                .fold(0, |mask, bit| mask | bit);
+        }
         pipeline = pipeline
-            .with_identify(IdentifyConfig::new(robots, frame_period_us))
+            .with_identify(identify)
             .context("identifying the robots")?;
     }
     let serial = open_serial(settings, &pipeline)?;

@@ -35,8 +35,11 @@ pub use crate::report::MAX_ROBOTS;
 /// frames' capture timestamps, which the LED request's `at_us` also uses).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct IdentifyConfig {
-    /// Robots with a link, ids 1..=`robots`.
+    /// Robots followed, ids 1..=`robots`.
     pub robots: u8,
+    /// The robots with a link, bit `id − 1` per robot (all of them by default): only these are
+    /// asked. A robot without one cannot answer; its track keeps a provisional id.
+    pub linked: u32,
     /// The camera's frame period, until it is measured: identification counts in frames, and
     /// takes the period from the frames' own timestamps (the shortest of the last
     /// [`PERIOD_SAMPLES`] intervals: drops only lengthen an interval) once it has seen two.
@@ -69,6 +72,7 @@ impl IdentifyConfig {
     pub fn new(robots: u8, frame_period_us: u64) -> Self {
         IdentifyConfig {
             robots,
+            linked: u32::MAX,
             frame_period_us,
             lead_frames: 1,
             off_frames: 5,
@@ -481,7 +485,12 @@ impl<const N: usize> Identifier<N> {
             .map(|k| (self.next_robot + k) % robots)
             .find(|&i| {
                 let id = (i + 1) as u8;
-                self.slot_of(id).is_none()
+                let linked = u32::try_from(i)
+                    .ok()
+                    .and_then(|bit| 1u32.checked_shl(bit))
+                    .is_some_and(|mask| self.config.linked & mask != 0);
+                linked
+                    && self.slot_of(id).is_none()
                     && self.robots.get(i).is_some_and(|r| r.resume_at_us <= now_us)
             })?;
         self.next_robot = (robot + 1) % robots;

@@ -275,6 +275,29 @@ fn a_robot_that_never_answers_stays_unbound_and_is_asked_again_after_a_back_off(
 }
 
 #[test]
+fn a_robot_without_a_link_is_never_asked() {
+    // Robot 2 has no line: only robots 1 and 3 are asked; robot 2's track stays provisional.
+    let robots = vec![
+        SimRobot::at(1, 100.0),
+        SimRobot::at(2, 200.0),
+        SimRobot::at(3, 300.0),
+    ];
+    let config = IdentifyConfig {
+        linked: 0b101,
+        ..config(3)
+    };
+    let mut sim = Sim::new(config, robots, vec![Some(0), Some(1), Some(2)]);
+    sim.run(300);
+    assert_eq!(sim.bindings(), [Some(1), None, Some(3)]);
+    assert!(
+        sim.requests.iter().all(|r| r.robot != 2),
+        "{:?}",
+        sim.requests
+    );
+    assert_eq!(sim.requests.len(), 2);
+}
+
+#[test]
 fn two_robots_answering_the_same_id_are_never_bound() {
     // A misconfigured pair: both answer to 1. Two tracks go dark: retried, never guessed.
     let robots = vec![SimRobot::at(1, 100.0), SimRobot::at(1, 300.0)];
