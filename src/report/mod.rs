@@ -66,7 +66,8 @@ pub struct TrackReport {
     pub floor: Option<FloorFix>,
 }
 
-/// The tracks of one frame, one per robot followed, in id order.
+/// The tracks of one frame, one per robot followed, in track-slot order (the id order, unless
+/// identification has bound the slots to robots in another order).
 pub type Tracks = BoundedVec<TrackReport, MAX_ROBOTS>;
 
 /// Everything known about one processed frame.
