@@ -7,8 +7,8 @@
 use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion};
+use glint::detect::aruco::{Detector, DetectorConfig, Dictionary, Roi};
 use glint::frame::{Frame, FrameSize};
-use glint::geometry::aruco::{Detector, DetectorConfig, Dictionary, Roi};
 use glint::geometry::Point;
 use glint_tools::markers::{reference_camera, Floor, MarkerScene, PlacedMarker};
 

@@ -7,8 +7,8 @@
 use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion};
+use glint::detect::aruco::Dictionary;
 use glint::frame::{Frame, FrameSize};
-use glint::geometry::aruco::Dictionary;
 use glint::geometry::recheck::MarkerRecheck;
 use glint::geometry::{fit_camera, FloorStage, FloorUnit, LensChoice, MarkerPlacement};
 use glint_tools::scene::Scene;
@@ -28,9 +28,9 @@ fn bench(c: &mut Criterion) {
     let map: Vec<MarkerPlacement> = view.markers.iter().map(|m| m.placement()).collect();
     // The camera as glint calibrates it: lens and pose fitted to the first frame's markers.
     let frame = Frame::new_checked(&before, size, size.row_bytes()).expect("frame");
-    let mut detector = glint::geometry::aruco::Detector::new(
+    let mut detector = glint::detect::aruco::Detector::new(
         size,
-        glint::geometry::aruco::DetectorConfig::new(Dictionary::Aruco6x6_250),
+        glint::detect::aruco::DetectorConfig::new(Dictionary::Aruco6x6_250),
     );
     let seen = detector.detect(&frame, None).expect("detect").to_vec();
     let (mut floor, mut screen) = (Vec::new(), Vec::new());

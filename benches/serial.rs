@@ -19,7 +19,8 @@ use criterion::{criterion_group, criterion_main, Criterion};
 use std::hint::black_box;
 
 use glint::frame::{Frame, FrameSize};
-use glint::pipeline::{FrameReport, Pipeline, PipelineConfig};
+use glint::pipeline::{Pipeline, PipelineConfig};
+use glint::report::FrameReport;
 use glint::sink::serial::{Located, Updates};
 use glint::sink::{SerialSink, Sink};
 use glint::source::FrameMeta;

@@ -9,8 +9,8 @@
 
 use std::time::Instant;
 
+use glint::detect::aruco::{Detector, DetectorConfig, Dictionary};
 use glint::frame::{Frame, FrameSize};
-use glint::geometry::aruco::{Detector, DetectorConfig, Dictionary};
 use glint::geometry::Point;
 use glint_tools::markers::{reference_camera, Floor, MarkerScene, PlacedMarker};
 

@@ -20,17 +20,23 @@
 //!
 //! [`source`] → [`frame`] → [`detect`] (threshold → morphology → blobs → streak) → [`track`]
 //! (or [`track::marker`] for a robot carrying an ArUco marker) → [`geometry::floor`] (screen →
-//! floor, with a calibration) → [`pipeline`] → [`sink`]. [`pipeline::Pipeline::process`] reads
-//! top to bottom.
+//! floor, with a calibration) → [`report`] → [`sink`]. [`pipeline::Pipeline::process`] calls
+//! the stages in order and reads top to bottom; it fills a [`report::FrameReport`], the one
+//! thing the sinks read (they never import the pipeline). The number of robots is bounded at
+//! compile time ([`report::MAX_ROBOTS`]): every per-robot table is sized for it. With several
+//! robots and a link to them, [`identify`] binds tracks to robot ids by asking each robot to
+//! blink.
 
 pub mod budget;
 pub mod detect;
 pub mod frame;
 pub mod geometry;
+pub mod identify;
 pub mod latency;
 pub mod monitor;
 pub mod options;
 pub mod pipeline;
+pub mod report;
 pub mod sink;
 pub mod small_file;
 pub mod source;

@@ -14,7 +14,8 @@ use std::io;
 use std::time::{Duration, Instant};
 
 use crate::frame::Frame;
-use crate::pipeline::{self, FrameReport, Pipeline, RunError, RunSummary};
+use crate::pipeline::{self, Pipeline, RunError, RunSummary};
+use crate::report::FrameReport;
 use crate::sink::Sink;
 use crate::source::{FrameMeta, FrameSource};
 use crate::stats::{FrameTimes, LatencyStats};

@@ -8,15 +8,18 @@ use core::fmt;
 use std::io;
 
 use crate::detect::bgdiff::BackgroundError;
-use crate::detect::blobs::Overflow;
+use crate::detect::blobs::{Blob, Overflow};
+use crate::detect::streak::Streak;
 use crate::detect::threshold::Levels;
 use crate::detect::{Detection, Detector, DetectorConfig};
 use crate::frame::{Frame, FrameSize};
-use crate::geometry::recheck::{CalibStatus, MarkerRecheck};
-use crate::geometry::{FloorFix, FloorStage};
+use crate::geometry::recheck::MarkerRecheck;
+use crate::geometry::FloorStage;
+use crate::identify::{Identifier, IdentifyConfig, IdentifyError, TrackSeen};
+use crate::report::{Estimate, FrameReport, IdSource, TrackReport, Tracks, MAX_ROBOTS};
 use crate::sink::Sink;
 use crate::source::{FrameMeta, FrameSource};
-use crate::track::{Choice, Estimate, MarkerPose, MarkerTracker, Tracker, TrackerConfig};
+use crate::track::{Choice, MarkerTracker, MultiTracker, TrackState, Tracker, TrackerConfig};
 
 /// Settings of the whole per-frame path.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -27,38 +30,6 @@ pub struct PipelineConfig {
     pub tracker: TrackerConfig,
 }
 
-/// Everything known about one processed frame.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct FrameReport {
-    /// Index, sequence and time of the frame.
-    pub meta: FrameMeta,
-    /// The LED detection stage's findings (empty when tracking a marker).
-    pub detection: Detection,
-    /// The LED's (or marker's) position and velocity, when found. Positions are image pixels,
-    /// (0, 0) the centre of the top-left pixel.
-    pub position: Option<Estimate>,
-    /// Several candidates and no way yet to tell the LED from glare (or the tracked marker id
-    /// seen twice).
-    pub ambiguous: bool,
-    /// The tracked marker's corners and heading, when tracking a marker and it was found.
-    pub marker: Option<MarkerPose>,
-    /// When tracking a marker: the marker detector hit its cost cap on this frame, so part of
-    /// the frame was not searched.
-    pub markers_capped: bool,
-    /// Floor position, velocity and heading, when a calibration is loaded and `position` is
-    /// known.
-    pub floor: Option<FloorFix>,
-    /// Which calibration the floor numbers used, when its markers are re-checked.
-    pub calib: Option<CalibStatus>,
-}
-
-impl FrameReport {
-    /// Frame time in seconds since the first frame.
-    pub fn t_s(&self) -> f64 {
-        self.meta.timestamp_us as f64 * 1e-6
-    }
-}
-
 /// What finds the robot in a frame.
 // One per run, built once and never moved per frame: the size difference costs nothing.
 #[allow(clippy::large_enum_variant)]
@@ -67,6 +38,11 @@ enum Front {
     Led {
         detector: Detector,
         tracker: Tracker,
+    },
+    /// Several LEDs, one per robot: segmentation, then the candidates assigned to the tracks.
+    Leds {
+        detector: Detector,
+        tracks: MultiTracker,
     },
     /// An ArUco / AprilTag marker of one id.
     Marker(MarkerTracker),
@@ -79,6 +55,8 @@ pub struct Pipeline {
     floor: Option<FloorStage>,
     /// The calibration's markers re-checked while tracking.
     recheck: Option<MarkerRecheck>,
+    /// With several robots and a link to them: which track is which robot.
+    identify: Option<Identifier<MAX_ROBOTS>>,
 }
 
 impl Pipeline {
@@ -91,6 +69,25 @@ impl Pipeline {
             },
             floor: None,
             recheck: None,
+            identify: None,
+        })
+    }
+
+    /// Allocates every stage of LED tracking for frames of `size`, following the robots of
+    /// `tracks` (`--robots N`) instead of one.
+    pub fn several(
+        size: FrameSize,
+        config: PipelineConfig,
+        tracks: MultiTracker,
+    ) -> Result<Self, BackgroundError> {
+        Ok(Pipeline {
+            front: Front::Leds {
+                detector: Detector::new(size, config.detector)?,
+                tracks,
+            },
+            floor: None,
+            recheck: None,
+            identify: None,
         })
     }
 
@@ -100,7 +97,19 @@ impl Pipeline {
             front: Front::Marker(tracker),
             floor: None,
             recheck: None,
+            identify: None,
         }
+    }
+
+    /// Identifies the robots by their own LEDs (several robots, each with a link): every frame's
+    /// report then carries the LED request to send ([`FrameReport::blink`]), and a track's id is
+    /// its robot's once bound (`id_source` blink), or provisional, above every robot's id, until
+    /// then. Only for several LEDs; a single robot's id is certain.
+    pub fn with_identify(mut self, config: IdentifyConfig) -> Result<Self, IdentifyError> {
+        if matches!(self.front, Front::Leds { .. }) {
+            self.identify = Some(Identifier::new(config)?);
+        }
+        Ok(self)
     }
 
     /// Adds the floor stage: every found frame also gets floor coordinates.
@@ -120,16 +129,19 @@ impl Pipeline {
     /// when tracking a marker).
     pub fn learn_background(&mut self, frame: &Frame<'_>) -> Result<(), BackgroundError> {
         match &mut self.front {
-            Front::Led { detector, .. } => detector.learn_background(frame),
+            Front::Led { detector, .. } | Front::Leds { detector, .. } => {
+                detector.learn_background(frame)
+            }
             Front::Marker(_) => Ok(()),
         }
     }
 
     /// Processes one frame: find the robot (LED: segment, let the tracker choose the LED among
-    /// the candidates, analyse that one blob's streak, update the track; marker: detect and
-    /// pick the id), then map the result to the floor.
+    /// the candidates, analyse that one blob's streak, update the track; several LEDs: assign
+    /// the candidates to the tracks, analyse each track's blob, update each track; marker:
+    /// detect and pick the id), then map each track to the floor.
     pub fn process(&mut self, frame: &Frame<'_>, meta: FrameMeta) -> FrameReport {
-        let (detection, position, ambiguous, marker, markers_capped) = match &mut self.front {
+        let (detection, ambiguous, marker, markers_capped, mut tracks) = match &mut self.front {
             Front::Led { detector, tracker } => {
                 let mut detection = detector.segment(frame);
                 let choice = tracker.choose(detector.candidates(), meta.index, meta.timestamp_us);
@@ -146,24 +158,46 @@ impl Pipeline {
                 };
                 let position =
                     tracker.update(meta.timestamp_us, detection.best.as_ref().map(|(_, s)| s));
-                (
-                    detection,
-                    position,
-                    choice == Choice::Ambiguous,
-                    None,
-                    false,
-                )
+                let blob = detection.best.filter(|_| position.is_some());
+                let track = single_track(position, tracker.state(), blob);
+                (detection, choice == Choice::Ambiguous, None, false, track)
+            }
+            Front::Leds { detector, tracks } => {
+                let detection = detector.segment(frame);
+                tracks.choose(detector.candidates(), meta.index, meta.timestamp_us);
+                let mut reports = Tracks::new();
+                for slot in 0..tracks.robots() {
+                    let choice = tracks.choice(slot);
+                    let best = choice
+                        .blob
+                        .and_then(|index| detector.analyze(frame, index, detection.levels));
+                    let t_us = meta.timestamp_us;
+                    let estimate = tracks.update(slot, t_us, best.as_ref().map(|(_, s)| s));
+                    // At most MAX_ROBOTS slots: the bounded list holds them all.
+                    let _ = reports.push(TrackReport {
+                        id: u8::try_from(slot + 1).unwrap_or(u8::MAX),
+                        provisional: true,
+                        id_source: IdSource::Continuity,
+                        state: tracks.state(slot),
+                        merged: choice.merged,
+                        estimate,
+                        blob: best.filter(|_| estimate.is_some()),
+                        floor: None,
+                    });
+                }
+                (detection, false, None, false, reports)
             }
             Front::Marker(tracker) => {
                 let found = tracker.process(frame, meta.timestamp_us);
+                // The marker tracker predicts nothing: a frame without the marker searches.
+                let state = if found.estimate.is_some() {
+                    TrackState::Tracking
+                } else {
+                    TrackState::Searching
+                };
+                let track = single_track(found.estimate, state, None);
                 let capped = found.markers_capped;
-                (
-                    no_detection(),
-                    found.estimate,
-                    found.ambiguous,
-                    found.pose,
-                    capped,
-                )
+                (no_detection(), found.ambiguous, found.pose, capped, track)
             }
         };
         let calib = match (&mut self.recheck, &mut self.floor) {
@@ -172,9 +206,21 @@ impl Pipeline {
             }
             _ => None,
         };
-        let floor = match (&self.floor, &position) {
-            (Some(stage), Some(p)) => Some(stage.map(p, marker.as_ref().map(|m| &m.corners_px))),
-            _ => None,
+        if let Some(stage) = &self.floor {
+            for track in tracks.iter_mut() {
+                track.floor = track.estimate.map(|p| {
+                    let corners = marker.as_ref().map(|m| &m.corners_px);
+                    stage.map(p.position_px, p.velocity_px_s.map(|(v, _)| v), corners)
+                });
+            }
+        }
+        let blink = self
+            .identify
+            .as_mut()
+            .and_then(|identify| identify_tracks(identify, meta.timestamp_us, &mut tracks));
+        let (position, floor) = match tracks.as_slice() {
+            [one] => (one.estimate, one.floor),
+            _ => (None, None),
         };
         FrameReport {
             meta,
@@ -185,13 +231,15 @@ impl Pipeline {
             markers_capped,
             floor,
             calib,
+            tracks,
+            blink,
         }
     }
 
     /// The LED detection stage, for overlays and diagnostics (`None` when tracking a marker).
     pub fn detector(&self) -> Option<&Detector> {
         match &self.front {
-            Front::Led { detector, .. } => Some(detector),
+            Front::Led { detector, .. } | Front::Leds { detector, .. } => Some(detector),
             Front::Marker(_) => None,
         }
     }
@@ -200,6 +248,63 @@ impl Pipeline {
     pub fn floor(&self) -> Option<&FloorStage> {
         self.floor.as_ref()
     }
+}
+
+/// Steps identification on this frame's tracks (visible: found in this frame) and gives each
+/// track its identity: a bound track its robot's id, an unbound one a provisional id above every
+/// robot's (`MAX_ROBOTS` + 1 + its slot), so that no id is shown twice. Returns the LED request
+/// to send.
+fn identify_tracks(
+    identify: &mut Identifier<MAX_ROBOTS>,
+    timestamp_us: u64,
+    tracks: &mut Tracks,
+) -> Option<crate::identify::BlinkRequest> {
+    let mut seen = [TrackSeen::default(); MAX_ROBOTS];
+    for (s, t) in seen.iter_mut().zip(tracks.iter()) {
+        let position_px = t.estimate.map_or((0.0, 0.0), |e| e.position_px);
+        *s = TrackSeen {
+            visible: t.state == TrackState::Tracking,
+            x_px: position_px.0,
+            y_px: position_px.1,
+        };
+    }
+    let step = identify.step(timestamp_us, seen.get(..tracks.len()).unwrap_or(&[]));
+    for (slot, t) in tracks.iter_mut().enumerate() {
+        match identify.robot_of(slot) {
+            Some(robot) => {
+                t.id = robot;
+                t.provisional = false;
+                t.id_source = IdSource::Blink;
+            }
+            None => {
+                t.id = u8::try_from(MAX_ROBOTS + 1 + slot).unwrap_or(u8::MAX);
+                t.provisional = true;
+                t.id_source = IdSource::Continuity;
+            }
+        }
+    }
+    step.request
+}
+
+/// The report of a run's one robot, whose id is certain.
+fn single_track(
+    estimate: Option<Estimate>,
+    state: TrackState,
+    blob: Option<(Blob, Streak)>,
+) -> Tracks {
+    let mut tracks = Tracks::new();
+    // A bounded list of MAX_ROBOTS ≥ 1 holds one entry.
+    let _ = tracks.push(TrackReport {
+        id: 1,
+        provisional: false,
+        id_source: IdSource::Continuity,
+        state,
+        merged: false,
+        estimate,
+        blob,
+        floor: None,
+    });
+    tracks
 }
 
 /// The LED detection's report for a frame it did not look at.
@@ -223,7 +328,7 @@ fn no_detection() -> Detection {
 pub struct RunSummary {
     /// Frames processed.
     pub frames: u64,
-    /// Frames in which the LED was found.
+    /// Frames in which the LED (with several robots, any of them) was found.
     pub found: u64,
     /// Frames whose blob tables overflowed.
     pub overflowed: u64,
@@ -268,7 +373,7 @@ pub fn run<S: FrameSource, K: Sink>(
         };
         let report = pipeline.process(&frame, meta);
         summary.frames += 1;
-        summary.found += u64::from(report.position.is_some());
+        summary.found += u64::from(report.tracks.iter().any(|t| t.estimate.is_some()));
         summary.blinded += u64::from(report.detection.blinded);
         let overflow = report.detection.overflow;
         if overflow.any() {

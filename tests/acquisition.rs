@@ -11,7 +11,8 @@
 //! within [`REPORT_TOLERANCE_PX`] of the true LED (no false reports).
 
 use glint::frame::{Frame, FrameSize};
-use glint::pipeline::{FrameReport, Pipeline, PipelineConfig};
+use glint::pipeline::{Pipeline, PipelineConfig};
+use glint::report::FrameReport;
 use glint::source::FrameMeta;
 use glint::track::TrackerConfig;
 use glint_tools::scene::{Point, Scene, SceneConfig, StaticLight, Truth, Visibility};

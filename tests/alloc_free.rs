@@ -142,7 +142,7 @@ fn lens_floor() -> glint::geometry::FloorStage {
 
 #[test]
 fn floor_mapping_and_marker_tracking_allocate_nothing_per_frame() {
-    use glint::geometry::aruco::Dictionary;
+    use glint::detect::aruco::Dictionary;
     use glint::geometry::{FloorFix, Point};
     use glint_tools::markers::{reference_camera, MarkerScene, PlacedMarker};
 
@@ -199,7 +199,7 @@ fn floor_mapping_and_marker_tracking_allocate_nothing_per_frame() {
     let tracker = glint::track::MarkerTracker::new(size, Dictionary::Aruco6x6_250, 7).unwrap();
     let mut pipeline = Pipeline::marker(tracker).with_floor(lens_floor());
     let mut source = DumpSource::new(Cursor::new(&dump), size, 30.0);
-    let mut reports: heapless::Vec<glint::pipeline::FrameReport, 8> = heapless::Vec::new();
+    let mut reports: heapless::Vec<glint::report::FrameReport, 8> = heapless::Vec::new();
     let allocations = allocations_during(|| {
         while let Some((frame, meta)) = glint::source::FrameSource::next_frame(&mut source).unwrap()
         {
@@ -331,8 +331,8 @@ fn the_stop_aware_file_source_allocates_nothing_per_frame() {
 /// knock) allocates nothing per frame either.
 #[test]
 fn the_marker_recheck_and_a_pose_refit_allocate_nothing() {
+    use glint::detect::aruco::Dictionary;
     use glint::frame::Frame;
-    use glint::geometry::aruco::Dictionary;
     use glint::geometry::recheck::MarkerRecheck;
     use glint::geometry::{CameraModel, FloorStage, FloorUnit, Lens, MarkerPlacement, Pose};
     use glint::source::FrameMeta;
@@ -460,4 +460,159 @@ fn mavlink_sink_allocates_nothing_per_frame() {
         "{stats:?}, {received} bytes"
     );
     assert_eq!(allocations, 0, "allocations during {count} frames");
+}
+
+/// Identification (asking robots in turn, judging the frames after each request, unbinding
+/// tracks that meet) allocates nothing per frame.
+#[test]
+fn identification_allocates_nothing_per_frame() {
+    use glint::identify::{Identifier, IdentifyConfig, TrackSeen};
+
+    const PERIOD_US: u64 = 33_333;
+    let mut id = Identifier::<16>::new(IdentifyConfig::new(4, PERIOD_US)).unwrap();
+    let mut tracks = [TrackSeen::default(); 4];
+    // Robot k's LED is off during off[k]; robots 2 and 3 meet halfway through.
+    let mut off = [(0u64, 0u64); 4];
+    let mut bound = 0;
+    let allocations = allocations_during(|| {
+        for frame in 1..=900u64 {
+            let now_us = frame * PERIOD_US;
+            let meeting = (400..430).contains(&frame);
+            for (k, t) in tracks.iter_mut().enumerate() {
+                let (from, until) = off[k];
+                t.visible = !(from..until).contains(&now_us);
+                t.x_px = if meeting && k >= 2 {
+                    300.0 + k as f32
+                } else {
+                    100.0 * k as f32
+                };
+                t.y_px = 50.0;
+            }
+            let step = id.step(now_us, &tracks);
+            if let Some(r) = step.request {
+                let from = now_us + 10_000 + u64::from(r.delay_us);
+                off[usize::from(r.robot) - 1] = (from, from + u64::from(r.off_us));
+            }
+            bound = (0..4)
+                .filter(|&s| id.robot_of(s) == Some(s as u8 + 1))
+                .count();
+        }
+    });
+    assert_eq!(bound, 4, "every robot identified by the end");
+    assert!(id.stats().unbound >= 2, "the meeting unbound two tracks");
+    assert_eq!(allocations, 0);
+}
+
+#[test]
+fn several_robots_allocate_nothing_per_frame() {
+    use glint::sink::Tee;
+    use glint::track::{MultiTracker, TrackerConfig, MAX_ROBOTS};
+    use glint_tools::scene::Fleet;
+
+    let fleet = Fleet::preset("fleet-meeting").unwrap();
+    let scene = fleet.robot(0).unwrap();
+    let size = FrameSize::new(scene.width_px(), scene.height_px()).unwrap();
+    let mut bytes = vec![0u8; scene.frame_len_bytes() * scene.frame_count()];
+    for (i, out) in bytes.chunks_exact_mut(scene.frame_len_bytes()).enumerate() {
+        fleet.render(i, out).unwrap();
+    }
+    let tracker = TrackerConfig {
+        exposure_us: Some(scene.exposure_us()),
+    };
+    let config = PipelineConfig {
+        tracker,
+        ..PipelineConfig::default()
+    };
+    // The largest tables, with a floor stage mapping every track.
+    let tracks = MultiTracker::new(MAX_ROBOTS, tracker).unwrap();
+    let mut pipeline = Pipeline::several(size, config, tracks)
+        .unwrap()
+        .with_floor(reference_floor());
+    let mut source = DumpSource::new(Cursor::new(&bytes), size, 30.0);
+    let out = || BufWriter::with_capacity(64 * 1024, io::sink());
+    let mut sink = Tee::new(JsonLinesSink::new(out(), false), CsvSink::new(out(), false));
+    let mut summary = None;
+    let allocations = allocations_during(|| {
+        let (s, result) = pipeline::run(&mut source, &mut pipeline, &mut sink);
+        result.unwrap();
+        summary = Some(s);
+    });
+    let summary = summary.unwrap();
+    assert_eq!(summary.frames, scene.frame_count() as u64);
+    assert!(summary.found > summary.frames / 2, "tracked: {summary:?}");
+    assert_eq!(
+        allocations, 0,
+        "allocations during {} frames",
+        summary.frames
+    );
+}
+
+/// Identification in the pipeline and the shared line's robot positions and LED requests
+/// allocate nothing per frame either (the robots here never answer: every attempt is retried).
+#[test]
+fn identifying_several_robots_over_a_shared_line_allocates_nothing_per_frame() {
+    use glint::identify::IdentifyConfig;
+    use glint::sink::Tee;
+    use glint::track::{MultiTracker, TrackerConfig, MAX_ROBOTS};
+    use glint_tools::scene::Fleet;
+    use serialport::SerialPort;
+    use std::io::Read;
+    use std::sync::atomic::{AtomicBool, Ordering};
+    use std::sync::Arc;
+
+    let fleet = Fleet::preset("fleet-crossing").unwrap();
+    let scene = fleet.robot(0).unwrap();
+    let size = FrameSize::new(scene.width_px(), scene.height_px()).unwrap();
+    let mut bytes = vec![0u8; scene.frame_len_bytes() * scene.frame_count()];
+    for (i, out) in bytes.chunks_exact_mut(scene.frame_len_bytes()).enumerate() {
+        fleet.render(i, out).unwrap();
+    }
+    let tracker = TrackerConfig {
+        exposure_us: Some(scene.exposure_us()),
+    };
+    let config = PipelineConfig {
+        tracker,
+        ..PipelineConfig::default()
+    };
+    let tracks = MultiTracker::new(MAX_ROBOTS, tracker).unwrap();
+    let identify = IdentifyConfig::new(MAX_ROBOTS as u8, (1e6 / scene.fps()).round() as u64);
+    let mut pipeline = Pipeline::several(size, config, tracks)
+        .unwrap()
+        .with_identify(identify)
+        .unwrap();
+    let (mut master, slave) = serialport::TTYPort::pair().expect("pty pair");
+    let name = slave.name().expect("slave name");
+    let stop = Arc::new(AtomicBool::new(false));
+    let reader = {
+        let stop = Arc::clone(&stop);
+        std::thread::spawn(move || {
+            let mut buf = [0u8; 1024];
+            while !stop.load(Ordering::Relaxed) {
+                let _ = master.read(&mut buf);
+            }
+        })
+    };
+    let mut source = DumpSource::new(Cursor::new(&bytes), size, scene.fps());
+    let json = JsonLinesSink::new(BufWriter::with_capacity(64 * 1024, io::sink()), false);
+    let mut sink = Tee::new(
+        json,
+        SerialSink::open(&name, 115_200).expect("open the pty"),
+    );
+    let allocations = allocations_during(|| {
+        pipeline::run(&mut source, &mut pipeline, &mut sink)
+            .1
+            .unwrap();
+    });
+    stop.store(true, Ordering::Relaxed);
+    reader.join().unwrap();
+    let (_, serial) = sink.into_parts();
+    let stats = serial.stats();
+    assert!(stats.led_requests >= 2, "identification asked: {stats:?}");
+    assert!(stats.updates > 0, "{stats:?}");
+    assert_eq!(
+        allocations,
+        0,
+        "allocations during {} frames",
+        scene.frame_count()
+    );
 }

@@ -5,8 +5,8 @@ mod common;
 
 use common::alloc::{allocations_during, Counting};
 
+use glint::detect::aruco::{Detector, DetectorConfig, Dictionary, Roi};
 use glint::frame::{Frame, FrameSize};
-use glint::geometry::aruco::{Detector, DetectorConfig, Dictionary, Roi};
 use glint::geometry::{calibrate, Point};
 use glint_tools::markers::{reference_camera, Floor, MarkerScene, PlacedMarker};
 

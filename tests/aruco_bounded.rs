@@ -7,13 +7,13 @@
 mod aruco_frames;
 mod common;
 
+use glint::detect::aruco::{Detector, DetectorConfig, Dictionary, MAX_DECODES};
 use glint::frame::{Frame, FrameSize};
-use glint::geometry::aruco::{Detector, DetectorConfig, Dictionary, MAX_DECODES};
 
 const W: usize = 640;
 const H: usize = 480;
 
-fn detect(luma: &[u8]) -> (Vec<u16>, glint::geometry::aruco::DetectionStats) {
+fn detect(luma: &[u8]) -> (Vec<u16>, glint::detect::aruco::DetectionStats) {
     let bytes = aruco_frames::to_yuyv(luma);
     let size = FrameSize::new(W as u32, H as u32).unwrap();
     let frame = Frame::new_checked(&bytes, size, 2 * W).unwrap();

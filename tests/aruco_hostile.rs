@@ -1,8 +1,8 @@
 //! Hostile input never panics the detector or the homography: random frames, sizes, regions
 //! and point sets either work or give a typed error.
 
+use glint::detect::aruco::{Detector, DetectorConfig, Dictionary, Roi};
 use glint::frame::{Frame, FrameSize};
-use glint::geometry::aruco::{Detector, DetectorConfig, Dictionary, Roi};
 use glint::geometry::{FloorMapping, Homography, Point};
 use proptest::prelude::*;
 

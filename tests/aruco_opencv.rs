@@ -2,8 +2,8 @@
 //! (`tools/opencv/make_marker_fixtures.py`, committed as data) must give the same ids, with
 //! corners in the same order and close to OpenCV's own.
 
+use glint::detect::aruco::{Detector, DetectorConfig, Dictionary};
 use glint::frame::{Frame, FrameSize};
-use glint::geometry::aruco::{Detector, DetectorConfig, Dictionary};
 use glint::geometry::Point;
 
 const FIXTURES: [(&str, &[u8], &str); 5] = [

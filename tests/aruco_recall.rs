@@ -5,10 +5,10 @@
 //! a dim low-contrast print, AprilTags in grey ink, small and steeply foreshortened markers at
 //! 640×480, barrel distortion, and OpenCV's own tutorial photograph.
 
+use glint::detect::aruco::{Detector, DetectorConfig, Dictionary, Marker};
 use glint::frame::{Frame, FrameSize};
-use glint::geometry::aruco::{Detector, DetectorConfig, Dictionary, Marker};
+use glint::geometry::marker_heading_deg;
 use glint::geometry::Point;
-use glint::track::marker_heading_deg;
 
 /// A fixture: name, its PNG, its detections file, and the bounds on glint's corner distance
 /// from where the corners were drawn (px), mean and worst.

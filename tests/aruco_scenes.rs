@@ -4,8 +4,8 @@
 //! Targets (issue 4): corner error ≤ 0.1 px; floor error from the calibration alone, 95th
 //! percentile over a 1.6 m × 1.4 m area of floor, ≤ 0.3 cm; several markers do better.
 
+use glint::detect::aruco::{Detector, DetectorConfig, Dictionary, Marker, Roi};
 use glint::frame::{Frame, FrameSize};
-use glint::geometry::aruco::{Detector, DetectorConfig, Dictionary, Marker, Roi};
 use glint::geometry::{calibrate, CalibrationError, FloorMapping, HomographyError, Point};
 use glint_tools::markers::{reference_camera, Floor, MarkerScene, PlacedMarker, Shadow};
 

@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use std::process::Output;
 
 use common::{glint, parse_jsonl, quantile};
-use glint::geometry::aruco::Dictionary;
+use glint::detect::aruco::Dictionary;
 use glint::geometry::Point;
 use glint_tools::markers::{reference_camera, MarkerScene, PlacedMarker};
 use serde_json::Value;

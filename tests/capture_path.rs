@@ -12,7 +12,8 @@ use std::io::{self, Cursor};
 
 use glint::frame::{Frame, FrameSize};
 use glint::monitor::{self, Monitor, MonitorConfig};
-use glint::pipeline::{FrameReport, Pipeline, PipelineConfig};
+use glint::pipeline::{Pipeline, PipelineConfig};
+use glint::report::FrameReport;
 use glint::sink::Sink;
 use glint::source::sidecar::{FrameTiming, ReplaySource, Sidecar};
 use glint::source::{FrameMeta, FrameSource};
@@ -32,7 +33,7 @@ impl Sink for Collect {
         if self.0.len() == self.0.capacity() {
             return Err(io::Error::other("more reports than reserved"));
         }
-        self.0.push(*report);
+        self.0.push(report.clone());
         Ok(())
     }
 

@@ -9,7 +9,7 @@ use glint_tools::markers::{reference_camera, MarkerScene, PlacedMarker};
 
 fn marker(id: u16, x_cm: f64, y_cm: f64) -> PlacedMarker {
     PlacedMarker {
-        dictionary: glint::geometry::aruco::Dictionary::Aruco6x6_250,
+        dictionary: glint::detect::aruco::Dictionary::Aruco6x6_250,
         id,
         size_cm: 20.0,
         origin_cm: Point::new(x_cm, y_cm),

@@ -107,6 +107,15 @@ fn bad_settings_stop_start_up_naming_the_key() {
             "calib = \"/nonexistent/calib.toml\"\n",
             "calib = \"/nonexistent/calib.toml\"",
         ),
+        (
+            "serial = [\"1=/dev/null\", \"1=/dev/zero\"]\n",
+            "robot 1 is given two serial ports (--serial 1=/dev/null and --serial 1=/dev/zero)",
+        ),
+        (
+            "serial = \"17=/dev/null\"\n",
+            "key `serial`: invalid value '17=/dev/null'",
+        ),
+        ("serial = [\"/dev/null\", \"2=/dev/zero\"]\n", "do not mix"),
     ];
     for (extra, want) in cases {
         let config = settings_for(&r, dir.path(), &jsonl, extra);

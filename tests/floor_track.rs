@@ -8,7 +8,7 @@ mod common;
 use std::path::{Path, PathBuf};
 
 use common::{glint, parse_jsonl, quantile, render, temp_file, track, Rendered};
-use glint::geometry::aruco::Dictionary;
+use glint::detect::aruco::Dictionary;
 use glint::geometry::Point;
 use glint_tools::markers::{reference_camera, Camera, MarkerScene, PlacedMarker};
 use glint_tools::scene::Visibility;

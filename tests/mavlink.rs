@@ -17,7 +17,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use common::{glint, parse_jsonl, render};
-use glint::geometry::aruco::Dictionary;
+use glint::detect::aruco::Dictionary;
 use glint::geometry::Point;
 use glint_tools::markers::{reference_camera, MarkerScene, PlacedMarker};
 use nix::fcntl::{fcntl, FcntlArg, FdFlag};

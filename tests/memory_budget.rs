@@ -7,9 +7,9 @@ mod common;
 use common::alloc::{bytes_allocated_during, Counting};
 
 use glint::budget;
+use glint::detect::aruco::{self, Dictionary};
 use glint::detect::{DetectorConfig, MaskMethod};
 use glint::frame::FrameSize;
-use glint::geometry::aruco::{self, Dictionary};
 use glint::pipeline::{Pipeline, PipelineConfig};
 use glint::source::dump::DumpSource;
 use glint::track::MarkerTracker;

@@ -754,6 +754,8 @@ fn a_real_uart_in_a_vm_delivers_every_frame_sent() {
             // Each update's age follows it; the LED is never asked for here.
             Ok(Message::Age(a)) => assert_eq!(Some(a.seq), positions.last().map(|p| p.seq)),
             Ok(Message::Led(r)) => panic!("over the UART: an unasked LED request {r:?}"),
+            // One robot on its own line: never an addressed update.
+            Ok(Message::RobotPosition(r)) => panic!("over the UART: an addressed update {r:?}"),
             Err(e) => panic!("over the UART: {e}"),
         }
     }

@@ -3,7 +3,7 @@
  *
  * Single header, C99 (also compiles as C++ for Arduino sketches), no malloc, no floating point
  * needed, about 130 bytes of RAM per decoder and message. The wire format is board/protocol/SPEC.md
- * (protocol version 2): COBS frames ending in 0x00, each holding a message id, a postcard body
+ * (protocol version 3): COBS frames ending in 0x00, each holding a message id, a postcard body
  * and a CRC-16/CCITT-FALSE.
  *
  * Usage, in the manner of the Pixy2 library:
@@ -11,27 +11,37 @@
  *     #include "glint.h"
  *     static struct glint_decoder decoder;
  *     static struct glint_message msg;
+ *     static uint8_t mine; // the last frame was this robot's own position update
  *
  *     void setup() { Serial1.begin(115200); glint_decoder_init(&decoder); }
  *
  *     void loop() {
  *         while (Serial1.available() > 0) {
- *             switch (glint_decoder_push(&decoder, (uint8_t)Serial1.read(), &msg)) {
- *             case GLINT_POSITION:
+ *             enum glint_result got = glint_decoder_push(&decoder, (uint8_t)Serial1.read(), &msg);
+ *             switch (got) {
+ *             case GLINT_NONE: // a frame not complete yet
+ *                 break;
+ *             case GLINT_POSITION:       // a line of its own (one robot)
+ *             case GLINT_ROBOT_POSITION: // a line shared by several robots (version 3)
+ *                 if (!glint_update_is_for(got, &msg, MY_ROBOT_ID)) { mine = 0; break; }
+ *                 mine = 1;
  *                 // msg.position.x, .y: mm when msg.position.units == GLINT_UNITS_FLOOR,
  *                 // else 1/8 px; msg.position.status == GLINT_STATUS_FOUND when seen this frame.
  *                 break;
  *             case GLINT_AGE:
  *                 // Arrives right after the position with msg.age.seq == msg.position.seq: the
  *                 // position was msg.age.age_us old when this frame's last byte arrived, so
- *                 // now it is msg.age.age_us + (micros() - the time this byte was read).
- *                 received_at_us = micros();
+ *                 // now it is msg.age.age_us + (micros() - the time this byte was read). On a
+ *                 // shared line, only an age right after this robot's own update is its own.
+ *                 if (mine) received_at_us = micros();
+ *                 mine = 0;
  *                 break;
  *             case GLINT_LED:
  *                 // if (glint_led_is_for(&msg.led, MY_ROBOT_ID)): switch the LED off
  *                 // msg.led.delay_us from now, for msg.led.off_us (0: back on now).
  *                 break;
  *             default:
+ *                 mine = 0;
  *                 break;
  *             }
  *         }
@@ -46,7 +56,8 @@
 #include <stdint.h>
 
 /* Encoded bytes a decoder holds: 64 takes every message of every protocol version; 23 is enough
- * for position updates alone (longer frames are then reported as GLINT_ERR_OVERFLOW). */
+ * for position updates alone on a line of its own, 24 for a shared line's robot positions (longer
+ * frames are then reported as GLINT_ERR_OVERFLOW). */
 #ifndef GLINT_BUFFER_LEN
 #define GLINT_BUFFER_LEN 64
 #endif
@@ -54,13 +65,14 @@
 #error "GLINT_BUFFER_LEN must be 23..255"
 #endif
 
-#define GLINT_PROTOCOL_VERSION 2
+#define GLINT_PROTOCOL_VERSION 3
 #define GLINT_ID_POSITION 0x01
 #define GLINT_ID_HEARTBEAT 0x02
 #define GLINT_ID_AGE 0x03
 #define GLINT_ID_LED 0x04
+#define GLINT_ID_ROBOT_POSITION 0x05
 
-/* The robot id of a LED request addressed to every robot. */
+/* The robot id of a LED request addressed to every robot (never a robot position's address). */
 #define GLINT_EVERY_ROBOT 0
 
 /* Position units: GLINT_UNITS_FLOOR = 1 mm (mm/s); GLINT_UNITS_PIXELS = 1/8 px (1/8 px/s). */
@@ -83,6 +95,7 @@ enum glint_result {
     GLINT_HEARTBEAT,     /* msg->heartbeat is filled in */
     GLINT_AGE,           /* msg->age is filled in (version 2) */
     GLINT_LED,           /* msg->led is filled in (version 2) */
+    GLINT_ROBOT_POSITION, /* msg->robot and msg->position are filled in (version 3) */
     GLINT_UNKNOWN,       /* valid frame with an id this decoder does not know: msg->id; skip it */
     GLINT_ERR_OVERFLOW,  /* frame longer than GLINT_BUFFER_LEN, dropped */
     GLINT_ERR_COBS,      /* invalid COBS, dropped */
@@ -125,7 +138,8 @@ struct glint_led {
 };
 
 struct glint_message {
-    uint8_t id; /* the message id of the last frame that had a good CRC */
+    uint8_t id;    /* the message id of the last frame that had a good CRC */
+    uint8_t robot; /* the robot a GLINT_ROBOT_POSITION is for (1..255) */
     struct glint_position position;
     struct glint_heartbeat heartbeat;
     struct glint_age age;
@@ -135,6 +149,14 @@ struct glint_message {
 /* Whether a LED request is addressed to the robot with id `my_id`. */
 static inline int glint_led_is_for(const struct glint_led *led, uint8_t my_id) {
     return led->robot == GLINT_EVERY_ROBOT || led->robot == my_id;
+}
+
+/* Whether a position update (`result` GLINT_POSITION or GLINT_ROBOT_POSITION) is for the robot
+ * with id `my_id`: a plain position comes on a line of its own, so it is; a robot position only if
+ * addressed to `my_id`. Anything else is not a position update for anyone. */
+static inline int glint_update_is_for(enum glint_result result, const struct glint_message *msg,
+                                      uint8_t my_id) {
+    return result == GLINT_POSITION || (result == GLINT_ROBOT_POSITION && msg->robot == my_id);
 }
 
 struct glint_decoder {
@@ -311,6 +333,10 @@ static inline enum glint_result glint_parse_payload(const uint8_t *payload, uint
     } else if (msg->id == GLINT_ID_LED) {
         valid = glint_parse_led(&r, &msg->led);
         kind = GLINT_LED;
+    } else if (msg->id == GLINT_ID_ROBOT_POSITION) {
+        msg->robot = glint_read_u8(&r);
+        valid = glint_parse_position(&r, &msg->position) && msg->robot != GLINT_EVERY_ROBOT;
+        kind = GLINT_ROBOT_POSITION;
     } else {
         return GLINT_UNKNOWN;
     }

@@ -6,13 +6,13 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use clap::Args;
 
+use glint::detect::aruco::{DetectorConfig, Dictionary};
 use glint::frame::FrameSize;
-use glint::geometry::aruco::{DetectorConfig, Dictionary};
 use glint::geometry::recheck::MarkerRecheck;
 use glint::geometry::CalibrationFile;
 use glint::pipeline::{Pipeline, PipelineConfig};
 use glint::small_file;
-use glint::track::MarkerTracker;
+use glint::track::{MarkerTracker, MultiTracker};
 
 /// Options of `glint track` that this module handles.
 #[derive(Debug, Args)]
@@ -80,13 +80,20 @@ pub fn build_pipeline(
     args: &FloorArgs,
     size: FrameSize,
     aruco: bool,
+    robots: usize,
     config: PipelineConfig,
 ) -> Result<Pipeline> {
+    if robots > 1 && aruco {
+        bail!("--robots {robots}: --detector aruco follows one marker; several robots need LEDs");
+    }
     let pipeline = match (aruco, args.marker) {
         (true, Some(id)) => Pipeline::marker(MarkerTracker::new(size, args.dictionary(), id)?),
         (true, None) => bail!("--detector aruco needs --marker ID, the id the robot carries"),
         (false, Some(_)) => bail!("--marker goes with --detector aruco"),
         (false, None) if args.dict.is_some() => bail!("--dict goes with --detector aruco"),
+        (false, None) if robots > 1 => {
+            Pipeline::several(size, config, MultiTracker::new(robots, config.tracker)?)?
+        }
         (false, None) => Pipeline::new(size, config)?,
     };
     let Some(path) = &args.calib else {

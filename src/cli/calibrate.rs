@@ -18,8 +18,8 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 
 use glint::budget::{self, MemoryPlan};
+use glint::detect::aruco::{Detector, DetectorConfig, Dictionary};
 use glint::frame::FrameSize;
-use glint::geometry::aruco::{Detector, DetectorConfig, Dictionary};
 use glint::geometry::camera_fit::{LENS_UNDETERMINED_PX, LENS_WEAK_PX};
 use glint::geometry::lens_file;
 use glint::geometry::{

@@ -6,6 +6,7 @@ use std::process::ExitCode;
 use anyhow::{bail, Context, Result};
 use clap::Args;
 
+use super::serial_ports::SerialPlan;
 use super::track::{self, Opened, TrackSettings};
 
 use glint::latency::{quantile_us, LatencyConfig, LatencyTest, Measurement, Step};
@@ -46,20 +47,25 @@ pub struct LatencyArgs {
 }
 
 pub fn run(args: LatencyArgs) -> Result<ExitCode> {
-    let Some(port) = args.settings.serial.as_deref() else {
-        bail!(
+    let port = match args.settings.serial_plan()? {
+        SerialPlan::Shared(port) => port,
+        SerialPlan::None => bail!(
             "glint latency needs a link to the robot: give --serial PORT (the robot switches \
              its LED off when glint asks over it)"
-        );
+        ),
+        SerialPlan::PerRobot(_) => bail!(
+            "glint latency asks over one line: give --serial PORT (and --robot ID), not ID=PORT"
+        ),
     };
-    let port = port.to_owned();
     let Opened {
         mut source,
         mut pipeline,
         serial,
         ..
     } = track::open(&args.settings, &args.settings.memory_plan())?;
-    let (serial, mavlink) = serial.into_parts();
+    let (glint_link, mavlink) = serial.into_parts();
+    // A line per robot is refused above: the first part is the one shared line, if any.
+    let (serial, _) = glint_link.into_parts();
     if mavlink.is_some() {
         bail!("glint latency asks the robot in glint's own protocol: drop --mavlink");
     }

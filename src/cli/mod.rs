@@ -15,6 +15,7 @@ mod record;
 mod run;
 // Reached from tests/readme_commands.rs, which splices settings files as `main` does.
 pub(crate) mod run_config;
+mod serial_ports;
 mod signals;
 mod track;
 

@@ -62,6 +62,7 @@ pub fn run(args: RunArgs) -> Result<ExitCode> {
         log::info!("settings from {}", config.display());
     }
     check_files(&args)?;
+    args.settings.serial_plan()?;
     let jsonl = args.jsonl.as_deref().map(open_jsonl).transpose()?;
     let Opened {
         mut source,

@@ -9,6 +9,7 @@ use std::sync::Arc;
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
 
+use super::serial_ports::{self, SerialArg, SerialPlan};
 use super::{calib_args, input, memory, signals};
 
 use glint::budget::{self, MemoryPlan};
@@ -16,17 +17,19 @@ use glint::detect::bgdiff::MAX_BACKGROUND_FRAMES;
 use glint::detect::MaskMethod;
 use glint::frame::FrameSize;
 use glint::geometry::CalibrationFile;
+use glint::identify::IdentifyConfig;
 use glint::monitor::{self, Monitor};
 use glint::options::{parse_fps, LedArgs};
 use glint::pipeline::{self, Pipeline, PipelineConfig, RunSummary};
 use glint::sink::mavlink::{self, Identity, ToLocal};
+use glint::sink::serial::RobotLines;
 use glint::sink::{serial, CsvSink, JsonLinesSink, MavlinkSink, SerialSink, Tee};
 use glint::small_file;
 use glint::source::dump::DumpSource;
 use glint::source::interruptible::Interruptible;
 use glint::source::stoppable::Stoppable;
 use glint::source::FrameSource;
-use glint::track::TrackerConfig;
+use glint::track::{RobotsOutOfRange, TrackerConfig, MAX_ROBOTS};
 
 /// Output buffer size: a few hundred report lines.
 const OUTPUT_BUFFER_BYTES: usize = 64 * 1024;
@@ -84,12 +87,23 @@ pub struct TrackSettings {
           value_parser = clap::value_parser!(u8).range(1..))]
     diff: u8,
 
+    /// Follow up to N LEDs, one per robot, 1 to 16: each frame's report then holds one track
+    /// per robot (`tracks` in JSON lines, one CSV row per robot and frame). With --serial, each
+    /// robot is identified by switching its LED off when asked (`id_source` blink), and no
+    /// update goes out under a robot's id before that; without, ids come from continuity.
+    #[arg(long, default_value_t = 1, value_name = "N", allow_negative_numbers = true,
+          value_parser = parse_robots)]
+    pub robots: usize,
+
     #[command(flatten)]
     pub floor: calib_args::FloorArgs,
 
-    /// Also send position packets to the robot on this serial port (board/protocol/SPEC.md).
-    #[arg(long, value_name = "PORT", overrides_with = "no_serial")]
-    pub serial: Option<String>,
+    /// Also send position packets to the robots (board/protocol/SPEC.md): `PORT`, one line
+    /// every robot listens on (a UART, or a radio bridge to all of them), or `ID=PORT` for robot
+    /// ID's own line (repeat it per robot; ids 1 to 16, each once).
+    #[arg(long, value_name = "PORT|ID=PORT", overrides_with = "no_serial",
+          action = clap::ArgAction::Append, value_parser = serial_ports::parse_serial)]
+    pub serial: Vec<SerialArg>,
 
     /// No serial link, whatever a --serial before it (or the settings file's `serial`) says:
     /// try a Pi's settings on a dump without its UART.
@@ -136,8 +150,24 @@ pub enum Predict {
     Arrival,
 }
 
-/// The serial link: glint's own packets, or MAVLink with `--mavlink` (never both).
-pub type SerialLink = Tee<Option<SerialSink>, Option<MavlinkSink>>;
+/// The frame rate identification starts from without `--fps` (a camera's usual rate), until it
+/// has measured the period from the frames' timestamps.
+const DEFAULT_IDENTIFY_FPS: f64 = 30.0;
+
+/// The serial link: glint's own packets (one line, or one per robot), or MAVLink with
+/// `--mavlink` (never both).
+pub type SerialLink = Tee<Tee<Option<SerialSink>, Option<RobotLines>>, Option<MavlinkSink>>;
+
+/// A number of robots the tracker's tables hold.
+fn parse_robots(text: &str) -> Result<usize, String> {
+    let robots = text
+        .parse::<usize>()
+        .map_err(|_| format!("{text:?} is not a number of robots (1 to {MAX_ROBOTS})"))?;
+    if robots == 0 || robots > MAX_ROBOTS {
+        return Err(RobotsOutOfRange(robots).to_string());
+    }
+    Ok(robots)
+}
 
 /// A finite bearing within ±360°.
 fn parse_yaw_offset_deg(text: &str) -> Result<f64, String> {
@@ -248,6 +278,8 @@ pub struct Opened {
 /// opens the serial link, in that order; from then on Ctrl-C and SIGTERM stop the run cleanly.
 pub fn open(settings: &TrackSettings, plan: &MemoryPlan) -> Result<Opened> {
     settings.memory.check(plan)?;
+    // A bad combination of --serial values is refused before anything is opened.
+    settings.serial_plan()?;
     let stop = Arc::new(AtomicBool::new(false));
     signals::stop_on_signals(&stop)?;
     let input::Input {
@@ -260,6 +292,7 @@ pub fn open(settings: &TrackSettings, plan: &MemoryPlan) -> Result<Opened> {
         &settings.floor,
         settings.size,
         aruco,
+        settings.robots,
         settings.pipeline_config(),
     )?;
     if let Some(path) = &settings.background {
@@ -267,6 +300,23 @@ pub fn open(settings: &TrackSettings, plan: &MemoryPlan) -> Result<Opened> {
             bail!("--background goes with --detector bgdiff");
         }
         learn_background(&mut pipeline, path, settings, &stop)?;
+    }
+    if settings.robots > 1 && settings.serial_plan()? != SerialPlan::None {
+        // A link to the robots: identify them by their LEDs. Without one, continuity only.
+        let fps = settings.fps.unwrap_or(DEFAULT_IDENTIFY_FPS);
+        let frame_period_us = (1e6 / fps).round() as u64;
+        let robots = u8::try_from(settings.robots).context("--robots")?;
+        let mut identify = IdentifyConfig::new(robots, frame_period_us);
+        if let SerialPlan::PerRobot(ports) = settings.serial_plan()? {
+            // Only the robots with a line can be asked.
+            identify.linked = ports
+                .keys()
+                .filter_map(|&id| 1u32.checked_shl(u32::from(id).saturating_sub(1)))
+                .fold(0, |mask, bit| mask | bit);
+        }
+        pipeline = pipeline
+            .with_identify(identify)
+            .context("identifying the robots")?;
     }
     let serial = open_serial(settings, &pipeline)?;
     Ok(Opened {
@@ -278,18 +328,51 @@ pub fn open(settings: &TrackSettings, plan: &MemoryPlan) -> Result<Opened> {
     })
 }
 
-/// Opens `--serial` with glint's packets, or with MAVLink under `--mavlink`.
+/// Opens `--serial` with glint's packets, or with MAVLink under `--mavlink`. With several
+/// robots: one line shared by all (robot positions), or a line per robot.
 fn open_serial(settings: &TrackSettings, pipeline: &Pipeline) -> Result<SerialLink> {
-    let Some(port) = settings.serial.as_deref() else {
-        return Ok(Tee::new(None, None));
+    let several = settings.robots > 1;
+    let port = match settings.serial_plan()? {
+        SerialPlan::None => return Ok(Tee::new(Tee::new(None, None), None)),
+        SerialPlan::PerRobot(ports) => {
+            if settings.mavlink {
+                bail!("--mavlink talks to one autopilot: give one --serial PORT, not ID=PORT");
+            }
+            if let Some(robot) = ports.keys().find(|&&k| usize::from(k) > settings.robots) {
+                bail!(
+                    "--serial {robot}={}: glint follows {} robot(s) (--robots), ids 1 to {}",
+                    ports.get(robot).map_or("", String::as_str),
+                    settings.robots,
+                    settings.robots
+                );
+            }
+            if several && settings.predict == Predict::Arrival {
+                bail!("--predict arrival follows one robot: leave it out with --robots");
+            }
+            let ports: Vec<(u8, String)> = ports.into_iter().collect();
+            let lines = RobotLines::open(&ports, settings.baud)?;
+            return Ok(Tee::new(Tee::new(None, Some(lines)), None));
+        }
+        SerialPlan::Shared(port) => port,
     };
+    let port = port.as_str();
+    if several {
+        if settings.mavlink {
+            bail!("--mavlink talks to one autopilot: leave it out with --robots");
+        }
+        if settings.predict == Predict::Arrival {
+            bail!("--predict arrival follows one robot: leave it out with --robots");
+        }
+        let sink = SerialSink::open(port, settings.baud)?;
+        return Ok(Tee::new(Tee::new(Some(sink), None), None));
+    }
     if !settings.mavlink {
         let sink = SerialSink::open(port, settings.baud)?;
         let sink = match settings.predict {
             Predict::Arrival => sink.predicting(),
             Predict::None => sink,
         };
-        return Ok(Tee::new(Some(sink), None));
+        return Ok(Tee::new(Tee::new(Some(sink), None), None));
     }
     let (Some(path), Some(floor)) = (settings.floor.calib.as_deref(), pipeline.floor()) else {
         bail!("--mavlink needs --calib: an autopilot takes positions in metres on the floor");
@@ -309,7 +392,14 @@ fn open_serial(settings: &TrackSettings, pipeline: &Pipeline) -> Result<SerialLi
         component_id: mavlink::VISION_COMPONENT_ID,
     };
     let sink = MavlinkSink::open(port, settings.baud, identity, local)?;
-    Ok(Tee::new(None, Some(sink)))
+    Ok(Tee::new(Tee::new(None, None), Some(sink)))
+}
+
+impl TrackSettings {
+    /// The `--serial` values, checked together.
+    pub fn serial_plan(&self) -> Result<SerialPlan> {
+        serial_ports::plan(&self.serial).map_err(anyhow::Error::msg)
+    }
 }
 
 pub fn run(args: TrackArgs) -> Result<ExitCode> {

@@ -1,8 +1,10 @@
-//! Finding the LED: luma threshold, bit-packed morphology, blobs and streak geometry.
+//! Finding the LED: luma threshold, bit-packed morphology, blobs and streak geometry; and
+//! finding ArUco / AprilTag markers ([`aruco`]), for calibration and for a robot carrying one.
 //!
 //! [`Detector`] owns every buffer the stage needs, sized once from the frame size, and runs
 //! the stages in order on each frame without allocating.
 
+pub mod aruco;
 pub mod bgdiff;
 pub mod bitimage;
 pub mod blobs;

@@ -7,8 +7,8 @@
 
 use core::fmt;
 
-use super::aruco::{Marker, MAX_MARKERS};
 use super::homography::{FloorMapping, HomographyError, Point};
+use crate::detect::aruco::{Marker, MAX_MARKERS};
 
 /// Most correspondences: four corners of each of the most markers a frame reports.
 const MAX_POINTS: usize = 4 * MAX_MARKERS;

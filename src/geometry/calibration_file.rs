@@ -29,12 +29,12 @@ use core::fmt;
 use nalgebra::{Matrix3, Vector3};
 use serde::Deserialize;
 
-use super::aruco::Dictionary;
 use super::calibration::MarkerPlacement;
 use super::calibration_record::CALIBRATION_VERSION;
 use super::camera::{CameraError, CameraModel, Lens, Pose};
 use super::floor::{FloorStage, FloorUnit};
 use super::homography::{FloorMapping, Homography, HomographyError, Point};
+use crate::detect::aruco::Dictionary;
 use crate::frame::{FrameSize, SizeError};
 
 /// The two matrices must be each other's inverse to this relative precision (they are written

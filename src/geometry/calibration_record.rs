@@ -4,10 +4,10 @@
 
 use core::fmt::{self, Write as _};
 
-use super::aruco::Dictionary;
 use super::calibration::MarkerPlacement;
 use super::camera::{CameraError, CameraModel};
 use super::homography::Point;
+use crate::detect::aruco::Dictionary;
 use crate::frame::FrameSize;
 
 /// The version this glint writes.

@@ -62,7 +62,7 @@ pub const LENS_WEAK_PX: f64 = 0.5;
 const GRID_X: usize = 16;
 const GRID_Y: usize = 12;
 /// Most corners fitted.
-pub const MAX_FIT_POINTS: usize = 4 * super::aruco::MAX_MARKERS;
+pub const MAX_FIT_POINTS: usize = 4 * crate::detect::aruco::MAX_MARKERS;
 
 /// What the fit may change of the lens.
 #[derive(Debug, Clone, Copy, PartialEq)]

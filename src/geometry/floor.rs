@@ -19,8 +19,8 @@ use core::str::FromStr;
 use nalgebra::{Matrix2, Matrix3, Vector2};
 
 use super::camera::CameraModel;
+use super::heading::marker_heading_deg;
 use super::homography::{FloorMapping, HomographyError, Point};
-use crate::track::{marker_heading_deg, Estimate};
 
 /// The unit of floor coordinates, as the calibration file names it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -222,16 +222,19 @@ impl FloorStage {
         self.unit
     }
 
-    /// Floor position, velocity and (given a marker's corners) heading for an estimate.
-    pub fn map(&self, estimate: &Estimate, marker_corners_px: Option<&[Point; 4]>) -> FloorFix {
-        let screen = Point::new(
-            f64::from(estimate.position_px.0),
-            f64::from(estimate.position_px.1),
-        );
+    /// Floor position, velocity and (given a marker's corners) heading for a screen position
+    /// and velocity (px/s, when known).
+    pub fn map(
+        &self,
+        position_px: (f32, f32),
+        velocity_px_s: Option<(f32, f32)>,
+        marker_corners_px: Option<&[Point; 4]>,
+    ) -> FloorFix {
+        let screen = Point::new(f64::from(position_px.0), f64::from(position_px.1));
         let Some(position) = self.screen_to_floor(&screen) else {
             return FloorFix::BeyondHorizon;
         };
-        let velocity_per_s = estimate.velocity_px_s.and_then(|((vx, vy), _)| {
+        let velocity_per_s = velocity_px_s.and_then(|(vx, vy)| {
             let jacobian = self.jacobian(&screen, &position)?;
             let v = jacobian * Vector2::new(f64::from(vx), f64::from(vy));
             (v.x.is_finite() && v.y.is_finite()).then_some(v)
@@ -294,7 +297,6 @@ fn homography_jacobian(h: &Matrix3<f64>, screen: &Point, floor: &Point) -> Optio
 mod tests {
     use super::*;
     use crate::geometry::homography::Homography;
-    use crate::track::{PositionMethod, VelocityMethod};
 
     /// An oblique view: floor cm → screen px.
     fn stage() -> FloorStage {
@@ -307,13 +309,14 @@ mod tests {
         FloorStage::new(mapping, FloorUnit::Cm).unwrap()
     }
 
-    fn estimate(p: Point, v: Option<(f32, f32)>) -> Estimate {
-        Estimate {
-            position_px: (p.x as f32, p.y as f32),
-            position_method: PositionMethod::Head,
-            mid_px: (p.x as f32, p.y as f32),
-            velocity_px_s: v.map(|v| (v, VelocityMethod::Streak)),
-        }
+    /// `stage.map` of a screen point `p` moving at `v` px/s.
+    fn map(
+        stage: &FloorStage,
+        p: Point,
+        v: Option<(f32, f32)>,
+        corners: Option<&[Point; 4]>,
+    ) -> FloorFix {
+        stage.map((p.x as f32, p.y as f32), v, corners)
     }
 
     #[test]
@@ -328,10 +331,7 @@ mod tests {
         let b = h.apply(&(p0 + v * dt)).unwrap();
         let v_px = (b - a) / dt;
         let screen = Point::new(f64::from(a.x as f32), f64::from(a.y as f32));
-        let fix = s.map(
-            &estimate(screen, Some((v_px.x as f32, v_px.y as f32))),
-            None,
-        );
+        let fix = map(&s, screen, Some((v_px.x as f32, v_px.y as f32)), None);
         let FloorFix::Mapped(e) = fix else {
             panic!("{fix:?}")
         };
@@ -364,7 +364,7 @@ mod tests {
         let a = camera.project(&p0, 12.0).unwrap();
         let b = camera.project(&(p0 + v * dt), 12.0).unwrap();
         let v_px = (b - a) / dt;
-        let fix = s.map(&estimate(a, Some((v_px.x as f32, v_px.y as f32))), None);
+        let fix = map(&s, a, Some((v_px.x as f32, v_px.y as f32)), None);
         let FloorFix::Mapped(e) = fix else {
             panic!("{fix:?}")
         };
@@ -373,7 +373,7 @@ mod tests {
         assert!((got - v).norm() < 1e-2 * v.norm(), "{got:?} vs {v:?}");
         // Read on the floor, the same pixel is far off: the height matters.
         let flat = FloorStage::from_camera(camera, FloorUnit::Cm);
-        let FloorFix::Mapped(e) = flat.map(&estimate(a, None), None) else {
+        let FloorFix::Mapped(e) = map(&flat, a, None, None) else {
             panic!()
         };
         assert!((e.position - p0).norm() > 5.0);
@@ -399,7 +399,7 @@ mod tests {
         } else {
             y_horizon + 20.0
         };
-        let fix = s.map(&estimate(Point::new(0.0, beyond), Some((5.0, 5.0))), None);
+        let fix = map(&s, Point::new(0.0, beyond), Some((5.0, 5.0)), None);
         assert_eq!(fix, FloorFix::BeyondHorizon);
     }
 
@@ -418,7 +418,7 @@ mod tests {
         assert!((marker_heading_deg(&floor) - 0.0).abs() < 1e-9);
         let rotated = floor.map(|p| Point::new(c.x - (p.y - c.y), c.y + (p.x - c.x)));
         let screen = rotated.map(|p| h.apply(&p).unwrap());
-        let fix = s.map(&estimate(h.apply(&c).unwrap(), None), Some(&screen));
+        let fix = map(&s, h.apply(&c).unwrap(), None, Some(&screen));
         let FloorFix::Mapped(e) = fix else {
             panic!("{fix:?}")
         };

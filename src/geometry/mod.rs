@@ -1,14 +1,14 @@
-//! Screen ↔ floor geometry: the homography between the two planes, the ArUco / AprilTag marker
-//! detector that finds the points it is fitted from, the calibration that joins them (and its
-//! file), and the floor stage that maps each frame's estimate onto the floor.
+//! Screen ↔ floor geometry: the homography between the two planes, the calibration that joins
+//! them from markers found by [`crate::detect::aruco`] (and its file), and the floor stage that
+//! maps each frame's estimate onto the floor.
 
-pub mod aruco;
 pub mod calibration;
 pub mod calibration_file;
 pub mod calibration_record;
 pub mod camera;
 pub mod camera_fit;
 pub mod floor;
+pub mod heading;
 pub mod homography;
 pub mod lens_file;
 pub mod recheck;
@@ -19,4 +19,5 @@ pub use calibration_record::{CalibrationRecord, RecordedMarker, CALIBRATION_VERS
 pub use camera::{CameraError, CameraModel, Lens, Pose};
 pub use camera_fit::{fit_camera, CameraFit, CameraFitError, LensChoice};
 pub use floor::{FloorEstimate, FloorFix, FloorStage, FloorUnit, NeedsCameraPose};
+pub use heading::marker_heading_deg;
 pub use homography::{FloorMapping, Homography, HomographyError, Point};

@@ -15,12 +15,12 @@
 //!
 //! A marker partly covered by the robot is not decoded at all, so occlusion changes nothing.
 
-use super::aruco::{Detector, DetectorConfig, Dictionary, MAX_MARKERS};
 use super::calibration::MarkerPlacement;
 use super::camera::CameraModel;
 use super::camera_fit::{fit_camera, LensChoice, MAX_FIT_POINTS};
 use super::floor::FloorStage;
 use super::homography::Point;
+use crate::detect::aruco::{Detector, DetectorConfig, Dictionary, MAX_MARKERS};
 use crate::frame::{Frame, FrameSize};
 
 /// Frames between two re-checks (0.5 s at 30 fps: a knock is caught well within a second).

@@ -7,7 +7,7 @@ use std::io;
 
 use super::Sink;
 use crate::frame::Frame;
-use crate::pipeline::FrameReport;
+use crate::report::FrameReport;
 
 /// `inner` until its first error, then nothing.
 pub struct BestEffort<S> {

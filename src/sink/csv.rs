@@ -1,15 +1,22 @@
 //! The same columns as the JSON lines, as CSV with a header; empty cells where unknown.
+//!
+//! With several robots, one row per robot and frame, under the same header with five more
+//! columns at its end: `id`, `provisional`, `id_source`, `state` and `merged` ([`CSV_TRACK_COLUMNS`]);
+//! each row's position, velocity, blob and floor columns are that robot's, `found` whether it
+//! was found.
 
 use std::io::{self, Write};
 
 use super::Sink;
-use crate::geometry::FloorFix;
-use crate::pipeline::FrameReport;
+use crate::report::{Blob, Estimate, FloorFix, FrameReport, Streak};
 
 /// The header line.
 pub const CSV_HEADER: &str = "frame,t,found,x,y,mid_x,mid_y,pos_method,vx,vy,v_method,area_px,\
 len_px,seq,dropped,blobs,threshold,ambiguous,blinded,overflow,heading_deg,floor_x,floor_y,\
 floor_vx,floor_vy,floor_speed,floor_heading_deg,floor_unit,beyond_horizon,fit_px";
+
+/// The columns added after [`CSV_HEADER`] when several robots are followed.
+pub const CSV_TRACK_COLUMNS: &str = "id,provisional,id_source,state,merged";
 
 /// Writes reports as CSV rows under a header line naming the columns.
 pub struct CsvSink<W: Write> {
@@ -33,73 +40,29 @@ impl<W: Write> Sink for CsvSink<W> {
     fn write(&mut self, r: &FrameReport) -> io::Result<()> {
         let out = &mut self.out;
         if !self.header_written {
-            writeln!(out, "{CSV_HEADER}")?;
+            if r.several() {
+                writeln!(out, "{CSV_HEADER},{CSV_TRACK_COLUMNS}")?;
+            } else {
+                writeln!(out, "{CSV_HEADER}")?;
+            }
             self.header_written = true;
         }
-        let d = &r.detection;
-        write!(
-            out,
-            "{},{:.6},{}",
-            r.meta.index,
-            r.t_s(),
-            r.position.is_some()
-        )?;
-        match r.position {
-            Some(p) => write!(
-                out,
-                ",{:.3},{:.3},{:.3},{:.3},{}",
-                p.position_px.0,
-                p.position_px.1,
-                p.mid_px.0,
-                p.mid_px.1,
-                p.position_method.name()
-            )?,
-            None => write!(out, ",,,,,")?,
-        }
-        match r.position.and_then(|p| p.velocity_px_s) {
-            Some(((vx, vy), method)) => write!(out, ",{vx:.2},{vy:.2},{}", method.name())?,
-            None => write!(out, ",,,")?,
-        }
-        match d.best.filter(|_| r.position.is_some()) {
-            Some((blob, streak)) => write!(out, ",{},{}", blob.area_px, streak.skeleton_length_px)?,
-            None => write!(out, ",,")?,
-        }
-        write!(
-            out,
-            ",{},{},{},",
-            r.meta.sequence, r.meta.dropped, d.blob_count
-        )?;
-        if let Some(level) = d.levels.threshold_luma {
-            write!(out, "{level}")?;
-        }
-        write!(out, ",{},{},{}", r.ambiguous, d.blinded, d.overflow.any())?;
-        match r.marker {
-            Some(m) => write!(out, ",{:.2}", m.heading_deg)?,
-            None => write!(out, ",")?,
-        }
-        match r.floor {
-            Some(FloorFix::Mapped(f)) => {
-                write!(out, ",{:.3},{:.3}", f.position.x, f.position.y)?;
-                match f.velocity_per_s {
-                    Some(v) => write!(out, ",{:.3},{:.3},{:.3}", v.x, v.y, v.norm())?,
-                    None => write!(out, ",,,")?,
-                }
-                match f.heading_deg {
-                    Some(h) => write!(out, ",{h:.2}")?,
-                    None => write!(out, ",")?,
-                }
-                write!(out, ",{},false", f.unit)?;
+        if r.several() {
+            for t in &r.tracks {
+                write_row(out, r, t.estimate, t.floor, t.blob)?;
+                writeln!(
+                    out,
+                    ",{},{},{},{},{}",
+                    t.id,
+                    t.provisional,
+                    t.id_source.name(),
+                    t.state.name(),
+                    t.merged
+                )?;
             }
-            Some(FloorFix::BeyondHorizon) => write!(out, ",,,,,,,,true")?,
-            None => write!(out, ",,,,,,,,false")?,
-        }
-        match d
-            .best
-            .filter(|_| r.position.is_some())
-            .and_then(|(_, streak)| streak.path?.fit_px)
-        {
-            Some(fit_px) => writeln!(out, ",{fit_px:.3}")?,
-            None => writeln!(out, ",")?,
+        } else {
+            write_row(out, r, r.position, r.floor, r.detection.best)?;
+            writeln!(out)?;
         }
         if self.live {
             out.flush()?;
@@ -113,5 +76,78 @@ impl<W: Write> Sink for CsvSink<W> {
             self.header_written = true;
         }
         self.out.flush()
+    }
+}
+
+/// The columns of [`CSV_HEADER`] for one light (the frame's one robot, or one of several),
+/// without the line's end.
+fn write_row(
+    out: &mut impl Write,
+    r: &FrameReport,
+    position: Option<Estimate>,
+    floor: Option<FloorFix>,
+    blob: Option<(Blob, Streak)>,
+) -> io::Result<()> {
+    let d = &r.detection;
+    let blob = blob.filter(|_| position.is_some());
+    write!(
+        out,
+        "{},{:.6},{}",
+        r.meta.index,
+        r.t_s(),
+        position.is_some()
+    )?;
+    match position {
+        Some(p) => write!(
+            out,
+            ",{:.3},{:.3},{:.3},{:.3},{}",
+            p.position_px.0,
+            p.position_px.1,
+            p.mid_px.0,
+            p.mid_px.1,
+            p.position_method.name()
+        )?,
+        None => write!(out, ",,,,,")?,
+    }
+    match position.and_then(|p| p.velocity_px_s) {
+        Some(((vx, vy), method)) => write!(out, ",{vx:.2},{vy:.2},{}", method.name())?,
+        None => write!(out, ",,,")?,
+    }
+    match blob {
+        Some((blob, streak)) => write!(out, ",{},{}", blob.area_px, streak.skeleton_length_px)?,
+        None => write!(out, ",,")?,
+    }
+    write!(
+        out,
+        ",{},{},{},",
+        r.meta.sequence, r.meta.dropped, d.blob_count
+    )?;
+    if let Some(level) = d.levels.threshold_luma {
+        write!(out, "{level}")?;
+    }
+    write!(out, ",{},{},{}", r.ambiguous, d.blinded, d.overflow.any())?;
+    match r.marker {
+        Some(m) => write!(out, ",{:.2}", m.heading_deg)?,
+        None => write!(out, ",")?,
+    }
+    match floor {
+        Some(FloorFix::Mapped(f)) => {
+            write!(out, ",{:.3},{:.3}", f.position.x, f.position.y)?;
+            match f.velocity_per_s {
+                Some(v) => write!(out, ",{:.3},{:.3},{:.3}", v.x, v.y, v.norm())?,
+                None => write!(out, ",,,")?,
+            }
+            match f.heading_deg {
+                Some(h) => write!(out, ",{h:.2}")?,
+                None => write!(out, ",")?,
+            }
+            write!(out, ",{},false", f.unit)?;
+        }
+        Some(FloorFix::BeyondHorizon) => write!(out, ",,,,,,,,true")?,
+        None => write!(out, ",,,,,,,,false")?,
+    }
+    match blob.and_then(|(_, streak)| streak.path?.fit_px) {
+        Some(fit_px) => write!(out, ",{fit_px:.3}"),
+        None => write!(out, ","),
     }
 }

@@ -9,19 +9,25 @@
 //! calibration it used, `"calib":{"age_s":…,"residual_px":…}` (seconds since markers last
 //! confirmed the pose, and their rms residual then), and floor numbers get `floor_stale: true`
 //! once no marker has been seen for a while (the camera may have moved). Headings are degrees
-//! from +x towards +y of their coordinates ([`crate::track::marker_heading_deg`]). With
+//! from +x towards +y of their coordinates ([`crate::geometry::marker_heading_deg`]). With
 //! `--predict arrival`, a found frame with a known velocity gets `predicted`: `{"x", "y" (px),
 //! "ahead_ms"}`, the position extrapolated to the moment the line is written, `ahead_ms` after
 //! the end of the exposure (see [`super::predict`]). Then the detection's diagnostics, among
 //! them, with `--streak-model fit`, `fit_px`: one standard deviation of the fitted path's ends
 //! (px).
+//!
+//! With several robots (`--robots N`, N > 1) the line holds the frame's own fields (`frame`,
+//! `t`, `found`: any robot found, `calib`, `seq`, `dropped`, `blobs`, `threshold`, `learning`,
+//! `blinded`, `overflow`) and `tracks`: one object per robot, `id`, `provisional`,
+//! `id_source`, `state` (`searching`, `tracking`, `coasting`), `merged`, then that robot's
+//! `found` and the fields above with their meanings. `--predict arrival` extrapolates a single
+//! robot only.
 
 use std::io::{self, Write};
 
 use super::predict::{Predictor, Reference};
 use super::Sink;
-use crate::geometry::FloorFix;
-use crate::pipeline::FrameReport;
+use crate::report::{Blob, Estimate, FloorFix, FrameReport, Streak};
 use crate::source::clock::monotonic_now_us;
 
 /// Writes reports as JSON lines; flushes after each line when `live`, so a consumer reading a
@@ -59,26 +65,12 @@ impl<W: Write> Sink for JsonLinesSink<W> {
             "{{\"frame\":{},\"t\":{:.6},\"found\":{}",
             r.meta.index,
             r.t_s(),
-            r.position.is_some()
+            r.tracks.iter().any(|t| t.estimate.is_some())
         )?;
-        if let Some(p) = r.position {
-            write!(
-                out,
-                ",\"x\":{:.3},\"y\":{:.3},\"mid_x\":{:.3},\"mid_y\":{:.3},\"pos_method\":\"{}\"",
-                p.position_px.0,
-                p.position_px.1,
-                p.mid_px.0,
-                p.mid_px.1,
-                p.position_method.name()
-            )?;
-            if let Some(((vx, vy), method)) = p.velocity_px_s {
-                write!(
-                    out,
-                    ",\"vx\":{vx:.2},\"vy\":{vy:.2},\"v_method\":\"{}\"",
-                    method.name()
-                )?;
-            }
+        if r.several() {
+            return self.write_several(r);
         }
+        write_position(out, r.position)?;
         if let Some(predictor) = self.predictor.as_mut() {
             let velocity = r.position.and_then(|p| p.velocity_px_s);
             let motion = predictor.observe(r.meta.timestamp_us, Reference::Pixels, velocity);
@@ -96,60 +88,15 @@ impl<W: Write> Sink for JsonLinesSink<W> {
         if let Some(m) = r.marker {
             write!(out, ",\"heading_deg\":{:.2}", m.heading_deg)?;
         }
-        match r.floor {
-            Some(FloorFix::Mapped(f)) => {
-                write!(
-                    out,
-                    ",\"floor_x\":{:.3},\"floor_y\":{:.3},\"floor_unit\":\"{}\"",
-                    f.position.x, f.position.y, f.unit
-                )?;
-                if let Some(v) = f.velocity_per_s {
-                    write!(
-                        out,
-                        ",\"floor_vx\":{:.3},\"floor_vy\":{:.3},\"floor_speed\":{:.3}",
-                        v.x,
-                        v.y,
-                        v.norm()
-                    )?;
-                }
-                if let Some(h) = f.heading_deg {
-                    write!(out, ",\"floor_heading_deg\":{h:.2}")?;
-                }
-            }
-            Some(FloorFix::BeyondHorizon) => write!(out, ",\"beyond_horizon\":true")?,
-            None => {}
-        }
+        write_floor(out, r.floor)?;
+        write_calib(out, r)?;
         if let Some(c) = r.calib {
-            write!(
-                out,
-                ",\"calib\":{{\"age_s\":{:.3},\"residual_px\":{:.3}}}",
-                c.age_s, c.residual_px
-            )?;
             if c.stale && r.floor.is_some() {
                 write!(out, ",\"floor_stale\":true")?;
             }
         }
-        if let Some((blob, streak)) = d.best.filter(|_| r.position.is_some()) {
-            write!(
-                out,
-                ",\"area_px\":{},\"len_px\":{}",
-                blob.area_px, streak.skeleton_length_px
-            )?;
-            if let Some(fit_px) = streak.path.and_then(|p| p.fit_px) {
-                write!(out, ",\"fit_px\":{fit_px:.3}")?;
-            }
-        }
-        write!(
-            out,
-            ",\"seq\":{},\"dropped\":{},\"blobs\":{}",
-            r.meta.sequence, r.meta.dropped, d.blob_count
-        )?;
-        if let Some(level) = d.levels.threshold_luma {
-            write!(out, ",\"threshold\":{level}")?;
-        }
-        if d.learning {
-            write!(out, ",\"learning\":true")?;
-        }
+        write_blob(out, d.best.filter(|_| r.position.is_some()))?;
+        write_frame_tail(out, r)?;
         if r.ambiguous {
             write!(out, ",\"ambiguous\":true")?;
         }
@@ -162,14 +109,156 @@ impl<W: Write> Sink for JsonLinesSink<W> {
         if d.overflow.any() {
             write!(out, ",\"overflow\":true")?;
         }
-        writeln!(out, "}}")?;
-        if self.live {
-            out.flush()?;
-        }
-        Ok(())
+        self.end_line()
     }
 
     fn finish(&mut self) -> io::Result<()> {
         self.out.flush()
     }
+}
+
+impl<W: Write> JsonLinesSink<W> {
+    /// With several robots: the frame's own fields, then `tracks`, one object per robot with
+    /// the single-robot line's fields and meanings (`found`, `x`, `y`, `mid_x`, `mid_y`,
+    /// `pos_method`, `vx`, `vy`, `v_method`, the floor's, `area_px`, `len_px`, `fit_px`)
+    /// after its `id`, `provisional`, `id_source`, `state` and `merged`.
+    fn write_several(&mut self, r: &FrameReport) -> io::Result<()> {
+        let out = &mut self.out;
+        let d = &r.detection;
+        write_calib(out, r)?;
+        write_frame_tail(out, r)?;
+        if d.blinded {
+            write!(out, ",\"blinded\":true")?;
+        }
+        if d.overflow.any() {
+            write!(out, ",\"overflow\":true")?;
+        }
+        write!(out, ",\"tracks\":[")?;
+        for (i, t) in r.tracks.iter().enumerate() {
+            let separator = if i == 0 { "" } else { "," };
+            write!(
+                out,
+                "{separator}{{\"id\":{},\"provisional\":{},\"id_source\":\"{}\",\
+                 \"state\":\"{}\",\"merged\":{},\"found\":{}",
+                t.id,
+                t.provisional,
+                t.id_source.name(),
+                t.state.name(),
+                t.merged,
+                t.estimate.is_some()
+            )?;
+            write_position(out, t.estimate)?;
+            write_floor(out, t.floor)?;
+            if r.calib.is_some_and(|c| c.stale) && t.floor.is_some() {
+                write!(out, ",\"floor_stale\":true")?;
+            }
+            write_blob(out, t.blob.filter(|_| t.estimate.is_some()))?;
+            write!(out, "}}")?;
+        }
+        write!(out, "]")?;
+        self.end_line()
+    }
+
+    fn end_line(&mut self) -> io::Result<()> {
+        writeln!(self.out, "}}")?;
+        if self.live {
+            self.out.flush()?;
+        }
+        Ok(())
+    }
+}
+
+/// `x`, `y`, `mid_x`, `mid_y`, `pos_method` and, when known, `vx`, `vy`, `v_method`.
+fn write_position(out: &mut impl Write, position: Option<Estimate>) -> io::Result<()> {
+    if let Some(p) = position {
+        write!(
+            out,
+            ",\"x\":{:.3},\"y\":{:.3},\"mid_x\":{:.3},\"mid_y\":{:.3},\"pos_method\":\"{}\"",
+            p.position_px.0,
+            p.position_px.1,
+            p.mid_px.0,
+            p.mid_px.1,
+            p.position_method.name()
+        )?;
+        if let Some(((vx, vy), method)) = p.velocity_px_s {
+            write!(
+                out,
+                ",\"vx\":{vx:.2},\"vy\":{vy:.2},\"v_method\":\"{}\"",
+                method.name()
+            )?;
+        }
+    }
+    Ok(())
+}
+
+/// The floor's numbers, or `beyond_horizon`.
+fn write_floor(out: &mut impl Write, floor: Option<FloorFix>) -> io::Result<()> {
+    match floor {
+        Some(FloorFix::Mapped(f)) => {
+            write!(
+                out,
+                ",\"floor_x\":{:.3},\"floor_y\":{:.3},\"floor_unit\":\"{}\"",
+                f.position.x, f.position.y, f.unit
+            )?;
+            if let Some(v) = f.velocity_per_s {
+                write!(
+                    out,
+                    ",\"floor_vx\":{:.3},\"floor_vy\":{:.3},\"floor_speed\":{:.3}",
+                    v.x,
+                    v.y,
+                    v.norm()
+                )?;
+            }
+            if let Some(h) = f.heading_deg {
+                write!(out, ",\"floor_heading_deg\":{h:.2}")?;
+            }
+        }
+        Some(FloorFix::BeyondHorizon) => write!(out, ",\"beyond_horizon\":true")?,
+        None => {}
+    }
+    Ok(())
+}
+
+/// `area_px`, `len_px` and, with a fitted model, `fit_px` of the light's blob.
+fn write_blob(out: &mut impl Write, blob: Option<(Blob, Streak)>) -> io::Result<()> {
+    if let Some((blob, streak)) = blob {
+        write!(
+            out,
+            ",\"area_px\":{},\"len_px\":{}",
+            blob.area_px, streak.skeleton_length_px
+        )?;
+        if let Some(fit_px) = streak.path.and_then(|p| p.fit_px) {
+            write!(out, ",\"fit_px\":{fit_px:.3}")?;
+        }
+    }
+    Ok(())
+}
+
+/// Which calibration the floor numbers used, when its markers are re-checked.
+fn write_calib(out: &mut impl Write, r: &FrameReport) -> io::Result<()> {
+    if let Some(c) = r.calib {
+        write!(
+            out,
+            ",\"calib\":{{\"age_s\":{:.3},\"residual_px\":{:.3}}}",
+            c.age_s, c.residual_px
+        )?;
+    }
+    Ok(())
+}
+
+/// The frame's counters: `seq`, `dropped`, `blobs`, `threshold`, `learning`.
+fn write_frame_tail(out: &mut impl Write, r: &FrameReport) -> io::Result<()> {
+    let d = &r.detection;
+    write!(
+        out,
+        ",\"seq\":{},\"dropped\":{},\"blobs\":{}",
+        r.meta.sequence, r.meta.dropped, d.blob_count
+    )?;
+    if let Some(level) = d.levels.threshold_luma {
+        write!(out, ",\"threshold\":{level}")?;
+    }
+    if d.learning {
+        write!(out, ",\"learning\":true")?;
+    }
+    Ok(())
 }

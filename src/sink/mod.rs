@@ -27,7 +27,7 @@ pub use serial::SerialSink;
 pub use tee::Tee;
 
 use crate::frame::Frame;
-use crate::pipeline::FrameReport;
+use crate::report::FrameReport;
 
 /// A consumer of per-frame reports.
 pub trait Sink {

@@ -17,7 +17,7 @@ pub const MAX_BEND_INTERVAL_US: u64 = 100_000;
 /// Microseconds per second.
 const US_PER_S: f32 = 1e6;
 
-use crate::track::VelocityMethod;
+use crate::report::VelocityMethod;
 
 /// Which reference a position is in: velocities in different ones cannot be subtracted.
 pub type Reference = glint_protocol::Units;

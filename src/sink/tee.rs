@@ -5,7 +5,7 @@ use std::io;
 
 use super::Sink;
 use crate::frame::Frame;
-use crate::pipeline::FrameReport;
+use crate::report::FrameReport;
 
 /// Forwards every report to `first`, then to `second`.
 #[derive(Debug)]

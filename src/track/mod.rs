@@ -28,7 +28,10 @@
 //! - With the exposure time known, the path length over the exposure is the speed within
 //!   one frame; otherwise the velocity comes from consecutive streak middles and frame times.
 
+pub mod assign;
 pub mod marker;
+pub mod multi;
+pub mod state;
 pub mod statics;
 
 use heapless::HistoryBuf;
@@ -37,7 +40,9 @@ use crate::detect::blobs::Blob;
 use crate::detect::streak::Streak;
 use statics::{Known, Statics};
 
-pub use marker::{marker_heading_deg, MarkerPose, MarkerTracker};
+pub use marker::{MarkerPose, MarkerTracker};
+pub use multi::{MultiTracker, RobotsOutOfRange, TrackChoice, MAX_ROBOTS};
+pub use state::TrackState;
 
 /// Frames the history ring keeps.
 pub const HISTORY_FRAMES: usize = 16;

@@ -4,7 +4,7 @@
 
 #![allow(dead_code)] // each user takes its own subset
 
-use glint::geometry::aruco::Dictionary;
+use glint::detect::aruco::Dictionary;
 
 /// One dark arm winding out from the centre: a single border as long as the frame allows.
 pub fn spiral(width: usize, height: usize, period_px: f64) -> Vec<u8> {

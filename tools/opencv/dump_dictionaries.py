@@ -3,7 +3,7 @@
 
 Usage: pip install opencv-contrib-python-headless; python3 tools/opencv/dump_dictionaries.py
 
-Writes src/geometry/aruco/dict/<name>.rs. Each code is the marker's inner bit grid as printed
+Writes src/detect/aruco/dict/<name>.rs. Each code is the marker's inner bit grid as printed
 (rotation 0), read row by row from the top-left cell, most significant bit first; a set bit is a
 white cell. This is the layout of OpenCV's `getBitsFromByteList(bytesList[id], markerSize)`.
 The output is committed, so building and testing glint never needs Python or OpenCV.

@@ -15,7 +15,7 @@
 //! not mirrored. In 3-D this is a right-handed frame whose z axis points down into the floor; the
 //! camera's height above the floor is given as a positive number.
 
-use glint::geometry::aruco::Dictionary;
+use glint::detect::aruco::Dictionary;
 use glint::geometry::{MarkerPlacement, Point};
 
 /// Samples for a pixel that straddles an edge. They form a Hammersley set: every sample has

@@ -2,9 +2,13 @@
 //!
 //! The link reads the robot's clock as each chunk arrives, so a position's age (protocol
 //! version 2) reaches the control loop in the robot's own clock.
+//!
+//! On a line shared by several robots (protocol version 3, a radio bridge say), glint addresses
+//! each update to one robot; a link told its robot id ([`Link::for_robot`]) hands on only its own,
+//! and only the age frame right after its own update.
 
 use embedded_io::Read;
-use glint_protocol::{Decoder, Message, Received};
+use glint_protocol::{Decoder, Message, Position, Received};
 
 use crate::clock::Clock;
 use crate::control::{ArrivedAge, ControlLoop};
@@ -30,6 +34,8 @@ pub struct LinkStats {
     pub dropped: u32,
     /// Position updates that never arrived, from gaps in the sequence numbers.
     pub missed: u32,
+    /// Position updates addressed to other robots on a shared line, skipped.
+    pub others: u32,
 }
 
 /// A UART carrying glint's frames, with its decoder, the robot's clock and counters.
@@ -38,7 +44,20 @@ pub struct Link<R: Read, K: Clock> {
     clock: K,
     decoder: Decoder,
     chunk: [u8; READ_CHUNK_LEN],
+    /// The robot id that addressed updates must carry to be this robot's; `None` takes none of
+    /// them (a link on a line of its own, or not told its id).
+    robot_id: Option<u8>,
+    own: OwnUpdates,
+}
+
+/// What the link knows of this robot's own updates (apart from the decoder, which is borrowed
+/// while they are handed on).
+#[derive(Debug, Default)]
+struct OwnUpdates {
     last_seq: Option<u8>,
+    /// This robot's update came last: no other robot's update (nor a corrupted frame, which may
+    /// have been one) came since, so an age frame with its seq is its age.
+    age_expected: bool,
     stats: LinkStats,
 }
 
@@ -50,14 +69,22 @@ impl<R: Read, K: Clock> Link<R, K> {
             clock,
             decoder: Decoder::new(),
             chunk: [0; READ_CHUNK_LEN],
-            last_seq: None,
-            stats: LinkStats::default(),
+            robot_id: None,
+            own: OwnUpdates::default(),
         }
+    }
+
+    /// The same link for robot `robot_id` (1..=255) on a line that may be shared: it also takes
+    /// the position updates glint addresses to this robot, and skips the others'. Plain position
+    /// updates (a line of its own) are taken either way.
+    pub fn for_robot(mut self, robot_id: u8) -> Self {
+        self.robot_id = Some(robot_id);
+        self
     }
 
     /// Counters since start-up.
     pub fn stats(&self) -> LinkStats {
-        self.stats
+        self.own.stats
     }
 
     /// Reads what the UART has (blocking until at least one byte, as `embedded_io::Read` does),
@@ -79,24 +106,27 @@ impl<R: Read, K: Clock> Link<R, K> {
         let received_at_us = self.clock.now_us();
         let bytes = self.chunk.get(..read).unwrap_or(&[]);
         for event in self.decoder.feed(bytes) {
+            let own = &mut self.own;
             match event {
-                Ok(Received::Message(Message::Position(p))) => {
-                    if let Some(last) = self.last_seq {
-                        // seq wraps at 256, so the gap is taken modulo 256 too.
-                        self.stats.missed += u32::from(p.seq.wrapping_sub(last).wrapping_sub(1));
+                Ok(Received::Message(Message::Position(p))) => own.take_position(&p, control),
+                Ok(Received::Message(Message::RobotPosition(r))) => {
+                    if Some(r.robot) == self.robot_id {
+                        own.take_position(&r.position, control);
+                    } else {
+                        // The age that follows is that robot's.
+                        own.age_expected = false;
+                        own.stats.others += 1;
                     }
-                    self.last_seq = Some(p.seq);
-                    self.stats.positions += 1;
-                    control.on_position(&p);
                 }
                 Ok(Received::Message(Message::Heartbeat(h))) => {
-                    self.stats.heartbeats += 1;
+                    own.stats.heartbeats += 1;
                     control.on_heartbeat(&h);
                 }
                 Ok(Received::Message(Message::Age(a))) => {
-                    // An age whose position was lost belongs to nothing this robot holds.
-                    if self.last_seq == Some(a.seq) {
-                        self.stats.ages += 1;
+                    // An age whose position was lost belongs to nothing this robot holds; on a
+                    // shared line one that does not follow this robot's update is another's.
+                    if own.age_expected && own.last_seq == Some(a.seq) {
+                        own.stats.ages += 1;
                         control.on_age(&ArrivedAge {
                             seq: a.seq,
                             age_us: a.age_us,
@@ -106,16 +136,32 @@ impl<R: Read, K: Clock> Link<R, K> {
                     }
                 }
                 Ok(Received::Message(Message::Led(r))) => {
-                    self.stats.led_requests += 1;
+                    own.stats.led_requests += 1;
                     control.on_led(&r, received_at_us);
                 }
-                Ok(Received::Unknown { .. }) => self.stats.unknown += 1,
+                Ok(Received::Unknown { .. }) => own.stats.unknown += 1,
                 Err(e) => {
-                    self.stats.dropped += 1;
+                    // It may have been another robot's update.
+                    own.age_expected = false;
+                    own.stats.dropped += 1;
                     control.on_link_error(e);
                 }
             }
         }
         Ok(read)
+    }
+}
+
+impl OwnUpdates {
+    /// Counts a position update of this robot, notes that its age may follow, and hands it on.
+    fn take_position<C: ControlLoop>(&mut self, p: &Position, control: &mut C) {
+        if let Some(last) = self.last_seq {
+            // seq wraps at 256, so the gap is taken modulo 256 too.
+            self.stats.missed += u32::from(p.seq.wrapping_sub(last).wrapping_sub(1));
+        }
+        self.last_seq = Some(p.seq);
+        self.age_expected = true;
+        self.stats.positions += 1;
+        control.on_position(p);
     }
 }

@@ -18,7 +18,7 @@ mod target {
 
     /// Where the stub steers to, in floor mm.
     const HOME_MM: (i32, i32) = (1000, 500);
-    /// This robot's id for LED requests.
+    /// This robot's id, for its position updates on a shared line and for LED requests.
     const ROBOT_ID: u8 = 1;
     /// Core clock in MHz (an STM32F4 after reset runs on its 16 MHz internal oscillator).
     const CORE_MHZ: u32 = 16;
@@ -35,7 +35,8 @@ mod target {
             core.DCB.enable_trace();
             core.DWT.enable_cycle_counter();
         }
-        let mut link = Link::new(Replay::new(DEMO_STREAM), now_us);
+        // `for_robot`: on a line shared by several robots, take only this robot's updates.
+        let mut link = Link::new(Replay::new(DEMO_STREAM), now_us).for_robot(ROBOT_ID);
         let mut robot = WithLed::new(HoldPosition::new(HOME_MM), DemoLed::default(), ROBOT_ID);
         loop {
             // `Replay` cannot fail; a real UART's overrun or framing error has already been

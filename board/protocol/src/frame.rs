@@ -13,6 +13,7 @@ use postcard::ser_flavors::{Cobs, Slice};
 use crate::age::{PositionAge, AGE_ID};
 use crate::led::{LedRequest, LED_ID};
 use crate::message::{Heartbeat, Message, Position, HEARTBEAT_ID, POSITION_ID};
+use crate::robot::{RobotPosition, ROBOT_POSITION_ID};
 
 /// The frame check: CRC-16/IBM-3740, better known as CRC-16/CCITT-FALSE. Polynomial 0x1021,
 /// initial value 0xFFFF, no input or output reflection, no final XOR; check value (CRC of the
@@ -31,12 +32,16 @@ pub const DELIMITER: u8 = 0x00;
 /// flags 1 + four 3-byte varints + quality 1 + CRC 2 + COBS overhead 1 + delimiter 1.
 pub const MAX_POSITION_WIRE_LEN: usize = 24;
 
+/// Longest robot position update (version 3) on the wire: a position update and the robot id.
+pub const MAX_ROBOT_POSITION_WIRE_LEN: usize = MAX_POSITION_WIRE_LEN + 1;
+
 /// Longest age frame on the wire, delimiter included: id 1 + seq 1 + 5-byte varint + flags 1 +
 /// CRC 2 + COBS overhead 1 + delimiter 1.
 pub const MAX_AGE_WIRE_LEN: usize = 12;
 
-/// Longest position update with its age frame, as version 2 sends them in one write.
-pub const MAX_UPDATE_WIRE_LEN: usize = MAX_POSITION_WIRE_LEN + MAX_AGE_WIRE_LEN;
+/// Longest position update (either kind) with its age frame, as versions 2 and 3 send them in
+/// one write.
+pub const MAX_UPDATE_WIRE_LEN: usize = MAX_ROBOT_POSITION_WIRE_LEN + MAX_AGE_WIRE_LEN;
 
 /// Longest LED request on the wire, delimiter included: id 1 + robot 1 + request 1 + at 4 +
 /// two 5-byte varints + CRC 2 + COBS overhead 1 + delimiter 1.
@@ -78,6 +83,9 @@ pub fn encode<'a>(message: &Message, out: &'a mut [u8]) -> Result<&'a [u8], Enco
         Message::Heartbeat(h) => postcard::serialize_with_flavor(&(HEARTBEAT_ID, h), flavor),
         Message::Age(a) => postcard::serialize_with_flavor(&(AGE_ID, a), flavor),
         Message::Led(r) => postcard::serialize_with_flavor(&(LED_ID, r), flavor),
+        Message::RobotPosition(r) => {
+            postcard::serialize_with_flavor(&(ROBOT_POSITION_ID, r), flavor)
+        }
     };
     // The only way these serde types can fail to serialise is running out of buffer.
     written
@@ -136,6 +144,9 @@ pub fn parse_payload(payload: &[u8]) -> Result<Received, PayloadError> {
         HEARTBEAT_ID => Message::Heartbeat(parse_exact::<Heartbeat>(body).ok_or(malformed)?),
         AGE_ID => Message::Age(parse_exact::<PositionAge>(body).ok_or(malformed)?),
         LED_ID => Message::Led(parse_exact::<LedRequest>(body).ok_or(malformed)?),
+        ROBOT_POSITION_ID => {
+            Message::RobotPosition(parse_exact::<RobotPosition>(body).ok_or(malformed)?)
+        }
         _ => return Ok(Received::Unknown { id }),
     };
     Ok(Received::Message(message))

@@ -1,6 +1,7 @@
 //! glint-protocol: the serial wire format between glint and the robot's microcontroller.
 //!
-//! glint sends a [`Position`] update per processed frame, each followed by its [`PositionAge`]
+//! glint sends a [`Position`] update per processed frame (a [`RobotPosition`] per robot when
+//! several robots share the line), each followed by its [`PositionAge`]
 //! (how old the position is when it arrives), a [`Heartbeat`] about once a second, and on
 //! request a [`LedRequest`] (switch the LED off for a while). Each message is one frame on the
 //! UART:
@@ -42,13 +43,14 @@ mod frame;
 mod led;
 mod message;
 mod quantise;
+mod robot;
 
 pub use age::{InvalidAgeFlags, PositionAge, AGE_ID};
 pub use decoder::{DecodeError, Decoder, Frames};
 pub use frame::{
     encode, parse_payload, EncodeError, PayloadError, Received, CRC_LEN, DELIMITER, FRAME_CRC,
     ID_LEN, MAX_AGE_WIRE_LEN, MAX_ENCODED_LEN, MAX_LED_WIRE_LEN, MAX_POSITION_WIRE_LEN,
-    MAX_UPDATE_WIRE_LEN,
+    MAX_ROBOT_POSITION_WIRE_LEN, MAX_UPDATE_WIRE_LEN,
 };
 pub use led::{LedRequest, EVERY_ROBOT, LED_ID};
 pub use message::{
@@ -56,3 +58,4 @@ pub use message::{
     POSITION_ID, PROTOCOL_VERSION, QUANTA_PER_MM, QUANTA_PER_PX,
 };
 pub use quantise::{quantise, Clamped, Quantised, Reading};
+pub use robot::{RobotPosition, ROBOT_POSITION_ID};

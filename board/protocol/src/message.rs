@@ -11,11 +11,13 @@ use serde::{Deserialize, Serialize};
 
 use crate::age::PositionAge;
 use crate::led::LedRequest;
+use crate::robot::RobotPosition;
 
 /// Version of this wire format, sent in every [`Heartbeat`]. Version 2 added the
 /// [`PositionAge`] and [`LedRequest`] messages under new ids, which version 1 decoders skip;
-/// an existing id's layout only changes with a new version.
-pub const PROTOCOL_VERSION: u8 = 2;
+/// version 3 the [`RobotPosition`] (a position addressed to one robot of several on one line).
+/// An existing id's layout only changes with a new version.
+pub const PROTOCOL_VERSION: u8 = 3;
 
 /// Message id of a [`Position`] update.
 pub const POSITION_ID: u8 = 0x01;
@@ -120,6 +122,8 @@ pub enum InvalidField {
     PositionFlags(u8),
     /// The tracker state byte is not a defined state.
     TrackerState(u8),
+    /// A robot position addressed to robot 0, which is no robot's id.
+    PositionRobot(u8),
 }
 
 impl fmt::Display for InvalidField {
@@ -129,6 +133,9 @@ impl fmt::Display for InvalidField {
                 write!(f, "invalid position flags byte {byte:#04x}")
             }
             InvalidField::TrackerState(byte) => write!(f, "invalid tracker state {byte}"),
+            InvalidField::PositionRobot(byte) => {
+                write!(f, "robot {byte} is no robot's id for a position")
+            }
         }
     }
 }
@@ -272,6 +279,9 @@ pub enum Message {
     Age(PositionAge),
     /// A request to switch a robot's LED off (id [`LED_ID`](crate::LED_ID)).
     Led(LedRequest),
+    /// A position update for one robot of several on the line (id
+    /// [`ROBOT_POSITION_ID`](crate::ROBOT_POSITION_ID)).
+    RobotPosition(RobotPosition),
 }
 
 impl Message {
@@ -282,6 +292,7 @@ impl Message {
             Message::Heartbeat(_) => HEARTBEAT_ID,
             Message::Age(_) => crate::age::AGE_ID,
             Message::Led(_) => crate::led::LED_ID,
+            Message::RobotPosition(_) => crate::robot::ROBOT_POSITION_ID,
         }
     }
 }
@@ -307,5 +318,11 @@ impl From<PositionAge> for Message {
 impl From<LedRequest> for Message {
     fn from(r: LedRequest) -> Self {
         Message::Led(r)
+    }
+}
+
+impl From<RobotPosition> for Message {
+    fn from(r: RobotPosition) -> Self {
+        Message::RobotPosition(r)
     }
 }

@@ -2,8 +2,9 @@
 //! C++) and run against the SPEC's test vectors and against long streams that the Rust encoder
 //! produced and then corrupted: its output must match the Rust decoder's event for event.
 //!
-//! A frozen copy of the version 1 header (`tests/c/v1/glint.h`) is run on version 2 streams too:
-//! the SPEC promises that old decoders skip what they do not know and still get every position.
+//! Frozen copies of the version 1 and 2 headers (`tests/c/v1`, `tests/c/v2`) are run on version 3
+//! streams too: the SPEC promises that old decoders skip what they do not know and still get
+//! every message they do know.
 //!
 //! Needs gcc and g++ on the PATH (Debian: `apt-get install gcc g++`); the test fails, with that
 //! message, if they are missing.
@@ -32,6 +33,8 @@ struct Driver {
 const HEADER_DIR: &str = "../arduino";
 /// Where the frozen version 1 header lives.
 const V1_HEADER_DIR: &str = "tests/c/v1";
+/// Where the frozen version 2 header lives.
+const V2_HEADER_DIR: &str = "tests/c/v2";
 
 fn compile(name: &'static str, compiler: &str, extra: &[&str]) -> Driver {
     compile_with(name, HEADER_DIR, compiler, extra)
@@ -210,43 +213,66 @@ fn c_decoder_matches_the_rust_decoder_on_hostile_streams() {
     assert_same_events(&run(&drivers()[2], &stream), &small, "23-byte buffers");
 }
 
-/// What a version 1 decoder reports for an event of the version 2 decoder: the new ids, well
-/// formed or not (version 1 does not know their layout), are unknown ids; the rest is the same.
-fn as_version_1(event: &str) -> String {
-    if event.starts_with("age ") || event == "error malformed id=0x03" {
-        "unknown id=0x03".to_string()
-    } else if event.starts_with("led ") || event == "error malformed id=0x04" {
-        "unknown id=0x04".to_string()
+/// What a decoder of an older `version` reports for an event of the current decoder: the ids
+/// added since, well formed or not (it does not know their layout), are unknown ids; the rest is
+/// the same.
+fn as_version(version: u8, event: &str) -> String {
+    let added_after = |id: u8| match id {
+        0x03 | 0x04 => version < 2,
+        0x05 => version < 3,
+        _ => false,
+    };
+    let id = if event.starts_with("age ") {
+        Some(0x03)
+    } else if event.starts_with("led ") {
+        Some(0x04)
+    } else if event.starts_with("robot-position ") {
+        Some(0x05)
     } else {
-        event.to_string()
+        event
+            .strip_prefix("error malformed id=0x")
+            .and_then(|hex| u8::from_str_radix(hex, 16).ok())
+    };
+    match id {
+        Some(id) if added_after(id) => format!("unknown id={id:#04x}"),
+        _ => event.to_string(),
     }
 }
 
-/// The version 1 decoder on a version 2 stream: every position (and heartbeat) exactly as the
-/// version 2 decoder sees it, and the new messages skipped as unknown ids, nothing dropped.
-#[test]
-fn a_version_1_decoder_still_decodes_version_2_updates() {
-    let v1 = compile_with(
-        "v1_c99",
-        V1_HEADER_DIR,
+/// An older decoder on a current stream: every message it knows exactly as the current decoder
+/// sees it, and the newer messages skipped as unknown ids, nothing dropped.
+fn check_older_header(version: u8, header_dir: &str, name: &'static str) {
+    let old = compile_with(
+        name,
+        header_dir,
         "gcc",
         &["-std=c99", "-O1", "-g", "-fsanitize=address,undefined"],
     );
     let stream = hostile_stream(0x7632_7631, 3_000);
-    let v2_events = rust_events(Decoder::new(), &stream);
-    let expected: Vec<String> = v2_events.iter().map(|e| as_version_1(e)).collect();
-    for kind in ["age ", "led ", "position ", "heartbeat "] {
+    let events = rust_events(Decoder::new(), &stream);
+    let expected: Vec<String> = events.iter().map(|e| as_version(version, e)).collect();
+    for kind in ["age ", "led ", "position ", "robot-position ", "heartbeat "] {
         assert!(
-            v2_events.iter().any(|e| e.starts_with(kind)),
+            events.iter().any(|e| e.starts_with(kind)),
             "stream has no `{kind}` event"
         );
     }
-    assert_same_events(&run(&v1, &stream), &expected, "version 1 header");
+    assert_same_events(&run(&old, &stream), &expected, name);
 
-    // The SPEC's own vectors of version 2 traffic, through the version 1 header.
-    for v in spec_vectors().iter().filter(|v| v.name.starts_with("v2-")) {
-        let got = run(&v1, &v.wire);
-        let want: Vec<String> = v.decodes.iter().map(|d| as_version_1(d)).collect();
-        assert_eq!(got, want, "version 1 header on {}", v.name);
+    // The SPEC's own vectors of newer traffic, through the old header.
+    for v in spec_vectors().iter().filter(|v| v.name.starts_with('v')) {
+        let got = run(&old, &v.wire);
+        let want: Vec<String> = v.decodes.iter().map(|d| as_version(version, d)).collect();
+        assert_eq!(got, want, "version {version} header on {}", v.name);
     }
+}
+
+#[test]
+fn a_version_1_decoder_still_decodes_version_3_updates() {
+    check_older_header(1, V1_HEADER_DIR, "v1_c99");
+}
+
+#[test]
+fn a_version_2_decoder_still_decodes_version_3_traffic() {
+    check_older_header(2, V2_HEADER_DIR, "v2_c99");
 }

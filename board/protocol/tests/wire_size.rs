@@ -1,9 +1,9 @@
 //! The position update's worst case on the wire: at most 24 bytes, framing and CRC included.
 
 use glint_protocol::{
-    encode, Heartbeat, LedRequest, Message, Position, PositionAge, Status, TrackerState, Units,
-    MAX_AGE_WIRE_LEN, MAX_ENCODED_LEN, MAX_LED_WIRE_LEN, MAX_POSITION_WIRE_LEN,
-    MAX_UPDATE_WIRE_LEN,
+    encode, Heartbeat, LedRequest, Message, Position, PositionAge, RobotPosition, Status,
+    TrackerState, Units, MAX_AGE_WIRE_LEN, MAX_ENCODED_LEN, MAX_LED_WIRE_LEN,
+    MAX_POSITION_WIRE_LEN, MAX_ROBOT_POSITION_WIRE_LEN, MAX_UPDATE_WIRE_LEN,
 };
 use proptest::prelude::*;
 
@@ -22,6 +22,7 @@ const I16_EDGES: [i16; 8] = [i16::MIN, -8193, -8192, -65, 0, 63, 8191, i16::MAX]
 fn every_extreme_position_fits_the_budget_and_the_worst_reaches_it() {
     const { assert!(MAX_POSITION_WIRE_LEN <= POSITION_BUDGET_BYTES) };
     let mut longest = 0;
+    let mut longest_robot = 0;
     for &seq in &[0u8, 255] {
         for &timestamp_us in &[0u32, u32::MAX] {
             for &units in &[Units::Pixels, Units::Floor] {
@@ -45,6 +46,15 @@ fn every_extreme_position_fits_the_budget_and_the_worst_reaches_it() {
                                         let len = wire_len(&Message::Position(p));
                                         assert!(len <= MAX_POSITION_WIRE_LEN, "{p:?}: {len} bytes");
                                         longest = longest.max(len);
+                                        // Addressed to a robot (version 3): one byte more.
+                                        let addressed = RobotPosition {
+                                            robot: 255,
+                                            position: p,
+                                        };
+                                        let robot_len =
+                                            wire_len(&Message::RobotPosition(addressed));
+                                        assert_eq!(robot_len, len + 1, "{p:?}");
+                                        longest_robot = longest_robot.max(robot_len);
                                     }
                                 }
                             }
@@ -56,6 +66,7 @@ fn every_extreme_position_fits_the_budget_and_the_worst_reaches_it() {
     }
     // The bound is tight: some position really takes all of it.
     assert_eq!(longest, MAX_POSITION_WIRE_LEN);
+    assert_eq!(longest_robot, MAX_ROBOT_POSITION_WIRE_LEN);
 }
 
 #[test]
@@ -90,7 +101,7 @@ fn age_and_led_frames_fit_their_bounds_and_the_worst_reach_them() {
     assert_eq!(longest_age, MAX_AGE_WIRE_LEN);
     assert_eq!(
         MAX_UPDATE_WIRE_LEN,
-        MAX_POSITION_WIRE_LEN + MAX_AGE_WIRE_LEN
+        MAX_ROBOT_POSITION_WIRE_LEN + MAX_AGE_WIRE_LEN
     );
 
     let mut longest_led = 0;

@@ -25,8 +25,8 @@
 
 use mavlink::dialects::common::{VISION_POSITION_ESTIMATE_DATA, VISION_SPEED_ESTIMATE_DATA};
 
-use crate::geometry::floor::{FloorEstimate, FloorUnit};
 use crate::geometry::{FloorStage, Point};
+use crate::report::{FloorEstimate, FloorUnit};
 
 /// Variance of a position quantised to whole pixels (uniform over one pixel): 1/12 px².
 const QUANTISATION_VARIANCE_PX2: f64 = 1.0 / 12.0;

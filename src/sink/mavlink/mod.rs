@@ -24,8 +24,8 @@ use std::thread::JoinHandle;
 
 use super::serial::{open_port, SerialError};
 use super::Sink;
-use crate::geometry::FloorFix;
-use crate::pipeline::FrameReport;
+use crate::report::FloorFix;
+use crate::report::FrameReport;
 pub use estimate::ToLocal;
 use writer::{Counters, Mailbox, Writer};
 pub use writer::{Identity, HEARTBEAT_INTERVAL};

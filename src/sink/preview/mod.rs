@@ -28,7 +28,7 @@ use heapless::{Deque, Vec as BoundedVec};
 
 use super::Sink;
 use crate::frame::{Frame, FrameSize};
-use crate::pipeline::FrameReport;
+use crate::report::FrameReport;
 
 /// How often a frame is copied while someone watches (2 Hz).
 pub const COPY_PERIOD: Duration = Duration::from_millis(500);

@@ -26,10 +26,12 @@ use serialport::{DataBits, FlowControl, Parity, SerialPort, StopBits, TTYPort};
 
 use super::mailbox::{Batch, Mailbox, Take, SLOT_BYTES};
 use super::stamp::{encode_led, encode_update, SentLed};
+use crate::report::MAX_ROBOTS;
 use crate::source::clock::monotonic_now_us;
 
-/// Bytes of the longest write: a delimiter, a heartbeat, a LED request, an update and its age.
-const OUT_BYTES: usize = 1 + SLOT_BYTES + MAX_LED_WIRE_LEN + MAX_UPDATE_WIRE_LEN;
+/// Bytes of the longest write: a delimiter, a heartbeat, a LED request, an update and its age,
+/// and a frame's updates (and ages) for every robot on a shared line.
+const OUT_BYTES: usize = 1 + SLOT_BYTES + MAX_LED_WIRE_LEN + (1 + MAX_ROBOTS) * MAX_UPDATE_WIRE_LEN;
 
 /// How long one batch may wait for room in the output queue (a receiver that stopped reading a
 /// pty, a stuck line) before it is given up as unsent.
@@ -192,7 +194,8 @@ impl Link {
                 Err(e) => log::error!("serial: {e}"),
             }
         }
-        if let Some(update) = &batch.update {
+        // Each update's age counts the line time of everything ahead of it in this write.
+        for update in batch.update.iter().chain(&batch.robots) {
             let out = self.out.get_mut(len..).unwrap_or(&mut []);
             match encode_update(update, now_us, len, self.baud, out) {
                 Ok((n, _)) => len += n,

@@ -15,6 +15,9 @@ use std::sync::{Condvar, Mutex, MutexGuard, PoisonError};
 use std::time::Duration;
 
 use glint_protocol::MAX_ENCODED_LEN;
+use heapless::Vec as BoundedVec;
+
+use crate::report::MAX_ROBOTS;
 
 use super::stamp::{PendingLed, PendingUpdate};
 
@@ -62,7 +65,7 @@ impl Slot {
 
 /// What is posted: one per slot. The slots are independent: a new position does not make a
 /// pending heartbeat or LED request stale.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 pub enum Post<'a> {
     /// An encoded heartbeat frame.
     Heartbeat(&'a [u8]),
@@ -70,10 +73,17 @@ pub enum Post<'a> {
     Update(PendingUpdate),
     /// A LED request, stamped with the host time when written.
     Led(PendingLed),
+    /// One frame's updates for several robots on one line (at most [`MAX_ROBOTS`]; more are
+    /// dropped), each stamped with its age when written; they replace the previous frame's as a
+    /// whole.
+    Robots(&'a [PendingUpdate]),
 }
 
+/// One frame's updates for the robots on a shared line, in the order they go out.
+pub type RobotUpdates = BoundedVec<PendingUpdate, MAX_ROBOTS>;
+
 /// Messages taken for sending, in the order they go out: heartbeat, LED request, update.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 pub struct Batch {
     /// The newest heartbeat, if one was posted.
     pub heartbeat: Slot,
@@ -81,6 +91,8 @@ pub struct Batch {
     pub led: Option<PendingLed>,
     /// The newest position update, if one was posted.
     pub update: Option<PendingUpdate>,
+    /// The newest frame's robot updates (empty if none was posted).
+    pub robots: RobotUpdates,
 }
 
 impl Batch {
@@ -89,10 +101,13 @@ impl Batch {
         u64::from(!self.heartbeat.is_empty())
             + u64::from(self.led.is_some())
             + u64::from(self.update.is_some())
+            + self.robots.len() as u64
     }
 }
 
 /// What [`Mailbox::take`] found.
+// A batch is large (a frame's updates for every robot), but boxing it would allocate per write.
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug)]
 pub enum Take {
     /// Frames to send.
@@ -108,12 +123,16 @@ struct State {
     heartbeat: Slot,
     led: Option<PendingLed>,
     update: Option<PendingUpdate>,
+    robots: RobotUpdates,
     closing: bool,
 }
 
 impl State {
     fn is_empty(&self) -> bool {
-        self.heartbeat.is_empty() && self.led.is_none() && self.update.is_none()
+        self.heartbeat.is_empty()
+            && self.led.is_none()
+            && self.update.is_none()
+            && self.robots.is_empty()
     }
 }
 
@@ -132,6 +151,7 @@ impl Default for Mailbox {
                 heartbeat: Slot::EMPTY,
                 led: None,
                 update: None,
+                robots: RobotUpdates::new(),
                 closing: false,
             }),
             posted: Condvar::new(),
@@ -152,12 +172,23 @@ impl Mailbox {
     pub fn post(&self, post: Post<'_>) -> bool {
         let mut state = self.lock();
         let (replaced, filled) = match post {
-            Post::Heartbeat(frame) => (!state.heartbeat.is_empty(), state.heartbeat.fill(frame)),
-            Post::Update(u) => (state.update.replace(u).is_some(), true),
-            Post::Led(l) => (state.led.replace(l).is_some(), true),
+            Post::Heartbeat(frame) => (
+                u64::from(!state.heartbeat.is_empty()),
+                state.heartbeat.fill(frame),
+            ),
+            Post::Update(u) => (u64::from(state.update.replace(u).is_some()), true),
+            Post::Led(l) => (u64::from(state.led.replace(l).is_some()), true),
+            Post::Robots(updates) => {
+                let replaced = state.robots.len() as u64;
+                state.robots.clear();
+                let kept = updates.get(..MAX_ROBOTS).unwrap_or(updates);
+                // Cannot fail: `kept` fits the capacity.
+                let filled = state.robots.extend_from_slice(kept).is_ok();
+                (replaced, filled && kept.len() == updates.len())
+            }
         };
-        if replaced {
-            self.superseded.fetch_add(1, Ordering::Relaxed);
+        if replaced > 0 {
+            self.superseded.fetch_add(replaced, Ordering::Relaxed);
         }
         drop(state);
         self.posted.notify_one();
@@ -186,6 +217,7 @@ impl Mailbox {
             heartbeat: core::mem::replace(&mut state.heartbeat, Slot::EMPTY),
             led: state.led.take(),
             update: state.update.take(),
+            robots: core::mem::take(&mut state.robots),
         };
         if batch.frames() > 0 {
             Take::Work(batch)

@@ -3,7 +3,9 @@
 //!
 //! Every update is followed by its age on arrival (protocol version 2): how old the position is
 //! when the last byte leaves the host, stamped by the writer as it writes (`stamp`). On request
-//! ([`SerialSink::request_led`]) a LED request goes out too.
+//! ([`SerialSink::request_led`]) a LED request goes out too. On a line shared by several robots
+//! ([`SerialSink::send_robots`]), each frame carries one robot position (protocol version 3) per
+//! robot, each numbered in that robot's own sequence, in one write.
 //!
 //! The capture thread only builds messages (on the stack) and posts them into a one-slot-per-kind
 //! `mailbox`; a writer thread owns the port and does the blocking I/O. A slow line therefore
@@ -17,6 +19,7 @@
 //! The mailbox, the writer's buffer and the thread are set up in [`SerialSink::open`]. Per frame
 //! the sink allocates nothing: messages are built on the stack and copied into fixed slots.
 
+mod lines;
 mod link;
 mod mailbox;
 mod stamp;
@@ -30,6 +33,7 @@ use std::thread::JoinHandle;
 
 use glint_protocol::{encode, LedRequest, Message};
 
+pub use lines::RobotLines;
 pub use link::{
     line_time, BITS_PER_BYTE, DRAIN_LIMIT, REOPEN_BACKOFF_MAX, REOPEN_BACKOFF_MIN, WRITE_TIMEOUT,
 };
@@ -40,11 +44,11 @@ pub use link::open_port;
 pub(crate) use link::write_all;
 
 use super::Sink;
-use crate::pipeline::FrameReport;
+use crate::report::{FrameMeta, FrameReport, TrackReport, TrackState, MAX_ROBOTS};
 use crate::source::clock::monotonic_now_us;
-use crate::source::FrameMeta;
+use heapless::Vec as BoundedVec;
 use link::{Counters, Link};
-use mailbox::{Mailbox, Post, SLOT_BYTES};
+use mailbox::{Mailbox, Post, RobotUpdates, SLOT_BYTES};
 use stamp::{PendingLed, PendingUpdate, Prediction};
 
 use super::predict::Predictor;
@@ -152,6 +156,8 @@ pub struct SerialSink {
     frame_clock_origin_us: Option<i64>,
     /// With `--predict arrival`: the motion each update is moved on by, at write time.
     predictor: Option<Predictor>,
+    /// Per robot on a shared line (index: id − 1): its sequence numbers and last position.
+    robots: [Updates; MAX_ROBOTS],
     clamp_warned: bool,
 }
 
@@ -186,6 +192,7 @@ impl SerialSink {
             next_led_request: 0,
             frame_clock_origin_us: None,
             predictor: None,
+            robots: core::array::from_fn(|_| Updates::new()),
             clamp_warned: false,
         })
     }
@@ -198,8 +205,9 @@ impl SerialSink {
     }
 
     /// Posts the frame's position update (found with `located`, lost without) and, when due,
-    /// a heartbeat. Returns at once: the writer thread sends them.
-    pub fn send(&mut self, meta: &FrameMeta, located: Option<&Located>) {
+    /// a heartbeat carrying the tracker's `state`. Returns at once: the writer thread sends
+    /// them.
+    pub fn send(&mut self, meta: &FrameMeta, located: Option<&Located>, state: TrackState) {
         let quantised = self.updates.position(meta, located);
         if quantised.clamped.any() && !self.clamp_warned {
             self.clamp_warned = true;
@@ -209,7 +217,7 @@ impl SerialSink {
                 meta.index
             );
         }
-        if let Some(heartbeat) = self.updates.heartbeat(meta) {
+        if let Some(heartbeat) = self.updates.heartbeat(meta, state) {
             self.posted_heartbeats += 1;
             self.post_heartbeat(&Message::Heartbeat(heartbeat));
         }
@@ -229,7 +237,50 @@ impl SerialSink {
             measured: quantised.position,
             prediction,
             captured_monotonic_us: meta.monotonic_us,
+            robot: None,
         }));
+    }
+
+    /// Posts one frame's updates for several robots on this shared line: for each `(robot,
+    /// located)`, robot `robot` (1..=[`MAX_ROBOTS`]) found at `located`, or lost without (the
+    /// robot's last position repeated, as for one robot). Each robot's updates carry its own
+    /// sequence numbers. Robots out of range are skipped; `--predict arrival` applies to one
+    /// robot's line only. A heartbeat (with `state`, the line's tracker state) goes out when
+    /// due, as with [`SerialSink::send`].
+    pub fn send_robots(
+        &mut self,
+        meta: &FrameMeta,
+        robots: &[(u8, Option<Located>)],
+        state: TrackState,
+    ) {
+        if let Some(heartbeat) = self.updates.heartbeat(meta, state) {
+            self.posted_heartbeats += 1;
+            self.post_heartbeat(&Message::Heartbeat(heartbeat));
+        }
+        self.frame_clock_origin_us = Some(frame_clock_origin_us(meta));
+        let mut posted = RobotUpdates::new();
+        for (robot, located) in robots {
+            let Some(updates) = usize::from(*robot)
+                .checked_sub(1)
+                .and_then(|i| self.robots.get_mut(i))
+            else {
+                continue;
+            };
+            let quantised = updates.position(meta, located.as_ref());
+            let pending = PendingUpdate {
+                measured: quantised.position,
+                prediction: None,
+                captured_monotonic_us: meta.monotonic_us,
+                robot: Some(*robot),
+            };
+            if posted.push(pending).is_err() {
+                break;
+            }
+        }
+        self.posted_updates += posted.len() as u64;
+        if !posted.is_empty() {
+            self.mailbox.post(Post::Robots(&posted));
+        }
     }
 
     /// Asks robot `robot` (0: every robot) to switch its LED off for `off_us`, `delay_us` after
@@ -299,6 +350,58 @@ impl SerialSink {
     }
 }
 
+impl SerialSink {
+    /// One frame on a line shared by several robots: robot k (1..=the number of tracks) gets
+    /// the track bound to it by identification, found or lost; a provisional track goes out
+    /// under no robot's id. The frame's LED request (identification's) goes in the same write.
+    fn write_robots(&mut self, report: &FrameReport) {
+        let mut robots: BoundedVec<(u8, Option<Located>), MAX_ROBOTS> = BoundedVec::new();
+        let mut state = TrackState::Searching;
+        for robot in (1..=MAX_ROBOTS).take(report.tracks.len()) {
+            let id = u8::try_from(robot).unwrap_or(u8::MAX);
+            let bound = bound_track(report, id);
+            if let Some(t) = bound {
+                state = busier(state, t.state);
+            }
+            let located = bound.and_then(|t| {
+                t.estimate
+                    .map(|e| Located::from_estimate(&e, t.floor.as_ref()))
+            });
+            // Cannot fail: at most MAX_ROBOTS robots.
+            let _ = robots.push((id, located));
+        }
+        self.send_robots(&report.meta, &robots, state);
+        // After the frame's updates, so that the request's host time counts from this frame.
+        if let Some(blink) = report.blink {
+            self.request_led(blink.robot, blink.delay_us, blink.off_us);
+        }
+    }
+}
+
+/// The track bound to robot `robot` by identification, if any: a provisional track is no
+/// robot's.
+pub(crate) fn bound_track(report: &FrameReport, robot: u8) -> Option<&TrackReport> {
+    report
+        .tracks
+        .iter()
+        .find(|t| !t.provisional && t.id == robot)
+}
+
+/// The state a line of several robots reports: tracking if any of its robots is, else
+/// coasting if any is, else searching.
+fn busier(a: TrackState, b: TrackState) -> TrackState {
+    let rank = |s: TrackState| match s {
+        TrackState::Searching => 0,
+        TrackState::Coasting => 1,
+        TrackState::Tracking => 2,
+    };
+    if rank(b) > rank(a) {
+        b
+    } else {
+        a
+    }
+}
+
 /// Where frame time 0 lies on the monotonic clock, by `meta`: exact for a camera (both are the
 /// driver's timestamps), the latest frame's arrival for a file or a pipe.
 fn frame_clock_origin_us(meta: &FrameMeta) -> i64 {
@@ -317,13 +420,19 @@ pub(crate) fn link_state(losses: u64, reopens: u64) -> &'static str {
 }
 
 impl Sink for SerialSink {
-    /// Never fails: link faults are handled (and counted) by the writer thread.
+    /// Never fails: link faults are handled (and counted) by the writer thread. A report of
+    /// several robots sends a robot position per robot, found only for the tracks bound to it
+    /// by identification (see `write_robots`).
     fn write(&mut self, report: &FrameReport) -> io::Result<()> {
+        if report.several() {
+            self.write_robots(report);
+            return Ok(());
+        }
         let located = report
             .position
             .as_ref()
             .map(|e| Located::from_estimate(e, report.floor.as_ref()));
-        self.send(&report.meta, located.as_ref());
+        self.send(&report.meta, located.as_ref(), report.single_state());
         Ok(())
     }
 

@@ -12,7 +12,8 @@
 //! Everything is on the stack; nothing allocates.
 
 use glint_protocol::{
-    encode, quantise, EncodeError, LedRequest, Message, Position, PositionAge, Status,
+    encode, quantise, EncodeError, LedRequest, Message, Position, PositionAge, RobotPosition,
+    Status,
 };
 
 use super::link::line_time;
@@ -45,6 +46,19 @@ pub struct PendingUpdate {
     pub prediction: Option<Prediction>,
     /// The frame's capture time on the monotonic clock, µs.
     pub captured_monotonic_us: u64,
+    /// The robot it is addressed to, on a line shared by several (protocol version 3's robot
+    /// position); `None` on a line of one robot's own (a plain position update).
+    pub robot: Option<u8>,
+}
+
+impl PendingUpdate {
+    /// The message carrying `position` for this update's addressee.
+    fn message(&self, position: Position) -> Message {
+        match self.robot {
+            Some(robot) => Message::RobotPosition(RobotPosition { robot, position }),
+            None => Message::Position(position),
+        }
+    }
 }
 
 /// A LED request waiting for the writer; its `at_us` is filled in when written.
@@ -111,7 +125,7 @@ pub fn encode_update(
         },
     );
     for _ in 0..STAMP_ROUNDS {
-        let position = encode(&Message::Position(position_at(update, age_us)), out)?.len();
+        let position = encode(&update.message(position_at(update, age_us)), out)?.len();
         let age = PositionAge {
             seq: update.measured.seq,
             age_us: u32::try_from(age_us).unwrap_or(u32::MAX),
@@ -175,6 +189,7 @@ pub(crate) mod tests {
             measured: Position::from_reading(seq, 7, Status::Found, 255, reading).position,
             prediction: None,
             captured_monotonic_us: 1_000_000,
+            robot: None,
         }
     }
 

@@ -8,9 +8,9 @@ use glint_protocol::{
     Heartbeat, Position, Quantised, Reading, Status, TrackerState, Units, PROTOCOL_VERSION,
 };
 
-use crate::geometry::floor::{FloorFix, FloorUnit};
-use crate::source::FrameMeta;
-use crate::track::{Estimate, VelocityMethod, MAX_MISSED_FRAMES};
+use crate::report::{
+    Estimate, FloorFix, FloorUnit, FrameMeta, PositionMethod, TrackState, VelocityMethod,
+};
 
 /// Frame time between heartbeats.
 pub const HEARTBEAT_INTERVAL_US: u64 = 1_000_000;
@@ -86,21 +86,20 @@ fn mm_per_unit(unit: FloorUnit) -> f64 {
 /// Detection quality: [`QUALITY_STEP`] for a found light, plus one step when the position is the streak's head
 /// (not just its middle), plus one when the velocity is known.
 fn quality(estimate: &Estimate) -> u8 {
-    let head = estimate.position_method == crate::track::PositionMethod::Head;
+    let head = estimate.position_method == PositionMethod::Head;
     let steps = 1 + u8::from(head) + u8::from(estimate.velocity_px_s.is_some());
     QUALITY_STEP.saturating_mul(steps)
 }
 
 /// Builds the messages for each frame: numbers the position updates, remembers the last known
-/// position for lost frames, and keeps the heartbeat's clock, frame rate and tracker state.
+/// position for lost frames, and keeps the heartbeat's clock and frame rate (the tracker's state
+/// comes with each frame's report).
 #[derive(Debug, Default)]
 pub struct Updates {
     /// Sequence number of the next position update.
     next_seq: u8,
     /// The last position sent as found, repeated in lost updates (as the protocol asks).
     last_found: Option<(Units, (f32, f32))>,
-    /// Frames since the light was last found; `None` until it first is.
-    missed_frames: Option<u32>,
     /// Frame time of the last heartbeat.
     heartbeat_at_us: Option<u64>,
     /// Frames processed since the last heartbeat.
@@ -125,7 +124,6 @@ impl Updates {
         let (status, quality, reading) = match located {
             Some(l) => {
                 self.last_found = Some((l.units, l.position));
-                self.missed_frames = Some(0);
                 let (vx_per_s, vy_per_s) = l.velocity_per_s.unwrap_or((0.0, 0.0));
                 let reading = Reading {
                     units: l.units,
@@ -137,7 +135,6 @@ impl Updates {
                 (Status::Found, l.quality, reading)
             }
             None => {
-                self.missed_frames = self.missed_frames.map(|m| m.saturating_add(1));
                 let (units, (x, y)) = self.last_found.unwrap_or((Units::Pixels, (0.0, 0.0)));
                 let reading = Reading {
                     units,
@@ -154,12 +151,11 @@ impl Updates {
 
     /// Counts the frame for the heartbeat and returns one when it is due: on the first frame
     /// (so the firmware learns the protocol version at once), then once per
-    /// [`HEARTBEAT_INTERVAL_US`] of frame time. Call after [`Updates::position`] for the same
-    /// frame, so the tracker state includes it.
+    /// [`HEARTBEAT_INTERVAL_US`] of frame time, carrying the tracker's `state` in that frame.
     ///
     /// Heartbeats follow frame time, not the wall clock: when frames stop, heartbeats stop, and
     /// the robot can tell a stalled tracker from a quiet one.
-    pub fn heartbeat(&mut self, meta: &FrameMeta) -> Option<Heartbeat> {
+    pub fn heartbeat(&mut self, meta: &FrameMeta, state: TrackState) -> Option<Heartbeat> {
         self.dropped_frames = self.dropped_frames.saturating_add(meta.dropped);
         self.frames_since_heartbeat = self.frames_since_heartbeat.saturating_add(1);
         let frame_rate_centihz = match self.heartbeat_at_us {
@@ -184,18 +180,17 @@ impl Updates {
             protocol_version: PROTOCOL_VERSION,
             frame_rate_centihz,
             dropped_frames: u32::try_from(self.dropped_frames).unwrap_or(u32::MAX),
-            tracker_state: self.tracker_state(),
+            tracker_state: wire_state(state),
         })
     }
+}
 
-    /// Tracking while the light is found, coasting for [`MAX_MISSED_FRAMES`] frames after it is
-    /// lost (as long as the tracker keeps its track), searching otherwise.
-    pub fn tracker_state(&self) -> TrackerState {
-        match self.missed_frames {
-            Some(0) => TrackerState::Tracking,
-            Some(m) if m <= MAX_MISSED_FRAMES => TrackerState::Coasting,
-            _ => TrackerState::Searching,
-        }
+/// The tracker's state as the wire names it.
+fn wire_state(state: TrackState) -> TrackerState {
+    match state {
+        TrackState::Searching => TrackerState::Searching,
+        TrackState::Tracking => TrackerState::Tracking,
+        TrackState::Coasting => TrackerState::Coasting,
     }
 }
 
@@ -212,7 +207,6 @@ fn centihz(frames: u32, elapsed_us: u64) -> u16 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::track::PositionMethod;
 
     fn meta(index: u64, timestamp_us: u64) -> FrameMeta {
         FrameMeta {
@@ -252,7 +246,6 @@ mod tests {
         let mut u = Updates::new();
         let p = u.position(&meta(0, 0), None).position;
         assert_eq!((p.status, p.x, p.y), (Status::Lost, 0, 0));
-        assert_eq!(u.tracker_state(), TrackerState::Searching);
     }
 
     #[test]
@@ -279,7 +272,7 @@ mod tests {
 
     #[test]
     fn a_mapped_floor_position_goes_out_in_millimetres() {
-        use crate::geometry::floor::FloorEstimate;
+        use crate::report::FloorEstimate;
         use nalgebra::{Point2, Vector2};
         let e = estimate(320.0, 240.0);
         let fix = FloorFix::Mapped(FloorEstimate {
@@ -328,7 +321,7 @@ mod tests {
             let mut m = meta(i, i * frame_us);
             m.dropped = u64::from(i == 40) * 3;
             u.position(&m, None);
-            if let Some(h) = u.heartbeat(&m) {
+            if let Some(h) = u.heartbeat(&m, TrackState::Searching) {
                 beats.push((i, h));
             }
         }
@@ -347,26 +340,32 @@ mod tests {
     }
 
     #[test]
-    fn tracker_state_follows_found_and_missed_frames() {
-        let mut u = Updates::new();
-        let found = Located::from_pixels(&estimate(5.0, 5.0));
-        u.position(&meta(0, 0), Some(&found));
-        assert_eq!(u.tracker_state(), TrackerState::Tracking);
-        for i in 1..=u64::from(MAX_MISSED_FRAMES) {
-            u.position(&meta(i, i), None);
-            assert_eq!(u.tracker_state(), TrackerState::Coasting);
+    fn the_heartbeat_carries_the_reported_tracker_state() {
+        let states = [
+            (TrackState::Searching, TrackerState::Searching),
+            (TrackState::Tracking, TrackerState::Tracking),
+            (TrackState::Coasting, TrackerState::Coasting),
+        ];
+        for (state, wire) in states {
+            let mut u = Updates::new();
+            let h = u.heartbeat(&meta(0, 0), state).unwrap();
+            assert_eq!(h.tracker_state, wire);
         }
-        u.position(&meta(99, 99), None);
-        assert_eq!(u.tracker_state(), TrackerState::Searching);
     }
 
     #[test]
     fn time_going_backwards_restarts_the_heartbeat_clock() {
         let mut u = Updates::new();
-        assert!(u.heartbeat(&meta(0, 5_000_000)).is_some());
-        assert!(u.heartbeat(&meta(1, 0)).is_none());
-        assert!(u.heartbeat(&meta(2, 900_000)).is_none());
-        let h = u.heartbeat(&meta(3, 1_000_000)).unwrap();
+        assert!(u
+            .heartbeat(&meta(0, 5_000_000), TrackState::Tracking)
+            .is_some());
+        assert!(u.heartbeat(&meta(1, 0), TrackState::Tracking).is_none());
+        assert!(u
+            .heartbeat(&meta(2, 900_000), TrackState::Tracking)
+            .is_none());
+        let h = u
+            .heartbeat(&meta(3, 1_000_000), TrackState::Tracking)
+            .unwrap();
         // Two frames (2 and 3) since the restart at frame 1, over one second.
         assert_eq!(h.frame_rate_centihz, 200);
     }

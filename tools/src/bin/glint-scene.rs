@@ -1,18 +1,20 @@
-//! `glint-scene`: renders a preset scene to a raw YUYV dump plus its ground-truth CSV.
+//! `glint-scene`: renders a preset scene to a raw YUYV dump plus its ground-truth CSV (a fleet
+//! preset, several robots: one truth CSV per robot).
 //!
 //! The dump has exactly the layout of `v4l2-ctl --stream-mmap --stream-to=FILE` or
 //! `ffmpeg -f rawvideo -pix_fmt yuyv422`: headerless frames back to back.
 
 use std::fs::File;
 use std::io::{BufWriter, Write};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
 use clap::Parser;
 use glint_tools::scene::{
-    write_truth_csv, Knock, Range, Scene, SceneConfig, Spot, SweepPoint, Truth, Visibility,
+    write_truth_csv, Fleet, Knock, Range, Scene, SceneConfig, Spot, SweepPoint, Trajectory, Truth,
+    Visibility,
 };
 
 /// Render a synthetic glint scene with ground truth.
@@ -123,11 +125,19 @@ fn run(args: Args) -> Result<()> {
                 println!("{name:<14} {}", config.summary);
             }
         }
+        for &name in Fleet::names() {
+            if let Some((config, _)) = Fleet::preset_config(name) {
+                println!("{name:<14} {}", config.summary);
+            }
+        }
         return Ok(());
     }
     let Some(out_dir) = args.out_dir.clone() else {
         bail!("--out-dir is required (or --list)");
     };
+    if let Some((config, trajectories)) = args.scene.as_deref().and_then(Fleet::preset_config) {
+        return write_fleet(&args, config, &trajectories, &out_dir);
+    }
     let mut config = match (&args.scene, args.sweep) {
         (_, Some(index)) => SweepPoint::new(args.sweep_seed, index).config(),
         (Some(name), None) => match Scene::preset_config(name) {
@@ -230,6 +240,59 @@ fn run(args: Args) -> Result<()> {
         "rendered in {:.1} ms ({:.2} ms/frame)",
         elapsed.as_secs_f64() * 1e3,
         elapsed.as_secs_f64() * 1e3 / truths.len().max(1) as f64
+    );
+    Ok(())
+}
+
+/// Renders a fleet preset: NAME.yuv, and NAME.robotK.truth.csv for each robot K = 1, 2, ...
+/// (the robots in the preset's order; glint's ids are its own).
+fn write_fleet(
+    args: &Args,
+    mut config: SceneConfig,
+    trajectories: &[Trajectory],
+    out_dir: &Path,
+) -> Result<()> {
+    let name = config.name.clone();
+    override_optics(args, &mut config);
+    if let Some(frames) = args.frames {
+        config.frame_count = frames;
+    }
+    if let Some(seed) = args.seed {
+        config.seed = seed;
+    }
+    let fleet = Fleet::new(&config, trajectories).with_context(|| format!("scene {name}"))?;
+    std::fs::create_dir_all(out_dir)
+        .with_context(|| format!("cannot create {}", out_dir.display()))?;
+    let dump_path = out_dir.join(format!("{name}.yuv"));
+    let file = File::create(&dump_path)
+        .with_context(|| format!("cannot create {}", dump_path.display()))?;
+    let mut out = BufWriter::new(file);
+    let mut frame = vec![0u8; fleet.robot(0).map_or(0, Scene::frame_len_bytes)];
+    let mut truths: Vec<Vec<Truth>> = vec![Vec::new(); fleet.robots()];
+    for i in 0..config.frame_count {
+        for (all, truth) in truths.iter_mut().zip(fleet.render(i, &mut frame)?) {
+            all.push(truth);
+        }
+        out.write_all(&frame)
+            .with_context(|| format!("cannot write {}", dump_path.display()))?;
+    }
+    out.flush()
+        .with_context(|| format!("cannot write {}", dump_path.display()))?;
+    for (k, robot) in truths.iter().enumerate() {
+        let path = out_dir.join(format!("{name}.robot{}.truth.csv", k + 1));
+        let file =
+            File::create(&path).with_context(|| format!("cannot create {}", path.display()))?;
+        write_truth_csv(BufWriter::new(file), robot)
+            .with_context(|| format!("cannot write {}", path.display()))?;
+    }
+    println!(
+        "{name}: {}x{} YUYV, {} robots, {} frames; wrote {} and {name}.robot1..{}.truth.csv",
+        config.width_px,
+        config.height_px,
+        fleet.robots(),
+        config.frame_count,
+        dump_path.display(),
+        fleet.robots()
     );
     Ok(())
 }

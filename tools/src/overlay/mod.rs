@@ -9,7 +9,7 @@
 //!
 //! ```no_run
 //! # fn demo(frame: glint::frame::Frame<'_>, pipeline: &glint::pipeline::Pipeline,
-//! #         report: &glint::pipeline::FrameReport, truth: &glint_tools::scene::Truth)
+//! #         report: &glint::report::FrameReport, truth: &glint_tools::scene::Truth)
 //! # -> std::io::Result<()> {
 //! use glint_tools::overlay::{Overlay, YuvRange};
 //! let image = Overlay::from_report(frame, pipeline, report, YuvRange::guess(&frame))
@@ -31,7 +31,8 @@ pub use yuv::{pixel_rgb, YuvRange};
 use glint::detect::bitimage::BitImage;
 use glint::detect::Detection;
 use glint::frame::Frame;
-use glint::pipeline::{FrameReport, Pipeline};
+use glint::pipeline::Pipeline;
+use glint::report::FrameReport;
 use glint::track::Estimate;
 
 use crate::scene::Truth;

@@ -16,6 +16,7 @@
 
 mod camera;
 mod distractor;
+mod fleet;
 mod floor;
 mod occlusion;
 mod optics;
@@ -30,6 +31,7 @@ use std::fmt;
 
 pub use camera::{Camera, Range};
 pub use distractor::{Companion, StaticLight};
+pub use fleet::Fleet;
 pub use floor::Floor;
 pub use occlusion::Occluder;
 pub use optics::{Glare, Led, Spot};

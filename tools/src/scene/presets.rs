@@ -10,7 +10,7 @@ use super::trajectory::{Point, Trajectory};
 use super::view::{Knock, Lens, View};
 use super::SceneConfig;
 use crate::markers::{reference_camera, PlacedMarker};
-use glint::geometry::aruco::Dictionary;
+use glint::detect::aruco::Dictionary;
 
 /// Preset names, in the order `glint-scene --list` prints them.
 pub(crate) const NAMES: &[&str] = &[

@@ -1,7 +1,7 @@
 /* Test driver for board/arduino/glint.h: decodes stdin byte by byte and prints one line per
  * event, in the text form of SPEC.md's test vectors, for tests/c_decoder.rs to compare. Built
- * against the frozen version 1 header (tests/c/v1) too, which knows positions and heartbeats
- * only. */
+ * against the frozen version 1 and 2 headers (tests/c/v1, tests/c/v2) too, which know fewer
+ * messages. */
 #include <stdio.h>
 
 #include "glint.h"
@@ -20,6 +20,14 @@ static const char *tracker_name(uint8_t state) {
     return state <= GLINT_TRACKER_COASTING ? names[state] : "?";
 }
 
+static void print_position(const struct glint_position *p) {
+    printf("seq=%u timestamp_us=%lu units=%s x=%d y=%d vx_per_s=%d vy_per_s=%d status=%s "
+           "quality=%u\n",
+           (unsigned)p->seq, (unsigned long)p->timestamp_us, units_name(p->units), (int)p->x,
+           (int)p->y, (int)p->vx_per_s, (int)p->vy_per_s, status_name(p->status),
+           (unsigned)p->quality);
+}
+
 int main(void) {
     struct glint_decoder decoder;
     struct glint_message msg;
@@ -30,12 +38,8 @@ int main(void) {
         case GLINT_NONE:
             break;
         case GLINT_POSITION:
-            printf("position seq=%u timestamp_us=%lu units=%s x=%d y=%d vx_per_s=%d vy_per_s=%d "
-                   "status=%s quality=%u\n",
-                   (unsigned)msg.position.seq, (unsigned long)msg.position.timestamp_us,
-                   units_name(msg.position.units), (int)msg.position.x, (int)msg.position.y,
-                   (int)msg.position.vx_per_s, (int)msg.position.vy_per_s,
-                   status_name(msg.position.status), (unsigned)msg.position.quality);
+            printf("position ");
+            print_position(&msg.position);
             break;
         case GLINT_HEARTBEAT:
             printf("heartbeat protocol_version=%u frame_rate_centihz=%u dropped_frames=%lu "
@@ -55,6 +59,12 @@ int main(void) {
                    (unsigned)msg.led.robot, (unsigned)msg.led.request,
                    (unsigned long)msg.led.at_us, (unsigned long)msg.led.delay_us,
                    (unsigned long)msg.led.off_us);
+            break;
+#endif
+#if GLINT_PROTOCOL_VERSION >= 3
+        case GLINT_ROBOT_POSITION:
+            printf("robot-position robot=%u ", (unsigned)msg.robot);
+            print_position(&msg.position);
             break;
 #endif
         case GLINT_UNKNOWN:

@@ -4,31 +4,41 @@
 #![allow(dead_code)] // each test binary uses its own part of this module
 
 use glint_protocol::{
-    DecodeError, Heartbeat, LedRequest, Message, Position, PositionAge, Received, Status,
-    TrackerState, Units,
+    DecodeError, Heartbeat, LedRequest, Message, Position, PositionAge, Received, RobotPosition,
+    Status, TrackerState, Units,
 };
+
+/// The text form of a position's fields (after the `position`/`robot-position` word).
+fn position_fields(p: &Position) -> String {
+    format!(
+        "seq={} timestamp_us={} units={} x={} y={} vx_per_s={} vy_per_s={} status={} quality={}",
+        p.seq,
+        p.timestamp_us,
+        match p.units {
+            Units::Floor => "floor",
+            Units::Pixels => "pixels",
+        },
+        p.x,
+        p.y,
+        p.vx_per_s,
+        p.vy_per_s,
+        match p.status {
+            Status::Lost => "lost",
+            Status::Found => "found",
+            Status::Predicted => "predicted",
+        },
+        p.quality
+    )
+}
 
 /// The text form of one decoder event.
 pub fn describe(event: &Result<Received, DecodeError>) -> String {
     match event {
-        Ok(Received::Message(Message::Position(p))) => format!(
-            "position seq={} timestamp_us={} units={} x={} y={} vx_per_s={} vy_per_s={} status={} quality={}",
-            p.seq,
-            p.timestamp_us,
-            match p.units {
-                Units::Floor => "floor",
-                Units::Pixels => "pixels",
-            },
-            p.x,
-            p.y,
-            p.vx_per_s,
-            p.vy_per_s,
-            match p.status {
-                Status::Lost => "lost",
-                Status::Found => "found",
-                Status::Predicted => "predicted",
-            },
-            p.quality
+        Ok(Received::Message(Message::Position(p))) => format!("position {}", position_fields(p)),
+        Ok(Received::Message(Message::RobotPosition(r))) => format!(
+            "robot-position robot={} {}",
+            r.robot,
+            position_fields(&r.position)
         ),
         Ok(Received::Message(Message::Heartbeat(h))) => format!(
             "heartbeat protocol_version={} frame_rate_centihz={} dropped_frames={} tracker_state={}",
@@ -76,8 +86,8 @@ pub fn parse_message(text: &str) -> Result<Message, String> {
     fn num<T: std::str::FromStr>(s: &str) -> Result<T, String> {
         s.parse().map_err(|_| format!("bad number {s}"))
     }
-    match kind {
-        "position" => Ok(Message::Position(Position {
+    let position = || -> Result<Position, String> {
+        Ok(Position {
             seq: num(get("seq")?)?,
             timestamp_us: num(get("timestamp_us")?)?,
             units: match get("units")? {
@@ -96,6 +106,13 @@ pub fn parse_message(text: &str) -> Result<Message, String> {
                 other => return Err(format!("bad status {other}")),
             },
             quality: num(get("quality")?)?,
+        })
+    };
+    match kind {
+        "position" => Ok(Message::Position(position()?)),
+        "robot-position" => Ok(Message::RobotPosition(RobotPosition {
+            robot: num(get("robot")?)?,
+            position: position()?,
         })),
         "heartbeat" => Ok(Message::Heartbeat(Heartbeat {
             protocol_version: num(get("protocol_version")?)?,
@@ -262,7 +279,7 @@ impl SplitMix64 {
         } else {
             // Shift right by a random amount so every varint length occurs.
             let field = |r: &mut Self| (r.next_u64() as i16) >> r.below(16);
-            Message::Position(Position {
+            let position = Position {
                 seq: self.byte(),
                 timestamp_us: self.next_u64() as u32,
                 units: if self.below(2) == 0 {
@@ -276,7 +293,16 @@ impl SplitMix64 {
                 vy_per_s: field(self),
                 status: [Status::Lost, Status::Found, Status::Predicted][self.below(3)],
                 quality: self.byte(),
-            })
+            };
+            // A third of the updates addressed to one robot of several (version 3).
+            if self.below(3) == 0 {
+                Message::RobotPosition(RobotPosition {
+                    robot: self.byte().max(1),
+                    position,
+                })
+            } else {
+                Message::Position(position)
+            }
         }
     }
 }

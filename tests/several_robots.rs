@@ -1,0 +1,361 @@
+//! Several robots (`--robots N`) against the scene renderer's truth: crossing paths, two LEDs
+//! passing through each other, two robots meeting and standing side by side, a robot leaving
+//! the view and coming back, an occlusion, and glare in view all along.
+//!
+//! For every robot: detected in at least [`MIN_DETECTED`] of its visible frames (counted from
+//! the frame after it first moved: a light that has stood still since it appeared is never
+//! taken, by design), never a change of the id it is reported under, and the single-robot
+//! accuracy bounds of `tests/replay_accuracy.rs` on its unmerged frames. No report anywhere
+//! but at a robot: the glare is never a track. The crossing is repeated over a small sweep of
+//! LED sizes and brightnesses, exposures, noise and tone curves.
+
+use glint::frame::{Frame, FrameSize};
+use glint::pipeline::{Pipeline, PipelineConfig};
+use glint::report::FrameReport;
+use glint::source::FrameMeta;
+use glint::track::{MultiTracker, TrackerConfig};
+use glint_tools::scene::{Fleet, Truth, Visibility};
+
+/// The share of a robot's visible frames it must be found in.
+const MIN_DETECTED: f64 = 0.99;
+
+/// A report farther than this from every robot is a false report; one this near a robot is
+/// that robot (the LEDs are farther apart except while merged).
+const REPORT_TOLERANCE_PX: f64 = 3.0;
+
+/// How far from a robot's true middle a report of it may lie when the picture holds less than
+/// its whole light: a merged blob's middle lies between the two touching LEDs it holds, a
+/// partly hidden LED's visible part within its disk; either is within one LED diameter.
+fn tolerance_px(led_radius_px: f64, merged: bool, truth: &Truth) -> f64 {
+    if merged || truth.visible == Visibility::Partial {
+        REPORT_TOLERANCE_PX + 2.0 * led_radius_px
+    } else {
+        REPORT_TOLERANCE_PX
+    }
+}
+
+/// A robot has moved once it is this far from where it started (the static table's drift).
+const MOVED_PX: f64 = glint::track::statics::DRIFT_PX as f64;
+
+/// The single-robot bounds (tests/replay_accuracy.rs): streak middle, then current position.
+const MID_MEDIAN_MAX_PX: f64 = 0.2;
+const MID_P95_MAX_PX: f64 = 0.5;
+const POS_MEDIAN_MAX_PX: f64 = 0.5;
+const POS_P95_MAX_PX: f64 = 1.5;
+
+fn run(fleet: &Fleet) -> Vec<(FrameReport, Vec<Truth>)> {
+    let first = fleet.robot(0).unwrap();
+    let size = FrameSize::new(first.width_px(), first.height_px()).unwrap();
+    let tracker = TrackerConfig {
+        exposure_us: Some(first.exposure_us()),
+    };
+    let config = PipelineConfig {
+        tracker,
+        ..PipelineConfig::default()
+    };
+    let tracks = MultiTracker::new(fleet.robots(), tracker).unwrap();
+    let mut pipeline = Pipeline::several(size, config, tracks).unwrap();
+    let mut buffer = vec![0u8; first.frame_len_bytes()];
+    let frame_us = 1e6 / first.fps();
+    (0..first.frame_count())
+        .map(|i| {
+            let truths = fleet.render(i, &mut buffer).unwrap();
+            let frame = Frame::new_checked(&buffer, size, size.row_bytes()).unwrap();
+            let t_us = (i as f64 * frame_us) as u64;
+            let meta = FrameMeta {
+                index: i as u64,
+                sequence: i as u64,
+                dropped: 0,
+                timestamp_us: t_us,
+                monotonic_us: t_us,
+            };
+            (pipeline.process(&frame, meta), truths)
+        })
+        .collect()
+}
+
+fn quantile(values: &[f64], q: f64) -> f64 {
+    let mut sorted = values.to_vec();
+    sorted.sort_by(f64::total_cmp);
+    let rank = ((q * sorted.len() as f64).ceil() as usize).clamp(1, sorted.len());
+    sorted[rank - 1]
+}
+
+fn distance(p: (f32, f32), x: Option<f64>, y: Option<f64>) -> Option<f64> {
+    Some((f64::from(p.0) - x?).hypot(f64::from(p.1) - y?))
+}
+
+/// Scores a fleet preset's run; returns the number of merged track reports seen.
+fn check(name: &str) -> usize {
+    check_fleet(name, &Fleet::preset(name).expect("a fleet preset"))
+}
+
+/// Scores a run of `fleet`, labelled `name`; returns the number of merged track reports seen.
+fn check_fleet(name: &str, fleet: &Fleet) -> usize {
+    let runs = run(fleet);
+    let robots = fleet.robots();
+    let led_radius_px = fleet.robot(0).unwrap().led_radius_px();
+    let mut merged_reports = 0;
+    for k in 0..robots {
+        let start = runs[0].1[k].clone();
+        let moved_from = runs
+            .iter()
+            .position(|(_, t)| {
+                distance(
+                    (start.x_px.unwrap() as f32, start.y_px.unwrap() as f32),
+                    t[k].x_px,
+                    t[k].y_px,
+                )
+                .is_some_and(|d| d > MOVED_PX)
+            })
+            .expect("every robot moves");
+        let (mut visible, mut detected, mut switches) = (0, 0, 0);
+        let mut id = None;
+        let (mut mid_errors, mut pos_errors) = (Vec::new(), Vec::new());
+        for (i, (report, truths)) in runs.iter().enumerate().skip(moved_from + 1) {
+            let truth = &truths[k];
+            if truth.visible != Visibility::Visible {
+                continue;
+            }
+            visible += 1;
+            let near = report.tracks.iter().find(|t| {
+                t.estimate.is_some_and(|e| {
+                    distance(e.mid_px, truth.mid_x_px, truth.mid_y_px)
+                        .is_some_and(|d| d <= tolerance_px(led_radius_px, t.merged, truth))
+                })
+            });
+            let Some(track) = near else {
+                eprintln!("{name}: robot {k} frame {i}: not found");
+                continue;
+            };
+            detected += 1;
+            // A merged blob is both robots': its ids say nothing of which is where.
+            if track.merged {
+                continue;
+            }
+            if *id.get_or_insert(track.id) != track.id {
+                switches += 1;
+                eprintln!("{name}: robot {k} frame {i}: id {:?} → {}", id, track.id);
+                id = Some(track.id);
+            }
+            let e = track.estimate.unwrap();
+            mid_errors.push(distance(e.mid_px, truth.mid_x_px, truth.mid_y_px).unwrap());
+            pos_errors.push(distance(e.position_px, truth.x_px, truth.y_px).unwrap());
+        }
+        let share = detected as f64 / visible as f64;
+        let (mid_median, mid_p95) = (quantile(&mid_errors, 0.5), quantile(&mid_errors, 0.95));
+        let (pos_median, pos_p95) = (quantile(&pos_errors, 0.5), quantile(&pos_errors, 0.95));
+        eprintln!(
+            "{name}: robot {k}: found in {detected} of {visible} visible frames, {switches} id \
+             switches; middle error median {mid_median:.3} px, p95 {mid_p95:.3} px; position \
+             error median {pos_median:.3} px, p95 {pos_p95:.3} px"
+        );
+        assert!(
+            share >= MIN_DETECTED,
+            "{name}: robot {k} found in {share:.3}"
+        );
+        assert_eq!(switches, 0, "{name}: robot {k} changed ids");
+        assert!(
+            mid_median <= MID_MEDIAN_MAX_PX,
+            "{name}: robot {k} middle median"
+        );
+        assert!(mid_p95 <= MID_P95_MAX_PX, "{name}: robot {k} middle p95");
+        assert!(
+            pos_median <= POS_MEDIAN_MAX_PX,
+            "{name}: robot {k} position median"
+        );
+        assert!(pos_p95 <= POS_P95_MAX_PX, "{name}: robot {k} position p95");
+    }
+    // Every report is at a robot: no glare, no ghost.
+    for (i, (report, truths)) in runs.iter().enumerate() {
+        for t in &report.tracks {
+            let Some(e) = t.estimate else { continue };
+            merged_reports += usize::from(t.merged);
+            let at_a_robot = truths.iter().any(|truth| {
+                let tolerance = tolerance_px(led_radius_px, t.merged, truth);
+                distance(e.mid_px, truth.mid_x_px, truth.mid_y_px).is_some_and(|d| d <= tolerance)
+            });
+            assert!(
+                at_a_robot,
+                "{name}: frame {i}: track {} at {:?}",
+                t.id, e.mid_px
+            );
+        }
+        assert_eq!(report.tracks.len(), robots, "one track per robot");
+    }
+    merged_reports
+}
+
+#[test]
+fn crossing_paths_among_glare() {
+    check("fleet-crossing");
+}
+
+#[test]
+fn passing_through_each_other_is_merged_and_meeting_robots_keep_their_ids() {
+    let merged = check("fleet-meeting");
+    assert!(merged >= 2, "the head-on pair is merged while one blob");
+}
+
+#[test]
+fn leaving_the_view_and_an_occlusion() {
+    check("fleet-leave-return");
+}
+
+/// The crossing again across the LED's size and brightness, the exposure (streak length), the
+/// sensor's noise and tone curve, and the floor's seed: the same bounds at every point.
+#[test]
+fn crossing_over_a_sweep_of_leds_exposures_and_noise() {
+    let points = [
+        // (LED radius px, peak × clip, exposure µs, noise σ, gamma, seed)
+        (2.5, 8.0, 4_000, 0.01, 1.0, 11),
+        (5.5, 30.0, 16_000, 0.03, 2.2, 12),
+        (4.0, 12.0, 12_000, 0.02, 1.8, 13),
+    ];
+    for (radius_px, peak, exposure_us, noise_sigma, gamma, seed) in points {
+        let (mut config, trajectories) = Fleet::preset_config("fleet-crossing").unwrap();
+        let glow_per_radius = config.led.glow_radius_px / config.led.radius_px;
+        config.led.radius_px = radius_px;
+        config.led.glow_radius_px = glow_per_radius * radius_px;
+        config.led.peak = peak;
+        config.exposure_us = exposure_us;
+        config.camera.noise_sigma = noise_sigma;
+        config.camera.gamma = gamma;
+        config.seed = seed;
+        let label = format!("fleet-crossing r {radius_px} px, {exposure_us} µs, σ {noise_sigma}");
+        check_fleet(&label, &Fleet::new(&config, &trajectories).unwrap());
+    }
+}
+
+/// A short two-robot dump, written to a temporary file.
+fn two_robot_dump() -> (tempfile::TempDir, std::path::PathBuf, usize) {
+    use glint_tools::scene::{Point, Scene, Trajectory};
+    let mut base = Scene::preset_config("slow-line").unwrap();
+    base.frame_count = 12;
+    let line = |x: f64, vx: f64| Trajectory::Line {
+        start_px: Point::new(x, 240.0),
+        velocity_px_s: Point::new(vx, 30.0),
+    };
+    let fleet = Fleet::new(&base, &[line(200.0, 90.0), line(440.0, -90.0)]).unwrap();
+    let len = fleet.robot(0).unwrap().frame_len_bytes();
+    let mut bytes = vec![0u8; len * base.frame_count];
+    for (i, out) in bytes.chunks_exact_mut(len).enumerate() {
+        fleet.render(i, out).unwrap();
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("two.yuv");
+    std::fs::write(&path, bytes).unwrap();
+    (dir, path, base.frame_count)
+}
+
+fn glint(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_glint"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+#[test]
+fn json_lines_and_csv_carry_one_track_per_robot() {
+    let (_dir, path, frames) = two_robot_dump();
+    let input = path.to_str().unwrap();
+    let common = [
+        "track", "--input", input, "--size", "640x480", "--robots", "2",
+    ];
+    let out = glint(&[&common[..], &["--exposure-us", "8000"]].concat());
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let lines: Vec<serde_json::Value> = out
+        .stdout
+        .split(|&b| b == b'\n')
+        .filter(|l| !l.is_empty())
+        .map(|l| serde_json::from_slice(l).unwrap())
+        .collect();
+    assert_eq!(lines.len(), frames);
+    let last = lines.last().unwrap();
+    assert_eq!(last["found"], true);
+    assert!(last.get("x").is_none(), "positions are per track");
+    let tracks = last["tracks"].as_array().unwrap();
+    assert_eq!(tracks.len(), 2);
+    let mut ids: Vec<u64> = tracks.iter().map(|t| t["id"].as_u64().unwrap()).collect();
+    ids.sort_unstable();
+    assert_eq!(ids, [1, 2]);
+    for t in tracks {
+        assert_eq!(t["found"], true, "{t}");
+        assert_eq!(t["state"], "tracking");
+        assert_eq!(
+            (&t["merged"], &t["provisional"]),
+            (&false.into(), &true.into())
+        );
+        assert_eq!(t["id_source"], "continuity");
+        for key in ["x", "y", "mid_x", "mid_y", "vx", "vy"] {
+            assert!(t[key].is_f64(), "{key} in {t}");
+        }
+    }
+    // Both robots, one per track: one left of centre, one right.
+    let mut xs: Vec<f64> = tracks.iter().map(|t| t["x"].as_f64().unwrap()).collect();
+    xs.sort_by(f64::total_cmp);
+    assert!(xs[0] < 320.0 && xs[1] > 320.0, "{xs:?}");
+
+    let out = glint(&[&common[..], &["--format", "csv"]].concat());
+    assert!(out.status.success());
+    let text = String::from_utf8(out.stdout).unwrap();
+    let mut rows = text.lines();
+    let header: Vec<&str> = rows.next().unwrap().split(',').collect();
+    assert!(header.ends_with(&["id", "provisional", "id_source", "state", "merged"]));
+    let rows: Vec<Vec<&str>> = rows.map(|r| r.split(',').collect()).collect();
+    assert_eq!(rows.len(), 2 * frames, "one row per robot and frame");
+    assert!(rows.iter().all(|r| r.len() == header.len()));
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let last_frame: Vec<&Vec<&str>> = rows.iter().rev().take(2).collect();
+    assert!(last_frame.iter().all(|r| r[col("found")] == "true"));
+}
+
+#[test]
+fn bad_robot_counts_and_serial_ports_with_several_robots_are_refused() {
+    let (_dir, path, _) = two_robot_dump();
+    let input = path.to_str().unwrap();
+    let track = ["track", "--input", input, "--size", "640x480"];
+    for (extra, message) in [
+        (
+            &["--robots", "0"][..],
+            "--robots 0 is out of range: glint follows 1 to 16 robots",
+        ),
+        (
+            &["--robots", "17"][..],
+            "--robots 17 is out of range: glint follows 1 to 16 robots",
+        ),
+        (
+            &["--robots", "2", "--serial", "3=/dev/null"][..],
+            "--serial 3=/dev/null: glint follows 2 robot(s) (--robots), ids 1 to 2",
+        ),
+        (
+            &[
+                "--robots",
+                "2",
+                "--serial",
+                "1=/dev/null",
+                "--serial",
+                "1=/dev/zero",
+            ][..],
+            "robot 1 is given two serial ports (--serial 1=/dev/null and --serial 1=/dev/zero)",
+        ),
+        (
+            &["--robots", "2", "--serial", "/dev/null", "--mavlink"][..],
+            "--mavlink talks to one autopilot",
+        ),
+        (
+            &["--robots", "2", "--detector", "aruco", "--marker", "1"][..],
+            "--detector aruco follows one marker",
+        ),
+    ] {
+        let out = glint(&[&track[..], extra].concat());
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{extra:?}");
+        assert!(stderr.contains(message), "{extra:?}: {stderr}");
+        assert_eq!(stderr.lines().count(), 1, "one line: {stderr}");
+    }
+}
