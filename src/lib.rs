@@ -26,6 +26,7 @@
 pub mod budget;
 pub mod detect;
 pub mod frame;
+pub mod fuse;
 pub mod geometry;
 pub mod latency;
 pub mod monitor;
