@@ -19,7 +19,9 @@
 //!
 //! At a step, each camera's latest sighting of each robot counts if it found the robot with
 //! floor numbers (not stale) and is not older than one and a half of that camera's frame
-//! intervals (the shortest interval between its reports): a camera that has not reported
+//! intervals (the shortest interval between its reports; before its second report, the other
+//! cameras' shortest; until some camera has reported twice, only the step's own sightings
+//! count): a camera that has not reported
 //! again yet is moved on by its own floor velocity over its age. The sightings are averaged
 //! with the weights of [`weight`] (its uncertainty, its age, its distance to its picture's
 //! edge); the velocity likewise among those that know it. Where a view ends, the spot's weight
@@ -436,6 +438,9 @@ impl Fuser {
             age_share: f64,
             edge: f64,
         }
+        // A camera that has reported once has no interval of its own yet: the others' (cameras
+        // of one arena run at one rate) bounds its age until it has.
+        let any_interval_us = self.cameras.iter().filter_map(|c| c.interval_us).min();
         let mut parts = Vec::new();
         for (camera, state) in self.cameras.iter().enumerate() {
             let Some(Some(l)) = state.latest.get(r) else {
@@ -446,12 +451,10 @@ impl Fuser {
                 continue;
             };
             let age_us = t_us - l.t_us;
-            let age_share = match state.interval_us {
-                Some(i) if i > 0 => age_us as f64 / i as f64,
-                _ => 0.0,
-            };
+            let interval_us = state.interval_us.or(any_interval_us).filter(|&i| i > 0);
+            let age_share = interval_us.map_or(0.0, |i| age_us as f64 / i as f64);
             let fresh = age_us < STEP_TOLERANCE_US;
-            if !(fresh || (state.interval_us.is_some() && age_share <= MAX_AGE_INTERVALS)) {
+            if !(fresh || (interval_us.is_some() && age_share <= MAX_AGE_INTERVALS)) {
                 continue;
             }
             let age_s = age_us as f64 / MICROS_PER_S;
