@@ -317,6 +317,7 @@ fn two_cameras_in_step_make_one_track_and_one_camera_its_own() {
     let (ms, warned) = measured_offset_ms(&stderr);
     assert!(ms.abs() <= OFFSET_BOUND_MS && !warned, "{stderr}");
     check_hostile_input(&run);
+    check_serial_link(&run);
 }
 
 #[test]
@@ -426,4 +427,81 @@ fn check_hostile_input(run: &Run) {
         assert!(stderr.contains(&says), "{says:?} not in {stderr}");
     }
     assert_eq!(got, want, "the damaged input's track is the clean part's");
+}
+
+/// `glint fuse --serial` sends the fused track as glint's position packets: decoded from a
+/// real pty pair, every update is a fused step's position (in order; the link keeps the newest
+/// when the replay outruns it), and the last step's always arrives.
+fn check_serial_link(run: &Run) {
+    use std::io::Read;
+    use std::os::unix::io::AsRawFd;
+    use std::sync::atomic::{AtomicBool, Ordering};
+    use std::sync::Arc;
+
+    use glint_protocol::{Decoder, Message, Received, Status, Units};
+    use nix::fcntl::{fcntl, FcntlArg, FdFlag};
+    use serialport::{SerialPort, TTYPort};
+
+    let (mut master, slave) = TTYPort::pair().expect("pty pair");
+    for end in [&master, &slave] {
+        fcntl(end.as_raw_fd(), FcntlArg::F_SETFD(FdFlag::FD_CLOEXEC)).unwrap();
+    }
+    master
+        .set_timeout(std::time::Duration::from_millis(20))
+        .unwrap();
+    let port = slave.name().unwrap();
+    let stop = Arc::new(AtomicBool::new(false));
+    let reader = {
+        let stop = Arc::clone(&stop);
+        std::thread::spawn(move || {
+            let mut decoder = Decoder::new();
+            let mut positions = Vec::new();
+            let mut buf = [0u8; 256];
+            let mut quiet_since = std::time::Instant::now();
+            loop {
+                match master.read(&mut buf) {
+                    Ok(n) if n > 0 => {
+                        quiet_since = std::time::Instant::now();
+                        for outcome in decoder.feed(&buf[..n]) {
+                            if let Ok(Received::Message(Message::Position(p))) = outcome {
+                                positions.push(p);
+                            }
+                        }
+                    }
+                    _ => {
+                        if stop.load(Ordering::Relaxed)
+                            && quiet_since.elapsed() > std::time::Duration::from_millis(300)
+                        {
+                            return positions;
+                        }
+                    }
+                }
+            }
+        })
+    };
+    let (steps, stderr) = fuse(
+        &[("a", &run.a.jsonl), ("b", &run.b.jsonl)],
+        &["--size", &run.size, "--serial", &port, "--baud", "921600"],
+    );
+    stop.store(true, Ordering::Relaxed);
+    let positions = reader.join().unwrap();
+    drop(slave);
+    assert!(!positions.is_empty(), "no position update: {stderr}");
+    let mm = |track: &Value, key: &str| (num(track, key) * 10.0).round() as i64;
+    let mut next = 0;
+    for p in &positions {
+        assert_eq!(p.units, Units::Floor);
+        assert_eq!(p.status, Status::Found);
+        let at = steps[next..]
+            .iter()
+            .position(|s| {
+                let t = &s["tracks"][0];
+                t["found"] == true
+                    && (mm(t, "floor_x") - i64::from(p.x)).abs() <= 1
+                    && (mm(t, "floor_y") - i64::from(p.y)).abs() <= 1
+            })
+            .unwrap_or_else(|| panic!("{p:?} is no fused step's position after step {next}"));
+        next += at + 1;
+    }
+    assert_eq!(next, steps.len(), "the last step's position was sent");
 }

@@ -3,6 +3,8 @@
 //!
 //! One JSON line per fused time step goes to standard output; bad lines, reports out of
 //! order, cameras without floor numbers and the measured clock offsets go to standard error.
+//! With `--serial`, robot 1's fused track also goes to the robot as glint's position packets,
+//! through the serial sink `glint track` uses.
 
 use std::cell::RefCell;
 use std::collections::BTreeSet;
@@ -17,7 +19,14 @@ use glint::frame::FrameSize;
 use glint::fuse::feed::FileFeed;
 use glint::fuse::offset::WARN_OFFSET_US;
 use glint::fuse::output::write_step;
-use glint::fuse::{FuseConfig, Fuser, MAX_ROBOTS};
+use glint::fuse::{FuseConfig, FusedStep, FusedTrack, Fuser, MAX_ROBOTS};
+use glint::geometry::FloorUnit;
+use glint::sink::mavlink::estimate::metres_per_unit;
+use glint::sink::serial::{self, Located};
+use glint::sink::{SerialSink, Sink};
+use glint::source::clock::monotonic_now_us;
+use glint::source::FrameMeta;
+use glint_protocol::Units;
 
 use super::logger;
 
@@ -43,6 +52,51 @@ pub struct FuseArgs {
     /// is cut there). Without it every sighting counts by its uncertainty alone.
     #[arg(long, value_name = "WxH")]
     size: Option<FrameSize>,
+
+    /// Also send the fused track to the robot on this serial port, as glint's position packets
+    /// (board/protocol/SPEC.md), one update per fused step. Robot 1 only, until the packets
+    /// carry robot ids (issue 14): needs --robots 1.
+    #[arg(long, value_name = "PORT")]
+    serial: Option<String>,
+
+    /// Line rate of --serial, 8N1: 50 to 4000000 baud.
+    #[arg(long, default_value_t = serial::DEFAULT_BAUD, allow_negative_numbers = true,
+          value_parser = clap::value_parser!(u32).range(50..=4_000_000))]
+    baud: u32,
+}
+
+/// Robot 1's fused track to the serial link: its floor position and velocity in millimetres,
+/// stamped with the step's capture time (µs since the first step).
+fn send(link: &mut SerialSink, step: &FusedStep, index: u64, first_us: i64) {
+    let meta = FrameMeta {
+        index,
+        sequence: index,
+        dropped: 0,
+        timestamp_us: u64::try_from(step.t_us.saturating_sub(first_us)).unwrap_or(0),
+        // The step was read from a file or a network: its age counts from now.
+        monotonic_us: monotonic_now_us(),
+    };
+    // A line without `floor_unit` (glint's always name it) is taken as glint calibrate's cm.
+    let mm = 1000.0 * metres_per_unit(step.unit.unwrap_or(FloorUnit::Cm));
+    let located = step
+        .tracks
+        .first()
+        .and_then(|t| Some((t, t.floor?)))
+        .map(|(t, p)| Located {
+            units: Units::Floor,
+            position: ((p.x * mm) as f32, (p.y * mm) as f32),
+            velocity_per_s: t.velocity.map(|v| ((v.x * mm) as f32, (v.y * mm) as f32)),
+            velocity_method: None,
+            quality: quality(t),
+        });
+    link.send(&meta, located.as_ref());
+}
+
+/// The serial link's quality scale (85 found, +85 a head, +85 a velocity), for a fused track.
+fn quality(track: &FusedTrack) -> u8 {
+    const QUALITY_STEP: u8 = 85;
+    let steps = 1 + u8::from(track.head) + u8::from(track.velocity.is_some());
+    QUALITY_STEP.saturating_mul(steps)
 }
 
 /// A camera's name and file.
@@ -75,7 +129,18 @@ pub fn run(args: FuseArgs) -> Result<ExitCode> {
             bail!("two cameras are named {name:?}: name them with --input NAME=PATH");
         }
     }
+    if args.serial.is_some() && args.robots > 1 {
+        bail!(
+            "--serial sends one robot's track (its packets carry no robot id yet): use it with \
+             --robots 1"
+        );
+    }
     let mut feed = FileFeed::open(&paths)?;
+    let mut link = match &args.serial {
+        Some(port) => Some(SerialSink::open(port, args.baud)?),
+        None => None,
+    };
+    let mut first_us: Option<i64> = None;
     let config = FuseConfig {
         robots: args.robots,
         picture_px: args.size.map(|s| (s.width() as u32, s.height() as u32)),
@@ -88,8 +153,14 @@ pub fn run(args: FuseArgs) -> Result<ExitCode> {
     let mut bad_lines = vec![0u64; names.len()];
     let mut refused = vec![0u64; names.len()];
     let mut outside = false;
+    let mut fuser_steps = 0u64;
     {
-        let mut emit = |step: &glint::fuse::FusedStep| {
+        let mut emit = |step: &FusedStep| {
+            if let Some(link) = link.as_mut() {
+                let first = *first_us.get_or_insert(step.t_us);
+                send(link, step, fuser_steps, first);
+            }
+            fuser_steps += 1;
             let mut failed = write_error.borrow_mut();
             if failed.is_none() {
                 if let Err(e) = write_step(&mut out, step, &names) {
@@ -163,6 +234,10 @@ pub fn run(args: FuseArgs) -> Result<ExitCode> {
         return Err(e).context("cannot write the fused tracks");
     }
     out.flush().context("cannot write the fused tracks")?;
+    if let Some(mut link) = link {
+        // Lets the writer send what is pending, then logs the link's counts.
+        link.finish().context("serial link")?;
+    }
     summarise(&fuser, &names, &paths, &bad_lines, &refused);
     Ok(ExitCode::SUCCESS)
 }

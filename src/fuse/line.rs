@@ -10,7 +10,7 @@ use core::fmt;
 
 use serde_json::{Map, Value};
 
-use crate::geometry::Point;
+use crate::geometry::{FloorUnit, Point};
 
 /// Longest line accepted, bytes: a report with 64 tracks is under 32 kB.
 pub const MAX_LINE_BYTES: usize = 64 * 1024;
@@ -32,6 +32,8 @@ pub struct Sighting {
     pub head: bool,
     /// Floor position, floor units (cm with glint's calibrations).
     pub floor: Option<Point>,
+    /// The floor numbers' unit (`floor_unit`), when the line says.
+    pub unit: Option<FloorUnit>,
     /// Floor velocity, units/s.
     pub floor_velocity: Option<Point>,
     /// Picture velocity, px/s.
@@ -174,6 +176,14 @@ fn sighting(obj: &Map<String, Value>, id: u32) -> Result<Sighting, LineError> {
         mid_px: pair(obj, "mid_x", "mid_y")?,
         head,
         floor: pair(obj, "floor_x", "floor_y")?,
+        unit: match obj.get("floor_unit") {
+            None | Some(Value::Null) => None,
+            Some(Value::String(u)) => Some(
+                u.parse()
+                    .map_err(|_| field("floor_unit", "is not mm, cm, m or in"))?,
+            ),
+            Some(_) => return Err(field("floor_unit", "is not a unit's name")),
+        },
         floor_velocity: pair(obj, "floor_vx", "floor_vy")?,
         velocity_px_s: pair(obj, "vx", "vy")?,
         area_px: non_negative("area_px")?,
@@ -248,6 +258,7 @@ mod tests {
         assert_eq!(s.id, 1);
         assert!(s.found && s.head);
         assert_eq!(s.floor, Some(Point::new(12.345, -6.5)));
+        assert_eq!(s.unit, Some(FloorUnit::Cm));
         assert_eq!(s.floor_velocity, Some(Point::new(1.5, 0.25)));
         assert_eq!(s.position_px, Some(Point::new(10.5, 20.25)));
         assert_eq!(s.calib_residual_px, Some(0.25));
@@ -267,7 +278,11 @@ mod tests {
     #[test]
     fn hostile_lines_are_refused_naming_what_is_wrong() {
         let cut = &SINGLE[..SINGLE.len() / 2];
-        let cases: [(&str, &str); 9] = [
+        let cases: [(&str, &str); 10] = [
+            (
+                r#"{"t":1,"found":true,"x":1,"y":2,"floor_x":5,"floor_y":6,"floor_unit":"ft"}"#,
+                "`floor_unit`",
+            ),
             (cut, "cut short"),
             ("\u{1}\u{2}garbage", "not a JSON"),
             ("[1,2]", "not an object"),

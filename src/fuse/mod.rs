@@ -47,7 +47,7 @@ pub mod weight;
 use core::fmt;
 use std::collections::VecDeque;
 
-use crate::geometry::Point;
+use crate::geometry::{FloorUnit, Point};
 use line::{Report, Sighting};
 use offset::{ClockOffset, OffsetEstimator};
 
@@ -87,6 +87,8 @@ pub struct FusedTrack {
     pub velocity: Option<Point>,
     /// The cameras that contributed and their weights (summing to 1).
     pub cameras: Vec<(usize, f64)>,
+    /// Whether every contributing position was a streak's head (not only its middle).
+    pub head: bool,
 }
 
 /// One fused time step.
@@ -94,6 +96,8 @@ pub struct FusedTrack {
 pub struct FusedStep {
     /// Capture time on the shared clock, µs.
     pub t_us: i64,
+    /// The floor numbers' unit, once a report has named it.
+    pub unit: Option<FloorUnit>,
     /// Robots 1 to N, in order.
     pub tracks: Vec<FusedTrack>,
 }
@@ -108,6 +112,12 @@ pub enum PushError {
         /// This report's time and the previous one's, µs.
         t_us: i64,
         previous_us: i64,
+    },
+    /// Floor numbers in another unit than the cameras' so far.
+    Unit {
+        /// The report's unit and the others'.
+        unit: FloorUnit,
+        expected: FloorUnit,
     },
     /// Earlier than a step already written.
     Late {
@@ -128,6 +138,13 @@ impl fmt::Display for PushError {
                  of order, left out",
                 s(*t_us),
                 s(*previous_us)
+            ),
+            PushError::Unit { unit, expected } => write!(
+                f,
+                "floor numbers in {}, the other reports' in {}: calibrate every camera in one \
+                 unit; left out",
+                unit.name(),
+                expected.name()
             ),
             PushError::Late { t_us, step_us } => write!(
                 f,
@@ -155,6 +172,8 @@ pub struct FuseCounts {
     pub stale: u64,
     /// Sightings of ids above `robots`, left out.
     pub other_ids: u64,
+    /// Reports left out for floor numbers in another unit.
+    pub other_units: u64,
     /// Fused steps written.
     pub steps: u64,
 }
@@ -205,6 +224,8 @@ pub struct Fuser {
     last_step_us: Option<i64>,
     offsets: OffsetEstimator,
     counts: FuseCounts,
+    /// The floor unit, from the first report that named one.
+    unit: Option<FloorUnit>,
 }
 
 impl Fuser {
@@ -230,6 +251,7 @@ impl Fuser {
             last_step_us: None,
             offsets: OffsetEstimator::new(cameras.max(1)),
             counts: FuseCounts::default(),
+            unit: None,
         }
     }
 
@@ -254,6 +276,14 @@ impl Fuser {
         if let Some(e) = refused {
             self.counts.out_of_order += 1;
             return Err(e);
+        }
+        let mut units = report.sightings.iter().filter_map(|s| s.unit);
+        if let Some(unit) = units.next() {
+            let expected = *self.unit.get_or_insert(unit);
+            if let Some(unit) = core::iter::once(unit).chain(units).find(|&u| u != expected) {
+                self.counts.other_units += 1;
+                return Err(PushError::Unit { unit, expected });
+            }
         }
         let closes = self
             .pending
@@ -287,6 +317,11 @@ impl Fuser {
     /// The counts so far.
     pub fn counts(&self) -> FuseCounts {
         self.counts
+    }
+
+    /// The cameras' floor unit, once a report has named it.
+    pub fn unit(&self) -> Option<FloorUnit> {
+        self.unit
     }
 
     /// Whether camera `camera` reported found sightings without floor numbers.
@@ -423,7 +458,11 @@ impl Fuser {
             .collect();
         self.last_step_us = Some(t_us);
         self.counts.steps += 1;
-        emit(&FusedStep { t_us, tracks });
+        emit(&FusedStep {
+            t_us,
+            unit: self.unit,
+            tracks,
+        });
     }
 
     /// Robot `id` (1-based) at `t_us`.
@@ -434,6 +473,7 @@ impl Fuser {
             floor: Point,
             velocity: Option<Point>,
             sigma_px: f64,
+            head: bool,
             floor_per_px: Option<f64>,
             age_share: f64,
             edge: f64,
@@ -467,6 +507,7 @@ impl Fuser {
                 floor,
                 velocity: s.floor_velocity,
                 sigma_px: weight::sigma_px(s),
+                head: s.head,
                 floor_per_px: state.floor_per_px.get(r).copied().flatten(),
                 age_share,
                 edge: weight::edge_weight(s, self.config.picture_px),
@@ -479,6 +520,7 @@ impl Fuser {
                 floor: None,
                 velocity: None,
                 cameras: Vec::new(),
+                head: false,
             };
         }
         let scaled = parts.iter().all(|p| p.floor_per_px.is_some());
@@ -527,6 +569,7 @@ impl Fuser {
                 .filter(|(_, w)| **w > 0.0)
                 .map(|(p, w)| (p.camera, w / total))
                 .collect(),
+            head: parts.iter().all(|p| p.head),
         }
     }
 }

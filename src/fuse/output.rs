@@ -2,11 +2,13 @@
 //!
 //! ```json
 //! {"t":10.033333,"tracks":[{"id":1,"found":true,"floor_x":12.345,"floor_y":-70.000,
-//!  "floor_vx":60.000,"floor_vy":0.000,"cameras":["a","b"],"weights":[0.712,0.288]}]}
+//!  "floor_unit":"cm","floor_vx":60.000,"floor_vy":0.000,"cameras":["a","b"],
+//!  "weights":[0.712,0.288]}]}
 //! ```
 //!
 //! `t` is the step's capture time (s, the cameras' shared clock); per robot `id`, `found`, and
-//! when found the floor position (the cameras' floor units, cm with glint's calibrations), the
+//! when found the floor position and its unit (the cameras' `floor_unit`, cm with glint's
+//! calibrations), the
 //! floor velocity when known (units/s), and the cameras that contributed with their weights.
 //! Numbers are written as the cameras' own lines write them (3 decimals, `t` 6), so one camera
 //! fused alone gives back its own numbers.
@@ -25,6 +27,9 @@ pub fn write_step(out: &mut impl Write, step: &FusedStep, names: &[String]) -> i
         write!(out, "{{\"id\":{},\"found\":{}", track.id, track.found)?;
         if let Some(p) = track.floor {
             write!(out, ",\"floor_x\":{:.3},\"floor_y\":{:.3}", p.x, p.y)?;
+            if let Some(unit) = step.unit {
+                write!(out, ",\"floor_unit\":\"{}\"", unit.name())?;
+            }
         }
         if let Some(v) = track.velocity {
             write!(out, ",\"floor_vx\":{:.3},\"floor_vy\":{:.3}", v.x, v.y)?;

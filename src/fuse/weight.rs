@@ -88,6 +88,7 @@ mod tests {
             mid_px: Some(Point::new(x, 100.0)),
             head: true,
             floor: Some(Point::new(0.0, 0.0)),
+            unit: None,
             floor_velocity: None,
             velocity_px_s: None,
             area_px: Some(area),
