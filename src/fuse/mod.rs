@@ -573,3 +573,6 @@ impl Fuser {
         }
     }
 }
+
+#[cfg(test)]
+mod tests;
