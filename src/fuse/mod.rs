@@ -22,7 +22,8 @@
 //! intervals (the shortest interval between its reports; before its second report, the other
 //! cameras' shortest; until some camera has reported twice, only the step's own sightings
 //! count): a camera that has not reported
-//! again yet is moved on by its own floor velocity over its age. The sightings are averaged
+//! again yet is moved on over its age by its travel over its last frame interval (or, without
+//! one, its reported floor velocity). The sightings are averaged
 //! with the weights of [`weight`] (its uncertainty, its age, its distance to its picture's
 //! edge); the velocity likewise among those that know it. Where a view ends, the spot's weight
 //! falls to zero before the spot is cut, so the other camera has taken over by then: the
@@ -205,6 +206,25 @@ struct CameraState {
     floor_per_px: Vec<Option<f64>>,
     /// Found sightings without floor numbers seen.
     uncalibrated: bool,
+}
+
+impl CameraState {
+    /// Robot `r`'s velocity over this camera's last interval, when its sighting at `t_us` and
+    /// the one before are consecutive frames: what moves a sighting on by its age. A single
+    /// frame's reported velocity can be far off (a short streak read as a long one), and moved
+    /// on by half a frame such an outlier would be centimetres; the travel between two frames
+    /// cannot be.
+    fn travel_velocity(&self, r: usize, t_us: i64, interval_us: Option<i64>) -> Option<Point> {
+        let recent = self.recent.get(r)?;
+        let mut last_two = recent.iter().rev();
+        let (last, before) = (last_two.next()?, last_two.next()?);
+        let dt_us = last.t_us - before.t_us;
+        let consecutive = last.t_us == t_us
+            && dt_us > 0
+            && interval_us.is_some_and(|i| dt_us as f64 <= MAX_AGE_INTERVALS * i as f64);
+        consecutive
+            .then(|| Point::from((last.floor - before.floor) / (dt_us as f64 / MICROS_PER_S)))
+    }
 }
 
 /// The step being gathered.
@@ -498,7 +518,11 @@ impl Fuser {
                 continue;
             }
             let age_s = age_us as f64 / MICROS_PER_S;
-            let floor = match s.floor_velocity {
+            let floor = match (age_us > 0)
+                .then(|| state.travel_velocity(r, l.t_us, interval_us))
+                .flatten()
+                .or(s.floor_velocity)
+            {
                 Some(v) => floor + v.coords * age_s,
                 None => floor,
             };

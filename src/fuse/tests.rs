@@ -84,11 +84,12 @@ fn a_spot_cut_by_the_edge_gives_way_to_the_other_camera() {
 #[test]
 fn a_camera_between_its_frames_is_moved_on_by_its_velocity() {
     // Camera a reports every 20 ms at 100 cm/s; b reports 10 ms after a's frames.
-    let moving = |t: f64, x: f64| {
+    let moving_at = |t: f64, x: f64, vx: f64| {
         format!(
-            r#"{{"t":{t},"found":true,"x":300,"y":240,"floor_x":{x},"floor_y":0,"floor_unit":"cm","floor_vx":100,"floor_vy":0,"area_px":50,"len_px":0}}"#
+            r#"{{"t":{t},"found":true,"x":300,"y":240,"floor_x":{x},"floor_y":0,"floor_unit":"cm","floor_vx":{vx},"floor_vy":0,"area_px":50,"len_px":0}}"#
         )
     };
+    let moving = |t: f64, x: f64| moving_at(t, x, 100.0);
     let mut f = fuser(2, 1);
     let steps = run(
         &mut f,
@@ -106,6 +107,19 @@ fn a_camera_between_its_frames_is_moved_on_by_its_velocity() {
     // Half a frame old, a counts 1 / (1 + 0.5²) of b.
     let (wa, wb) = (track.cameras[0].1, track.cameras[1].1);
     assert!((wa / wb - 0.8).abs() < 1e-9, "{track:?}");
+    // A reported velocity far off (a short streak read as a long one) does not throw the
+    // sighting: it is moved on by its travel over the last frame.
+    let mut f = fuser(2, 1);
+    let steps = run(
+        &mut f,
+        &[
+            (0, &moving(0.00, 0.0)),
+            (0, &moving_at(0.02, 2.0, 500.0)),
+            (1, &seen(0.03, 300.0, 3.0, 0.0)),
+        ],
+    );
+    let track = &steps.last().unwrap().tracks[0];
+    assert!((track.floor.unwrap().x - 3.0).abs() < 1e-9, "{track:?}");
     // A sighting older than one and a half frames no longer counts.
     let mut f = fuser(2, 1);
     let steps = run(

@@ -387,7 +387,8 @@ fn marker_map(xs: [f64; 2], look_ahead_cm: f64, row_widths_cm: [f64; 2]) -> Vec<
                 dictionary: Dictionary::Aruco6x6_250,
                 id: 1 + markers.len() as u16,
                 size_cm: MARKER_CM,
-                origin_cm: FloorPoint::new(x - 0.5 * MARKER_CM, y_cm),
+                // Whole centimetres, as one would lay a map out with a tape measure.
+                origin_cm: FloorPoint::new((x - 0.5 * MARKER_CM).round(), y_cm.round()),
                 rotation_deg: 0.0,
             });
         }
