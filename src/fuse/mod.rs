@@ -8,6 +8,13 @@
 //! come from is not its business: [`feed::FileFeed`] reads recorded JSON lines and hands them
 //! over in capture-time order; a network subscription hands them over as they arrive.
 //!
+//! A live feed calls [`line::parse`] with the transport's capture time (or `None`: the line's
+//! own `t`) and [`Fuser::push`] for each message as it arrives, or [`Fuser::push_line`] for
+//! both; [`Fuser::finish`] at the end.
+//!
+//! `glint fuse` runs beside the cameras, not on their per-frame path: it allocates per step
+//! (a step's tracks, the parsed line), which the cameras' tracking threads never do.
+//!
 //! # Time steps
 //!
 //! Capture times are on one clock shared by the cameras (NTP or PTP keeps their clocks
@@ -159,6 +166,26 @@ impl fmt::Display for PushError {
 }
 
 impl std::error::Error for PushError {}
+
+/// Why a message (a camera's line) was not used.
+#[derive(Debug, Clone, PartialEq)]
+pub enum MessageError {
+    /// The line is not a report.
+    Line(line::LineError),
+    /// The report was refused.
+    Push(PushError),
+}
+
+impl fmt::Display for MessageError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            MessageError::Line(e) => write!(f, "{e}"),
+            MessageError::Push(e) => write!(f, "{e}"),
+        }
+    }
+}
+
+impl std::error::Error for MessageError {}
 
 /// What the fuser did with the reports, for the summary.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -322,6 +349,19 @@ impl Fuser {
         pending.t_us = pending.t_us.max(t_us);
         pending.members.push(camera);
         Ok(())
+    }
+
+    /// Parses one camera's report line (its capture time `capture_us` when the transport gave
+    /// one, else the line's `t`) and takes it, as [`Fuser::push`].
+    pub fn push_line(
+        &mut self,
+        camera: usize,
+        capture_us: Option<i64>,
+        line: &str,
+        emit: &mut dyn FnMut(&FusedStep),
+    ) -> Result<(), MessageError> {
+        let report = line::parse(line, capture_us).map_err(MessageError::Line)?;
+        self.push(camera, &report, emit).map_err(MessageError::Push)
     }
 
     /// Writes the step still being gathered (at the end of the input).

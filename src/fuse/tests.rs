@@ -172,3 +172,25 @@ fn reports_out_of_order_or_in_another_unit_are_refused() {
         Err(PushError::UnknownCamera(7))
     ));
 }
+
+#[test]
+fn a_message_is_parsed_with_the_transports_capture_time() {
+    let mut f = fuser(1, 1);
+    let mut steps = Vec::new();
+    let line = seen(99.0, 300.0, 1.0, 2.0);
+    f.push_line(0, Some(5_000), &line, &mut |s| steps.push(s.clone()))
+        .unwrap();
+    let e = f.push_line(0, None, "{\"t\":1,", &mut |_| {}).unwrap_err();
+    assert!(matches!(e, MessageError::Line(_)), "{e}");
+    let e = f.push_line(0, Some(4_000), &line, &mut |_| {}).unwrap_err();
+    assert!(
+        matches!(e, MessageError::Push(PushError::BackInTime { .. })),
+        "{e}"
+    );
+    f.finish(&mut |s| steps.push(s.clone()));
+    assert_eq!(steps.len(), 1);
+    assert_eq!(
+        steps[0].t_us, 5_000,
+        "the transport's time, not the line's 99 s"
+    );
+}
