@@ -8,6 +8,7 @@
 use core::fmt;
 use std::fs::File;
 use std::io::{self, BufRead, BufReader};
+use std::os::unix::fs::FileTypeExt;
 use std::path::{Path, PathBuf};
 
 use super::line::{self, LineError, Report, MAX_LINE_BYTES};
@@ -19,6 +20,8 @@ pub enum FeedError {
     Open { path: PathBuf, source: io::Error },
     /// Reading a file failed.
     Read { path: PathBuf, source: io::Error },
+    /// A device or a directory, not a file of report lines.
+    NotLines(PathBuf),
 }
 
 impl fmt::Display for FeedError {
@@ -30,6 +33,11 @@ impl fmt::Display for FeedError {
             FeedError::Read { path, source } => {
                 write!(f, "cannot read {}: {source}", path.display())
             }
+            FeedError::NotLines(path) => write!(
+                f,
+                "{} is a device or a directory, not a file of report lines",
+                path.display()
+            ),
         }
     }
 }
@@ -74,6 +82,12 @@ impl FileFeed {
                     path: path.clone(),
                     source,
                 })?;
+                // A device never ends (/dev/zero would be read for ever); a FIFO is a stream
+                // of lines like a file and is taken.
+                let kind = file.metadata().map(|m| m.file_type());
+                if kind.is_ok_and(|k| k.is_char_device() || k.is_block_device() || k.is_dir()) {
+                    return Err(FeedError::NotLines(path.clone()));
+                }
                 Ok(Source {
                     path: path.clone(),
                     reader: Box::new(BufReader::new(file)),
