@@ -30,6 +30,7 @@
 pub mod budget;
 pub mod detect;
 pub mod frame;
+pub mod fuse;
 pub mod geometry;
 pub mod identify;
 pub mod latency;

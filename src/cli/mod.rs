@@ -6,6 +6,7 @@ mod calibrate;
 mod camera;
 #[cfg(feature = "v4l2")]
 mod devices;
+mod fuse;
 mod input;
 mod latency;
 mod logger;
@@ -58,6 +59,9 @@ enum Command {
     Latency(latency::LatencyArgs),
     /// Calibrate screen to floor from ArUco markers at known floor positions in a dump.
     Calibrate(calibrate::CalibrateArgs),
+    /// Merge several cameras' reports into one track per robot: weighted where views overlap,
+    /// handed over where one ends, one JSON line per fused time step.
+    Fuse(fuse::FuseArgs),
     /// List the V4L2 cameras with their formats, sizes, frame intervals and controls.
     #[cfg(feature = "v4l2")]
     Devices,
@@ -117,6 +121,7 @@ pub fn main() -> ExitCode {
         Command::Run(args) => run::run(args),
         Command::Latency(args) => latency::run(args),
         Command::Calibrate(args) => calibrate::run(args),
+        Command::Fuse(args) => fuse::run(args),
         #[cfg(feature = "v4l2")]
         Command::Devices => devices::run(),
         #[cfg(feature = "v4l2")]

@@ -13,8 +13,8 @@ use std::time::Instant;
 use anyhow::{bail, Context, Result};
 use clap::Parser;
 use glint_tools::scene::{
-    write_truth_csv, Fleet, Knock, Range, Scene, SceneConfig, Spot, SweepPoint, Trajectory, Truth,
-    Visibility,
+    write_truth_csv, Arena, ArenaConfig, Fleet, Knock, Range, Scene, SceneConfig, Spot, SweepPoint,
+    Trajectory, Truth, Visibility,
 };
 
 /// Render a synthetic glint scene with ground truth.
@@ -25,8 +25,24 @@ pub(crate) struct Args {
     #[arg(long)]
     list: bool,
     /// Preset name (see --list).
-    #[arg(long, required_unless_present_any = ["list", "sweep"])]
+    #[arg(long, required_unless_present_any = ["list", "sweep", "arena"])]
     scene: Option<String>,
+    /// Render one arena through two cameras a third of a view apart (`glint fuse`'s scene):
+    /// NAME-a.yuv and NAME-b.yuv with sidecars carrying each camera's capture times.
+    #[arg(long, conflicts_with_all = ["scene", "sweep"])]
+    arena: bool,
+    /// With --arena: camera b's frames end this long after camera a's, ms.
+    #[arg(long, value_name = "MS", default_value_t = 0.0, requires = "arena")]
+    phase_ms: f64,
+    /// With --arena: camera b's clock reads this much more than camera a's, ms.
+    #[arg(
+        long,
+        value_name = "MS",
+        default_value_t = 0.0,
+        requires = "arena",
+        allow_negative_numbers = true
+    )]
+    clock_offset_ms: f64,
     /// Render point N of the accuracy sweep instead of a preset (named sweep-N).
     #[arg(long, value_name = "N", conflicts_with = "scene")]
     sweep: Option<usize>,
@@ -135,6 +151,9 @@ fn run(args: Args) -> Result<()> {
     let Some(out_dir) = args.out_dir.clone() else {
         bail!("--out-dir is required (or --list)");
     };
+    if args.arena {
+        return render_arena(&args, &out_dir);
+    }
     if let Some((config, trajectories)) = args.scene.as_deref().and_then(Fleet::preset_config) {
         return write_fleet(&args, config, &trajectories, &out_dir);
     }
@@ -366,4 +385,80 @@ fn write_dump(scene: &Scene, path: &PathBuf) -> Result<Vec<Truth>> {
     out.flush()
         .with_context(|| format!("cannot write {}", path.display()))?;
     Ok(truths)
+}
+
+/// `--arena`: both cameras' dumps with their sidecars, the floor truth at every capture time,
+/// and the commands that calibrate, track and fuse them.
+fn render_arena(args: &Args, out_dir: &std::path::Path) -> Result<()> {
+    let standard = ArenaConfig::standard();
+    let config = ArenaConfig {
+        frame_count: args.frames.unwrap_or(standard.frame_count),
+        seed: args.seed.unwrap_or(standard.seed),
+        led_height_cm: args.led_height_cm.unwrap_or(standard.led_height_cm),
+        phase_s: args.phase_ms * 1e-3,
+        clock_offset_us: (args.clock_offset_ms * 1e3).round() as i64,
+        ..standard
+    };
+    let arena = Arena::new(config).context("the arena")?;
+    std::fs::create_dir_all(out_dir)
+        .with_context(|| format!("cannot create {}", out_dir.display()))?;
+    let mut truth = String::from("camera,frame,t_us,floor_x_cm,floor_y_cm\n");
+    let mut commands = Vec::new();
+    for cam in &arena.cameras {
+        let dump = cam
+            .write_dump(out_dir)
+            .with_context(|| format!("cannot write {}'s dump", cam.name))?;
+        for frame in 0..cam.scene.frame_count() {
+            let p = arena.floor_truth_cm(cam.true_time_s(frame));
+            truth.push_str(&format!(
+                "{},{frame},{},{:?},{:?}\n",
+                cam.name,
+                cam.capture_time_us(frame),
+                p.x,
+                p.y
+            ));
+        }
+        let size = format!("{}x{}", cam.scene.width_px(), cam.scene.height_px());
+        let markers: Vec<String> = cam
+            .marker_args()
+            .iter()
+            .map(|m| format!("--marker {m}"))
+            .collect();
+        let calib = out_dir.join(format!("{}.toml", cam.name));
+        commands.push(format!(
+            "glint calibrate --input {} --size {size} --lens ideal {} --out {}",
+            dump.display(),
+            markers.join(" "),
+            calib.display()
+        ));
+        commands.push(format!(
+            "glint track --input {} --size {size} --exposure-us {} --calib {} --led-height-cm {} > {}",
+            dump.display(),
+            cam.scene.exposure_us(),
+            calib.display(),
+            arena.config.led_height_cm,
+            out_dir.join(format!("{}.jsonl", cam.name)).display()
+        ));
+        println!("wrote {} and its sidecar", dump.display());
+    }
+    let truth_path = out_dir.join(format!("{}.floor.csv", arena.config.name));
+    std::fs::write(&truth_path, truth)
+        .with_context(|| format!("cannot write {}", truth_path.display()))?;
+    println!(
+        "wrote {} (the floor point under the LED at each capture time, cm)",
+        truth_path.display()
+    );
+    let [a, b] = &arena.cameras;
+    commands.push(format!(
+        "glint fuse --input {} --input {} --size {}x{}",
+        out_dir.join(format!("{}.jsonl", a.name)).display(),
+        out_dir.join(format!("{}.jsonl", b.name)).display(),
+        a.scene.width_px(),
+        a.scene.height_px()
+    ));
+    println!("then:");
+    for c in commands {
+        println!("  {c}");
+    }
+    Ok(())
 }

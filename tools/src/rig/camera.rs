@@ -4,7 +4,7 @@
 //! end of that frame's exposure (a straight streak between them: over a 4 ms exposure the
 //! robot's arc departs from its chord by micrometres).
 
-use glint::geometry::aruco::Dictionary;
+use glint::detect::aruco::Dictionary;
 use glint::geometry::Point as FloorPoint;
 
 use crate::markers::{Camera as MarkerCamera, PlacedMarker};

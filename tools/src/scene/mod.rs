@@ -14,6 +14,7 @@
 //!
 //! This module does not use glint: glint's own tests render their scenes with it.
 
+mod arena;
 mod camera;
 mod distractor;
 mod fleet;
@@ -29,6 +30,7 @@ mod view;
 
 use std::fmt;
 
+pub use arena::{Arena, ArenaCamera, ArenaConfig, ARENA_EPOCH_US};
 pub use camera::{Camera, Range};
 pub use distractor::{Companion, StaticLight};
 pub use fleet::Fleet;
