@@ -14,11 +14,12 @@ pub mod threshold;
 pub mod tips;
 
 use bgdiff::{Background, BackgroundError};
-use bitimage::BitImage;
+use bitimage::{BitImage, Window};
 use blobs::{Blob, Labeler, Overflow};
 use morph::Kernel;
 use skeleton::SkeletonMethod;
 use streak::{Streak, StreakModel, StreakScratch};
+use threshold::static_map::StaticMap;
 use threshold::{blob_level, Levels, Threshold, AUTO_MARGIN_LUMA};
 
 use crate::frame::{Frame, FrameSize};
@@ -33,6 +34,11 @@ pub const BLINDED_FRACTION: f32 = 0.25;
 
 /// Blobs larger than this fraction of the frame are glare, not an LED.
 pub const MAX_BLOB_FRACTION: f32 = 0.02;
+
+/// The static map does not learn within this many pixels of the last analysed blob (the
+/// tracked LED) beyond its own size: the LED moves by at most about its streak's length
+/// between frames, and a robot parked in view must never be learned as a window.
+pub const KEEP_OUT_MARGIN_PX: usize = 24;
 
 /// Settings of the detection stage.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -110,6 +116,10 @@ pub struct Detector {
     labeled: bool,
     /// The background model, for [`MaskMethod::BackgroundDifference`].
     background: Option<Background>,
+    /// The static bright pixels learned by the automatic threshold.
+    statics: StaticMap,
+    /// Around the blob analysed in the last frame (the LED): not learned as static.
+    keep_out: Option<Window>,
 }
 
 impl Detector {
@@ -129,6 +139,8 @@ impl Detector {
             max_area_px: (size.pixels() as f32 * MAX_BLOB_FRACTION) as u32,
             labeled: false,
             background,
+            statics: StaticMap::new(size.width(), size.height()),
+            keep_out: None,
         })
     }
 
@@ -219,12 +231,21 @@ impl Detector {
     /// The automatic threshold, blob by blob: a low first cut, its blobs, and each blob cut
     /// again at its own top level (see [`threshold::blob_level`]). When the first cut is too
     /// busy for the blob tables, one level for the whole frame instead.
+    ///
+    /// Static bright pixels (see [`threshold::static_map`]) are learned from the first cut
+    /// and taken out of it before any blob is found, so they set no level and are never
+    /// candidates.
     fn cut_auto(&mut self, frame: &Frame<'_>) -> (Levels, usize) {
         let (top_luma, count) = threshold::first_cut(frame, &mut self.mask);
         let mut levels = Levels {
             top_luma,
             threshold_luma: None,
         };
+        let keep_out = self.keep_out.take();
+        if frame.size() == self.size {
+            self.statics.observe(&self.mask, keep_out);
+        }
+        let count = count.saturating_sub(self.statics.clear_static(&mut self.mask));
         if count == 0 || frame.size() != self.size {
             self.mask.clear_all();
             return (levels, 0);
@@ -295,6 +316,12 @@ impl Detector {
             return None;
         }
         let blob = *self.labeler.blobs().get(index)?;
+        let b = blob.bbox;
+        let margin_px = b.width_px().max(b.height_px()) + KEEP_OUT_MARGIN_PX;
+        self.keep_out = Some(
+            self.mask
+                .window_around(b.x_min_px, b.y_min_px, b.x_max_px, b.y_max_px, margin_px),
+        );
         // Each blob was cut at its own level (automatic threshold), and a difference mask has
         // no saturation level at all: the blob's brightest pixel stands in for it, so rim
         // weights and tip ramps work as on a saturated blob.
@@ -325,5 +352,10 @@ impl Detector {
     /// The blobs of the last frame.
     pub fn blobs(&self) -> &[Blob] {
         self.labeler.blobs()
+    }
+
+    /// The pixels learned as static bright things (automatic threshold only).
+    pub fn static_pixels(&self) -> &BitImage {
+        self.statics.flag()
     }
 }
