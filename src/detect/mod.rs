@@ -40,6 +40,9 @@ pub const MAX_BLOB_FRACTION: f32 = 0.02;
 /// between frames, and a robot parked in view must never be learned as a window.
 pub const KEEP_OUT_MARGIN_PX: usize = 24;
 
+/// The frame interval assumed by [`Detector::segment`], which is given no frame times.
+pub const NOMINAL_FRAME_US: u64 = 33_333;
+
 /// Settings of the detection stage.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DetectorConfig {
@@ -120,6 +123,10 @@ pub struct Detector {
     statics: StaticMap,
     /// Around the blob analysed in the last frame (the LED): not learned as static.
     keep_out: Option<Window>,
+    /// Frames segmented so far, for a clock when the caller gives none.
+    frames_segmented: u64,
+    /// The time of the frame being segmented.
+    t_us: u64,
 }
 
 impl Detector {
@@ -141,6 +148,8 @@ impl Detector {
             background,
             statics: StaticMap::new(size.width(), size.height()),
             keep_out: None,
+            frames_segmented: 0,
+            t_us: 0,
         })
     }
 
@@ -167,8 +176,18 @@ impl Detector {
     /// (a mismatched frame is simply found empty). `best` is left empty: the caller picks a
     /// candidate (see [`Detector::candidates`]) and analyses it with [`Detector::analyze`].
     pub fn segment(&mut self, frame: &Frame<'_>) -> Detection {
+        let t_us = self.frames_segmented.saturating_mul(NOMINAL_FRAME_US);
+        self.segment_at(frame, t_us)
+    }
+
+    /// [`Detector::segment`] for the frame taken at `t_us`: what the static map learns is
+    /// counted in frame time (see [`threshold::static_map`]).
+    pub fn segment_at(&mut self, frame: &Frame<'_>, t_us: u64) -> Detection {
+        self.frames_segmented += 1;
+        self.t_us = t_us;
         self.streak.reset();
         let mut learning = false;
+        let mut glare_px = 0;
         let (levels, mut mask_px) = match (&mut self.background, self.config.method) {
             (Some(background), MaskMethod::BackgroundDifference { diff_luma, .. }) => {
                 learning = !background.is_ready();
@@ -194,7 +213,11 @@ impl Detector {
                     )
                 }
             }
-            (_, _) if self.config.threshold == Threshold::Auto => self.cut_auto(frame),
+            (_, _) if self.config.threshold == Threshold::Auto => {
+                let (levels, count, glare) = self.cut_auto(frame);
+                glare_px = glare;
+                (levels, count)
+            }
             _ => threshold::apply(frame, self.config.threshold, &mut self.mask),
         };
         if self.config.erosions > 0 && mask_px > 0 {
@@ -213,7 +236,7 @@ impl Detector {
             mask_px,
             blob_count: 0,
             overflow: Overflow::default(),
-            blinded: mask_px as f32 > self.size.pixels() as f32 * BLINDED_FRACTION,
+            blinded: (mask_px + glare_px) as f32 > self.size.pixels() as f32 * BLINDED_FRACTION,
             learning,
             best: None,
         };
@@ -235,7 +258,10 @@ impl Detector {
     /// Static bright pixels (see [`threshold::static_map`]) are learned from the first cut
     /// and taken out of it before any blob is found, so they set no level and are never
     /// candidates.
-    fn cut_auto(&mut self, frame: &Frame<'_>) -> (Levels, usize) {
+    ///
+    /// Returns the levels, the pixels left in the mask, and the pixels of glare dropped as
+    /// too large to be an LED.
+    fn cut_auto(&mut self, frame: &Frame<'_>) -> (Levels, usize, usize) {
         let (top_luma, count) = threshold::first_cut(frame, &mut self.mask);
         let mut levels = Levels {
             top_luma,
@@ -243,23 +269,30 @@ impl Detector {
         };
         let keep_out = self.keep_out.take();
         if frame.size() == self.size {
-            self.statics.observe(&self.mask, keep_out);
+            self.statics.observe(&self.mask, keep_out, self.t_us);
         }
         let count = count.saturating_sub(self.statics.clear_static(&mut self.mask));
         if count == 0 || frame.size() != self.size {
             self.mask.clear_all();
-            return (levels, 0);
+            return (levels, 0, 0);
         }
         self.labeler.label(&self.mask);
         match blob_level::cut_each_blob(
             frame,
             &self.labeler,
             self.config.min_area_px,
+            self.max_area_px,
             &mut self.mask,
         ) {
             Some(cut) => {
                 levels.threshold_luma = cut.brightest_level_luma;
-                (levels, cut.count)
+                (levels, cut.count, cut.glare_px)
+            }
+            // Too busy to cut blob by blob: one level for the frame, and only for a frame
+            // with something clipped in it.
+            None if top_luma < threshold::MIN_CLIP_LUMA => {
+                self.mask.clear_all();
+                (levels, 0, 0)
             }
             None => {
                 let level = top_luma.saturating_sub(AUTO_MARGIN_LUMA);
@@ -267,6 +300,7 @@ impl Detector {
                 (
                     levels,
                     threshold::recut_rows(frame, level, &mut self.mask, count),
+                    0,
                 )
             }
         }

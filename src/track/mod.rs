@@ -9,9 +9,10 @@
 //! - A tracked LED is the candidate nearest its prediction inside the gate, unless that
 //!   candidate has stood still since it appeared. A tracked LED that stops stays tracked (it
 //!   is never entered among the distractors). Once its velocity is known, a tracked LED lost
-//!   for a frame is not replaced by anything outside the gate, not even by the one bright
-//!   thing left in view (another LED of the same robot): the frame reads `found: false` until
-//!   it is back in the gate or the track expires and acquisition starts over.
+//!   for a frame is not replaced by one of several things outside the gate (other LEDs of the
+//!   same robot): the frame reads `found: false` until it is back in the gate or the track
+//!   expires. The one thing in view is taken back (the LED turned sharply, or came back from
+//!   behind an obstacle), so a robot's other LED alone in view can still take the track.
 //! - Acquisition takes only what moved: a blob that appeared where nothing stood in the last
 //!   frame while something of that frame went away, or one that crept from where it first
 //!   appeared. Among several that moved (several LEDs on one robot), the largest. However
@@ -25,7 +26,10 @@
 //! - A track taken that way is tentative until it moves: if it stands still for the two
 //!   frames after it is withdrawn (the frame is `ambiguous`), so that a lamp switched on or a
 //!   glare bar alone in the first frame is reported at most in the frame it appeared in and
-//!   the next (a streak that reverses between two frames covers the same pixels), never after. A track that moved is proven; once proven, an LED that stops stays tracked.
+//!   the next (a streak that reverses between two frames covers the same pixels), never
+//!   after. A track that moved is proven; once proven, an LED that stops stays tracked.
+//! - A track acquired because it moved starts from where it came from (the nearest blob of
+//!   the frame before that left its place): its first frame has a head and a velocity.
 //!
 //! - The streak's tips are where the LED was at the start and the end of the exposure. The
 //!   head is the tip farther from the previous position: after a straight move the far end is
@@ -174,6 +178,13 @@ pub struct Tracker {
     acquired_frame: u64,
     /// Whether any frame was chosen in yet: in the first one nothing can have appeared.
     seen_a_frame: bool,
+    /// The time of the last frame chosen in.
+    last_t_us: u64,
+    /// When the LED was just acquired because it moved: where it most likely was in the
+    /// frame before, and that frame's time. The first frame of the track then has a head
+    /// and a velocity, so that the second does not predict it standing still and take
+    /// another LED of the same robot that is now nearer its old place.
+    came_from: Option<Sample>,
 }
 
 /// How the chosen blob came to be the LED.
@@ -229,6 +240,22 @@ impl Tracker {
             .clone()
             .find(|&(index, _)| choice == Choice::Blob(index))
             .map(|(_, b)| b.mass_centre_px);
+        self.came_from = match (acquired, chosen) {
+            (Acquired::Moving, Some(at)) => self.statics.came_from(at, frame_index).map(|p| {
+                let estimate = Estimate {
+                    position_px: p,
+                    position_method: PositionMethod::Mid,
+                    mid_px: p,
+                    velocity_px_s: None,
+                };
+                Sample {
+                    t_us: self.last_t_us,
+                    estimate,
+                }
+            }),
+            _ => None,
+        };
+        self.last_t_us = t_us;
         match (acquired, chosen) {
             (Acquired::Alone, Some(at)) => {
                 self.tentative = true;
@@ -323,15 +350,18 @@ impl Tracker {
                 }
                 return (Choice::Blob(index), Acquired::Tracked);
             }
-            // A track whose motion is known predicts well: nothing outside its gate is taken
-            // (another LED of the same robot, a reflection), even alone in view, until the
-            // track expires.
+            // A track whose motion is known predicts well: of several things outside its
+            // gate none is taken (another LED of the same robot, a reflection), while the one
+            // thing in view is the LED back from behind an obstacle, or turned sharply (a
+            // reversal between frames, with a frame dropped, lands outside the gate).
             let has_velocity = self
                 .history
                 .recent()
                 .is_some_and(|s| s.estimate.velocity_px_s.is_some());
             if has_velocity {
-                return (Choice::Nothing, Acquired::Tracked);
+                return lone.map_or((Choice::Nothing, Acquired::Tracked), |index| {
+                    (Choice::Blob(index), Acquired::Tracked)
+                });
             }
         }
         if let Some(mover) = largest_mover {
@@ -357,7 +387,8 @@ impl Tracker {
             .history
             .recent()
             .copied()
-            .filter(|_| self.previous_found);
+            .filter(|_| self.previous_found)
+            .or(self.came_from.take());
         let mid_px = streak.mid_px;
         let head = streak.path.and_then(|path| {
             let before = previous?.estimate.position_px;

@@ -9,15 +9,16 @@
 //!
 //! Each pixel holds a 4-bit saturating counter, bit-sliced into four bit planes (bit `k` of 64
 //! pixels' counters in one `u64`), so that an update is a few word operations per 64 pixels.
-//! Over each period of [`UPDATE_EVERY_FRAMES`] frames the bright pixels of every frame are
+//! Over each period of [`UPDATE_PERIOD_US`] the bright pixels of every frame are
 //! OR-ed together (a speck that flickers is bright in nearly every period); at the period's end
 //! every counter steps up where the pixel was bright and down where it was not. A pixel
 //! becomes static at [`LEARN_AT_COUNT`] and stops being static at [`FORGET_AT_COUNT`], so a
 //! pixel at the edge of a window is not forever switching.
 //!
 //! The time constant: a pixel bright all the time is static after
-//! `LEARN_AT_COUNT × UPDATE_EVERY_FRAMES` = 96 frames (3.2 s at 30 fps), and a static pixel
-//! gone dark is released after as long. Slow, because whatever stands that long is learned:
+//! `LEARN_AT_COUNT × UPDATE_PERIOD_US` = 3.2 s (96 frames at 30 fps), and a static pixel gone
+//! dark is released after as long. It is counted in frame time, not frames: at 1000 fps a
+//! count of frames would learn a robot at rest in a tenth of a second. Slow, because whatever stands that long is learned:
 //! the LED of a robot parked before it was ever seen moving would be erased, and a robot that
 //! waits a few seconds between moves must not be. The tracked LED itself is never learned
 //! (the area around it is kept out of every period), so a tracked robot may park for as long
@@ -32,8 +33,8 @@ use crate::detect::bitimage::{BitImage, Window};
 /// Bits of each pixel's counter.
 pub const COUNTER_BITS: usize = 4;
 
-/// Frames OR-ed into one update of the counters.
-pub const UPDATE_EVERY_FRAMES: u32 = 8;
+/// Frame time OR-ed into one update of the counters (8 frames at 30 fps).
+pub const UPDATE_PERIOD_US: u64 = 8 * 33_333;
 
 /// A counter at or above this marks its pixel static (binary 11xx: bits 3 and 2 set).
 pub const LEARN_AT_COUNT: u8 = 12;
@@ -48,7 +49,8 @@ pub struct StaticMap {
     period: BitImage,
     /// Pixels learned as static.
     flag: BitImage,
-    frames_in_period: u32,
+    /// The time the current period started at; `None` before the first frame.
+    period_start_us: Option<u64>,
 }
 
 impl StaticMap {
@@ -59,7 +61,7 @@ impl StaticMap {
             counter: [plane(), plane(), plane(), plane()],
             period: plane(),
             flag: plane(),
-            frames_in_period: 0,
+            period_start_us: None,
         }
     }
 
@@ -68,13 +70,22 @@ impl StaticMap {
         &self.flag
     }
 
-    /// Adds one frame's bright pixels (`bright`, of the map's size) to the period, except
-    /// inside `keep_out` (the tracked LED's surroundings), and at the period's end steps the
-    /// counters. A mask of another size is ignored.
-    pub fn observe(&mut self, bright: &BitImage, keep_out: Option<Window>) {
+    /// Adds the bright pixels (`bright`, of the map's size) of the frame at `t_us` to the
+    /// period, except inside `keep_out` (the tracked LED's surroundings), and once the period
+    /// has lasted [`UPDATE_PERIOD_US`] steps the counters (once, however long it lasted). A
+    /// mask of another size is ignored; time going backwards starts a new period.
+    pub fn observe(&mut self, bright: &BitImage, keep_out: Option<Window>, t_us: u64) {
         if !bright.same_shape(&self.period) {
             return;
         }
+        let start_us = match self.period_start_us {
+            Some(start) if start <= t_us => start,
+            _ => {
+                self.period.clear_all();
+                self.period_start_us = Some(t_us);
+                t_us
+            }
+        };
         for y in 0..bright.height() {
             let kept = keep_out.filter(|w| (w.y0..w.y1).contains(&y));
             let src = bright.row(y);
@@ -84,11 +95,10 @@ impl StaticMap {
                 }
             }
         }
-        self.frames_in_period += 1;
-        if self.frames_in_period >= UPDATE_EVERY_FRAMES {
+        if t_us - start_us >= UPDATE_PERIOD_US {
             self.step();
             self.period.clear_all();
-            self.frames_in_period = 0;
+            self.period_start_us = Some(t_us);
         }
     }
 
@@ -162,7 +172,7 @@ impl StaticMap {
         }
         self.period.clear_all();
         self.flag.clear_all();
-        self.frames_in_period = 0;
+        self.period_start_us = None;
     }
 }
 
@@ -170,9 +180,33 @@ impl StaticMap {
 mod tests {
     use super::*;
 
-    fn periods(map: &mut StaticMap, bright: &BitImage, keep_out: Option<Window>, n: u32) {
-        for _ in 0..n * UPDATE_EVERY_FRAMES {
-            map.observe(bright, keep_out);
+    /// A map fed frames at 30 fps: eight frames to a period.
+    struct Fed {
+        map: StaticMap,
+        t_us: u64,
+    }
+
+    impl Fed {
+        fn new(width: usize, height: usize) -> Self {
+            let mut map = StaticMap::new(width, height);
+            // The first frame starts the first period.
+            map.observe(&BitImage::with_dimensions(width, height), None, 0);
+            Fed { map, t_us: 0 }
+        }
+
+        fn frames(&mut self, bright: &BitImage, keep_out: Option<Window>, n: u64) {
+            for _ in 0..n {
+                self.t_us += UPDATE_PERIOD_US / 8;
+                self.map.observe(bright, keep_out, self.t_us);
+            }
+        }
+
+        fn periods(&mut self, bright: &BitImage, keep_out: Option<Window>, n: u8) {
+            self.frames(bright, keep_out, 8 * u64::from(n));
+        }
+
+        fn flag(&self) -> &BitImage {
+            self.map.flag()
         }
     }
 
@@ -180,40 +214,46 @@ mod tests {
     fn a_pixel_bright_for_long_is_learned_and_released_with_hysteresis() {
         let lit = BitImage::from_ascii(&["..##.", "....."]);
         let dark = BitImage::from_ascii(&[".....", "....."]);
-        let mut map = StaticMap::new(5, 2);
-        periods(&mut map, &lit, None, u32::from(LEARN_AT_COUNT) - 1);
+        let mut map = Fed::new(5, 2);
+        map.periods(&lit, None, LEARN_AT_COUNT - 1);
         assert_eq!(map.flag().count_ones(), 0, "one period short");
-        periods(&mut map, &lit, None, 1);
+        map.periods(&lit, None, 1);
         assert_eq!(map.flag().to_ascii(), ["..##.", "....."]);
         // Saturated at 15, it stays static through 11 dark periods and goes at the 12th.
-        periods(&mut map, &lit, None, 10);
-        periods(&mut map, &dark, None, 11);
+        map.periods(&lit, None, 10);
+        map.periods(&dark, None, 11);
         assert_eq!(map.flag().count_ones(), 2);
-        periods(&mut map, &dark, None, 1);
+        map.periods(&dark, None, 1);
         assert_eq!(map.flag().count_ones(), 0);
         // Back from 3 it takes 9 periods, not 12, to be learned again.
-        periods(&mut map, &lit, None, 8);
+        map.periods(&lit, None, 8);
         assert_eq!(map.flag().count_ones(), 0);
-        periods(&mut map, &lit, None, 1);
+        map.periods(&lit, None, 1);
         assert_eq!(map.flag().count_ones(), 2);
+        // Counted in time, not frames: at 1000 fps a period is 267 frames.
+        let mut fast = StaticMap::new(5, 2);
+        for t_us in 0..u64::from(LEARN_AT_COUNT) * 260 {
+            fast.observe(&lit, None, t_us * 1_000);
+        }
+        assert_eq!(fast.flag().count_ones(), 0, "3.1 s at 1000 fps");
     }
 
     #[test]
     fn a_speck_that_flickers_is_learned_and_a_pass_is_not() {
-        let mut map = StaticMap::new(8, 1);
+        let mut map = Fed::new(8, 1);
         let on = BitImage::from_ascii(&["#......."]);
         let off = BitImage::from_ascii(&["........"]);
         // Bright in one frame of every three: bright in every period.
-        for i in 0..u32::from(LEARN_AT_COUNT) * UPDATE_EVERY_FRAMES {
-            map.observe(if i % 3 == 0 { &on } else { &off }, None);
+        for i in 0..u64::from(LEARN_AT_COUNT) * 8 {
+            map.frames(if i % 3 == 0 { &on } else { &off }, None, 1);
         }
         assert_eq!(map.flag().to_ascii(), ["#......."]);
         // Something that passes each pixel once is never learned.
-        let mut map = StaticMap::new(200, 1);
+        let mut map = Fed::new(200, 1);
         for x in 0..200 {
             let mut pass = BitImage::with_dimensions(200, 1);
             pass.set(x, 0);
-            map.observe(&pass, None);
+            map.frames(&pass, None, 1);
         }
         assert_eq!(map.flag().count_ones(), 0);
     }
@@ -226,7 +266,7 @@ mod tests {
             lit.set(x, 0);
             lit.set(x, 1);
         }
-        let mut map = StaticMap::new(width, 2);
+        let mut map = Fed::new(width, 2);
         // Keep out the first word of row 1.
         let keep_out = Window {
             y0: 1,
@@ -234,14 +274,14 @@ mod tests {
             k0: 0,
             k1: 1,
         };
-        periods(&mut map, &lit, Some(keep_out), u32::from(LEARN_AT_COUNT));
+        map.periods(&lit, Some(keep_out), LEARN_AT_COUNT);
         assert_eq!(map.flag().count_ones(), width + (width - 64));
         assert_eq!(map.flag().row(0)[1], (1 << (width - 64)) - 1, "no padding");
         let mut mask = lit.clone();
-        assert_eq!(map.clear_static(&mut mask), width + (width - 64));
+        assert_eq!(map.map.clear_static(&mut mask), width + (width - 64));
         assert_eq!(mask.count_ones(), 64);
         assert!(mask.get(10, 1) && !mask.get(10, 0) && !mask.get(65, 1));
-        map.reset();
+        map.map.reset();
         assert_eq!(map.flag().count_ones(), 0);
     }
 }
