@@ -181,9 +181,12 @@ pub struct Tracker {
     /// The time of the last frame chosen in.
     last_t_us: u64,
     /// When the LED was just acquired because it moved: where it most likely was in the
-    /// frame before, and that frame's time. The first frame of the track then has a head
-    /// and a velocity, so that the second does not predict it standing still and take
-    /// another LED of the same robot that is now nearer its old place.
+    /// frame before (the nearest blob of that frame that left its place), and that frame's
+    /// time. The first frame of the track then has a head and a velocity, so that the second
+    /// does not predict it standing still and take another LED of the same robot that is now
+    /// nearer its old place. Of LEDs in a row the one in front is always matched to its own
+    /// old place; the one behind only while it moves less than half their spacing a frame
+    /// (beyond that its first velocity is wrong, but it is not the one that would jump).
     came_from: Option<Sample>,
 }
 
@@ -681,6 +684,47 @@ mod tests {
             Choice::Blob(1),
             "back in the gate"
         );
+    }
+
+    #[test]
+    fn a_track_acquired_as_it_moved_starts_from_where_it_came_from() {
+        // Two LEDs 20 px apart move right 15 px a frame; the one in front (larger) is taken.
+        // In the next frame the one behind is nearer where the taken one was: without knowing
+        // its motion the track would jump back to it.
+        let mut t = Tracker::new(TrackerConfig::default());
+        let at = |dx: f32| {
+            [
+                (0, blob_at(100.0 + dx, 100.0)),
+                (
+                    1,
+                    Blob {
+                        area_px: 50,
+                        ..blob_at(120.0 + dx, 100.0)
+                    },
+                ),
+            ]
+        };
+        assert_eq!(t.choose(at(0.0).into_iter(), 0, 0), Choice::Ambiguous);
+        t.update(0, None);
+        assert_eq!(t.choose(at(15.0).into_iter(), 1, FRAME_US), Choice::Blob(1));
+        let e = t
+            .update(FRAME_US, Some(&streak((135.0, 100.0), None)))
+            .unwrap();
+        let ((vx, _), method) = e.velocity_px_s.unwrap();
+        assert_eq!(method, VelocityMethod::Frames);
+        assert!(
+            (vx * FRAME_US as f32 * 1e-6 - 15.0).abs() < 1e-3,
+            "{vx} px/s"
+        );
+        for i in 2..6u64 {
+            let dx = 15.0 * i as f32;
+            assert_eq!(
+                t.choose(at(dx).into_iter(), i, i * FRAME_US),
+                Choice::Blob(1),
+                "frame {i}"
+            );
+            t.update(i * FRAME_US, Some(&streak((120.0 + dx, 100.0), None)));
+        }
     }
 
     #[test]
