@@ -13,6 +13,7 @@ use glint::detect::bitimage::BitImage;
 use glint::detect::blobs::Labeler;
 use glint::detect::streak::StreakModel;
 use glint::detect::threshold;
+use glint::detect::threshold::static_map::StaticMap;
 use glint::detect::{Detector, DetectorConfig};
 use glint::frame::{Frame, FrameSize, PixelFormat};
 use glint::pipeline::{Pipeline, PipelineConfig};
@@ -47,6 +48,21 @@ fn stages(c: &mut Criterion) {
 
         let mut labeler = Labeler::new();
         group.bench_function("label", |b| b.iter(|| labeler.label(black_box(&mask))));
+
+        // The static map's share of every frame: the period's OR and the clear, plus a step of
+        // the counters one frame in eight (30 fps frame times).
+        let mut statics = StaticMap::new(size.width(), size.height());
+        let mut cut = BitImage::new(size);
+        let whole = cut.full_window();
+        let mut t_us = 0;
+        group.bench_function("static_map", |b| {
+            b.iter(|| {
+                t_us += 33_333;
+                statics.observe(black_box(&mask), None, t_us);
+                cut.copy_window_from(&mask, whole);
+                statics.clear_static(&mut cut)
+            })
+        });
 
         let mut detector = Detector::new(size, DetectorConfig::default()).unwrap();
         group.bench_function("detect", |b| b.iter(|| detector.detect(black_box(&frame))));

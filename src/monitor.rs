@@ -301,14 +301,15 @@ mod tests {
         }
     }
 
-    /// 64×48 frames: a saturated 3×3 square in the odd ones, a dark floor in the even ones.
+    /// 64×48 frames: a saturated 3×3 square moving right in the odd ones (one that stood
+    /// still would be a blinking lamp, not the LED), a dark floor in the even ones.
     fn dump(frames: usize) -> (FrameSize, Vec<u8>) {
         let size = FrameSize::new(64, 48).unwrap();
         let mut bytes = vec![40u8; size.frame_bytes() * frames];
         for (i, frame) in bytes.chunks_exact_mut(size.frame_bytes()).enumerate() {
             if i % 2 == 1 {
                 for y in 9..12 {
-                    for x in 19..22 {
+                    for x in (10 + 3 * i)..(13 + 3 * i) {
                         frame[y * size.row_bytes() + 2 * x] = 255;
                     }
                 }

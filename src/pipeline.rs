@@ -143,7 +143,7 @@ impl Pipeline {
     pub fn process(&mut self, frame: &Frame<'_>, meta: FrameMeta) -> FrameReport {
         let (detection, ambiguous, marker, markers_capped, mut tracks) = match &mut self.front {
             Front::Led { detector, tracker } => {
-                let mut detection = detector.segment(frame);
+                let mut detection = detector.segment_at(frame, meta.timestamp_us);
                 let choice = tracker.choose(detector.candidates(), meta.index, meta.timestamp_us);
                 detection.best = match choice {
                     Choice::Blob(index) => {

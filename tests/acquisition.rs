@@ -20,6 +20,14 @@ use glint_tools::scene::{Point, Scene, SceneConfig, StaticLight, Truth, Visibili
 /// A report farther than this from the true LED is a false report.
 const REPORT_TOLERANCE_PX: f64 = 3.0;
 
+/// Current-position p95 bound, as in `tests/replay_accuracy.rs`.
+const POS_P95_MAX_PX: f64 = 1.5;
+
+/// Current-position median bound for a dot that does not clip. Not the accuracy tests' 0.5:
+/// with 2.5 luma of noise an unclipped dot's head is 0.6 px off in the median (0.04–0.06 px at
+/// 1–2 luma), which is the streak model's to improve, not acquisition's.
+const DIM_DOT_MEDIAN_MAX_PX: f64 = 0.75;
+
 /// Frames after the LED starts to move within which it must be acquired (0.2 s at 30 fps).
 const ACQUIRE_WITHIN_FRAMES: usize = 6;
 
@@ -162,11 +170,23 @@ fn a_hot_pixel_does_not_hide_an_unclipped_led() {
         }
         let label = format!("hot-pixel LED {led_peak}, hot {hot}, σ {noise}");
         let (_, runs) = run(config);
-        assert_eq!(
-            check(&label, &runs, Point::default()),
-            0,
-            "{label}: at once"
+        // Round and creeping, alone in view: not told from a glare spot until it has crept
+        // DRIFT_PX from where it first appeared; ambiguous until then, found from then on.
+        let (_, start) = &runs[0];
+        let crept = runs
+            .iter()
+            .position(|(_, t)| {
+                let (x0, y0) = (start.mid_x_px.unwrap(), start.mid_y_px.unwrap());
+                let (x, y) = (t.mid_x_px.unwrap(), t.mid_y_px.unwrap());
+                (x - x0).hypot(y - y0) > f64::from(glint::track::statics::DRIFT_PX)
+            })
+            .unwrap();
+        let first = check(&label, &runs, Point::default());
+        assert!(
+            first <= crept + 2,
+            "{label}: acquired in frame {first}, crept 2 px by {crept}"
         );
+        assert!(runs[..first].iter().all(|(r, _)| r.ambiguous));
     }
 }
 
@@ -241,5 +261,162 @@ fn three_leds_on_one_body_the_tracker_stays_on_one() {
             .unwrap();
         let first = check(&label, &runs, offset);
         assert!(first <= 1, "{label}: acquired in frame {first}");
+    }
+}
+
+/// The real-footage case: a dot whose peak is 216–250 moving beside a static window that
+/// reads 244 and up (its noise straddles any level cut just below its top), over a sweep of
+/// window level and size, dot brightness and noise. The window is never reported; the dot is
+/// found in at least 99 % of its visible frames, within the accuracy tests' position bounds.
+#[test]
+fn a_dim_dot_beside_a_window_that_reads_244_and_up() {
+    // Window radiance over the floor (0.57: about 245, not clipped; 0.62: just clipped; 1.5:
+    // clipped), its size scale, the dot's radiance over the floor (0.46: peak about 216; 0.6:
+    // about 250) and noise σ, each row one point of the sweep.
+    for (window, scale, dot, noise) in [
+        (0.57, 1.0, 0.46, 0.004),
+        (0.57, 1.6, 0.52, 0.01),
+        (0.62, 0.6, 0.46, 0.008),
+        (0.62, 1.3, 0.6, 0.004),
+        (1.5, 1.0, 0.5, 0.01),
+        (1.5, 1.6, 0.46, 0.006),
+    ] {
+        let mut config = preset("window");
+        config.led.peak = dot;
+        config.camera.noise_sigma = noise;
+        for light in &mut config.static_lights {
+            if let StaticLight::Rect {
+                width_px,
+                height_px,
+                peak,
+                ..
+            } = light
+            {
+                *width_px *= scale;
+                *height_px *= scale;
+                *peak = window;
+            }
+        }
+        let label = format!("window ×{scale} at {window}, dot {dot}, σ {noise}");
+        let (_, runs) = run(config);
+        let visible = runs
+            .iter()
+            .filter(|(_, t)| t.visible == Visibility::Visible)
+            .count();
+        let mut errors: Vec<f64> = runs
+            .iter()
+            .filter_map(|(r, t)| error_px(r, t, Point::default()))
+            .collect();
+        let worst = errors.iter().copied().fold(0.0, f64::max);
+        errors.sort_by(f64::total_cmp);
+        let quantile = |q: f64| errors[((q * errors.len() as f64).ceil() as usize).max(1) - 1];
+        eprintln!(
+            "{label}: found {} of {visible}, position median {:.2} p95 {:.2} worst {worst:.2} px",
+            errors.len(),
+            quantile(0.5),
+            quantile(0.95)
+        );
+        assert!(
+            worst <= REPORT_TOLERANCE_PX,
+            "{label}: a report {worst:.1} px from the dot"
+        );
+        assert!(
+            errors.len() * 100 >= visible * 99,
+            "{label}: found in {} of {visible} visible frames",
+            errors.len()
+        );
+        assert!(quantile(0.5) <= DIM_DOT_MEDIAN_MAX_PX, "{label}: median");
+        assert!(quantile(0.95) <= POS_P95_MAX_PX, "{label}: p95");
+    }
+}
+
+/// Three LEDs on one rigid body, close together (22–30 px) and far apart (real footage: 43
+/// jumps of 116–223 px between LEDs): the track never jumps to another LED. The first frame of
+/// a track acquired because it moved starts from where it came from, so the second frame does
+/// not predict it standing still and take another LED now nearer its old place.
+#[test]
+fn three_close_leds_moving_together_the_track_never_jumps() {
+    // Companion offsets (px) and brightness (clip units), noise σ.
+    for (offsets, peaks, noise) in [
+        ([(22.0, 0.0), (11.0, 19.0)], [6.0, 20.0], 0.005),
+        ([(30.0, -10.0), (-15.0, 25.0)], [20.0, 1.5], 0.01),
+        ([(120.0, 40.0), (-100.0, 90.0)], [20.0, 20.0], 0.008),
+    ] {
+        let mut config = preset("three-leds");
+        config.frame_count = 90;
+        config.camera.noise_sigma = noise;
+        for ((companion, offset), peak) in config.companions.iter_mut().zip(offsets).zip(peaks) {
+            companion.offset_px = Point::new(offset.0, offset.1);
+            companion.led.peak = peak;
+        }
+        let label = format!("three-leds at {offsets:?}, {peaks:?}, σ {noise}");
+        let (_, runs) = run(config);
+        // The LED taken is the one nearest the first report; every later report must be
+        // nearest that one too: no jump.
+        let all: Vec<Point> = core::iter::once(Point::default())
+            .chain(offsets.iter().map(|&(x, y)| Point::new(x, y)))
+            .collect();
+        let nearest = |r: &FrameReport, t: &Truth| {
+            all.iter()
+                .copied()
+                .min_by(|a, b| {
+                    let e = |o: Point| error_px(r, t, o).unwrap_or(f64::INFINITY);
+                    e(*a).total_cmp(&e(*b))
+                })
+                .unwrap()
+        };
+        let (first_report, first_truth) = runs
+            .iter()
+            .find(|(r, _)| r.position.is_some())
+            .unwrap_or_else(|| panic!("{label}: never found"));
+        let taken = nearest(first_report, first_truth);
+        let jumps = runs
+            .iter()
+            .filter(|(r, t)| r.position.is_some() && nearest(r, t) != taken)
+            .count();
+        eprintln!("{label}: {jumps} jumps");
+        assert_eq!(jumps, 0, "{label}: the track jumped between LEDs");
+        assert!(check(&label, &runs, taken) <= 1, "{label}: acquired late");
+    }
+}
+
+/// A single glare spot in view and no LED (round or elongated, dim or bright): it has stood
+/// still since it appeared, so it is never reported.
+#[test]
+fn a_lone_glare_spot_with_no_led_in_view_is_never_reported() {
+    // Radii (px), level (clip units), noise σ.
+    for (radii, peak, noise) in [
+        ((3.0, 3.0), 3.0, 0.005),
+        ((5.0, 4.0), 1.3, 0.01),
+        ((14.0, 2.5), 8.0, 0.008),
+    ] {
+        let mut config = preset("rest-glare");
+        config.frame_count = 45;
+        config.camera.noise_sigma = noise;
+        config.led.peak = 0.0;
+        config.static_lights = vec![StaticLight::Ellipse {
+            centre_px: Point::new(300.0, 200.0),
+            radii_px: Point::new(radii.0, radii.1),
+            angle_rad: 0.5,
+            peak,
+        }];
+        let label = format!("lone glare {radii:?} at {peak}, σ {noise}");
+        let (_, runs) = run(config);
+        let reported = runs.iter().filter(|(r, _)| r.position.is_some()).count();
+        let seen = runs
+            .iter()
+            .filter(|(r, _)| r.detection.blob_count > 0)
+            .count();
+        eprintln!("{label}: seen in {seen} frames, reported in {reported}");
+        assert_eq!(seen, runs.len(), "{label}: the glare is in the mask");
+        // An elongated spot alone in the first frame looks like a smear: it may be reported
+        // in that frame and the next (a reversing streak stands still for one), never after.
+        assert!(
+            runs.iter().skip(2).all(|(r, _)| r.position.is_none()),
+            "{label}: reported"
+        );
+        if radii.0 == radii.1 {
+            assert_eq!(reported, 0, "{label}: a round spot is never reported");
+        }
     }
 }

@@ -15,9 +15,19 @@ fn check(name: &str, r: &Rendered, reports: &[serde_json::Value], learning_frame
     assert_eq!(learning, learning_frames, "{name}: learning frames");
     assert!(reports[..learning].iter().all(|r| r["found"] == false));
     let s = score(&reports[learning..], &r.truths[learning..]);
+    // A round LED alone in the first frame searched is not told from glare until it moves.
+    let leading_ambiguous = reports[learning..]
+        .iter()
+        .take_while(|r| r["ambiguous"] == true)
+        .count();
+    assert!(
+        leading_ambiguous <= 1,
+        "{name}: {leading_ambiguous} ambiguous"
+    );
     assert_eq!(
-        s.detected, s.visible,
-        "{name}: every visible frame after learning is detected"
+        s.detected + leading_ambiguous,
+        s.visible,
+        "{name}: every visible frame after learning (and that one) is detected"
     );
     assert_eq!(s.false_reports, 0, "{name}");
     let (mid, pos) = (

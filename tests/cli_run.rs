@@ -266,5 +266,7 @@ fn the_shipped_example_settings_are_accepted() {
     );
     let reports = parse_jsonl(&std::fs::read(&jsonl).unwrap());
     assert_eq!(reports.len(), r.truths.len());
-    assert!(reports.iter().all(|r| r["found"] == true));
+    // The slow LED alone in the first frame is not told from a glare spot until it moves.
+    assert_eq!(reports[0]["ambiguous"], true);
+    assert!(reports[1..].iter().all(|r| r["found"] == true));
 }

@@ -16,6 +16,10 @@ const POS_P95_MAX_PX: f64 = 1.5;
 /// Single-frame speed error bound on the fast line.
 const STREAK_SPEED_MAX_ERROR: f64 = 0.03;
 
+/// Frames after an LED at rest at the start begins to move within which it is acquired (it
+/// must first have moved 2 px: `track::statics::DRIFT_PX`).
+const ACQUIRE_AFTER_REST_FRAMES: usize = 3;
+
 fn check_scene(name: &str) -> common::Score {
     let r = render(name);
     let out = track(&r, &[]);
@@ -27,9 +31,30 @@ fn check_scene(name: &str) -> common::Score {
     let reports = parse_jsonl(&out.stdout);
     let s = score(&reports, &r.truths);
     assert!(s.visible > 0, "{name}: the scene shows the LED");
+    // A round spot alone in the first frame is an LED at rest or a glare spot, and stays
+    // `ambiguous` until it moves: the first frame, and the frames the LED rests at the start
+    // until it has crept far enough to be told from glare. Nothing else is left unfound.
+    let leading_ambiguous = reports
+        .iter()
+        .take_while(|r| r["ambiguous"] == true)
+        .count();
+    let resting = r
+        .truths
+        .iter()
+        .take_while(|t| t.vx_px_s == Some(0.0) && t.vy_px_s == Some(0.0))
+        .count();
     assert_eq!(
-        s.detected, s.visible,
-        "{name}: every visible frame is detected"
+        s.ambiguous, leading_ambiguous,
+        "{name}: ambiguity only before acquisition"
+    );
+    assert!(
+        leading_ambiguous <= (resting + ACQUIRE_AFTER_REST_FRAMES).max(1),
+        "{name}: {leading_ambiguous} frames ambiguous, {resting} at rest"
+    );
+    assert_eq!(
+        s.detected + s.ambiguous,
+        s.visible,
+        "{name}: every visible frame after acquisition is detected"
     );
     assert_eq!(
         s.false_reports, 0,

@@ -105,6 +105,10 @@ fn a_replay_reproduces_the_recorded_times_sequence_and_drops() {
         assert_eq!(r["dropped"].as_u64(), Some(dropped), "{r}");
         let t_us = (r["t"].as_f64().unwrap() * 1e6).round() as u64;
         assert_eq!(t_us, timing.t_us, "{r}");
+        if i == 0 && r["ambiguous"] == true {
+            // A round LED alone in the first frame is not told from glare until it moves.
+            continue;
+        }
         // The frame shows what the scene rendered for its own index, not for the report's.
         let truth = &rec.rendered.truths[rec.scene_frames[i]];
         let error_px = (r["mid_x"].as_f64().unwrap() - truth.mid_x_px.unwrap())

@@ -13,11 +13,11 @@
 //! sweep's totals, then fails listing the points out of bounds.
 
 use glint::detect::streak::StreakModel;
-use glint::detect::DetectorConfig;
+use glint::detect::{Detector, DetectorConfig};
 use glint::frame::{Frame, FrameSize};
 use glint::pipeline::{Pipeline, PipelineConfig};
 use glint::source::FrameMeta;
-use glint::track::{TrackerConfig, VelocityMethod};
+use glint::track::{Tracker, TrackerConfig, VelocityMethod};
 use glint_tools::scene::{Scene, SweepPath, SweepPoint, Visibility};
 
 /// Points checked in the default test run.
@@ -118,6 +118,41 @@ fn run_point(point: &SweepPoint, model: StreakModel) -> PointScore {
     s
 }
 
+/// Errors of the heads of a still LED, in frames after the first, with the fitted model:
+/// detection and the tracker's head without acquisition, which (rightly) never takes a round
+/// spot that stood still since it appeared, alone in view, for the LED. Every frame must be
+/// detected.
+fn still_heads(point: &SweepPoint) -> Vec<f64> {
+    let scene = Scene::new(point.config()).expect("sweep scene");
+    let size = FrameSize::new(scene.width_px(), scene.height_px()).unwrap();
+    let config = DetectorConfig {
+        streak_model: StreakModel::Fit,
+        ..DetectorConfig::default()
+    };
+    let mut detector = Detector::new(size, config).unwrap();
+    let mut tracker = Tracker::new(TrackerConfig {
+        exposure_us: Some(scene.exposure_us()),
+    });
+    let mut bytes = vec![0u8; scene.frame_len_bytes()];
+    let period_us = (1e6 / scene.fps()) as u64;
+    let mut head_px = Vec::new();
+    for index in 0..scene.frame_count() {
+        let truth = scene.render(index, &mut bytes).unwrap();
+        let frame = Frame::new_checked(&bytes, size, size.row_bytes()).unwrap();
+        let detection = detector.detect(&frame);
+        let streak = detection.best.as_ref().map(|(_, s)| s);
+        let estimate = tracker.update(index as u64 * period_us, streak);
+        let e = estimate.unwrap_or_else(|| panic!("{point}: frame {index} not detected"));
+        if index > 0 {
+            let (x, y) = e.position_px;
+            head_px.push(
+                (f64::from(x) - truth.x_px.unwrap()).hypot(f64::from(y) - truth.y_px.unwrap()),
+            );
+        }
+    }
+    head_px
+}
+
 /// The goal for a nearly still LED on real footage: x, y within this of the
 /// reference (p95).
 const STILL_P95_MAX_PX: f64 = 0.75;
@@ -134,9 +169,8 @@ fn a_still_led_reads_still() {
             length_px: 0.0,
             angle_rad: 0.0,
         };
-        let s = run_point(&point, StreakModel::Fit);
-        assert_eq!(s.found, s.visible, "{point}");
-        let p95 = quantile(&s.head_px, 0.95).unwrap();
+        let head_px = still_heads(&point);
+        let p95 = quantile(&head_px, 0.95).unwrap();
         eprintln!("still: p95 {p95:.3} px: {point}");
         worst.push((p95, point.to_string()));
     }

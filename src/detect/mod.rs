@@ -16,11 +16,12 @@ pub mod threshold;
 pub mod tips;
 
 use bgdiff::{Background, BackgroundError};
-use bitimage::BitImage;
+use bitimage::{BitImage, Window};
 use blobs::{Blob, Labeler, Overflow};
 use morph::Kernel;
 use skeleton::SkeletonMethod;
 use streak::{Streak, StreakModel, StreakScratch};
+use threshold::static_map::StaticMap;
 use threshold::{blob_level, Levels, Threshold, AUTO_MARGIN_LUMA};
 
 use crate::frame::{Frame, FrameSize};
@@ -35,6 +36,14 @@ pub const BLINDED_FRACTION: f32 = 0.25;
 
 /// Blobs larger than this fraction of the frame are glare, not an LED.
 pub const MAX_BLOB_FRACTION: f32 = 0.02;
+
+/// The static map does not learn within this many pixels of the last analysed blob (the
+/// tracked LED) beyond its own size: the LED moves by at most about its streak's length
+/// between frames, and a robot parked in view must never be learned as a window.
+pub const KEEP_OUT_MARGIN_PX: usize = 24;
+
+/// The frame interval assumed by [`Detector::segment`], which is given no frame times.
+pub const NOMINAL_FRAME_US: u64 = 33_333;
 
 /// Settings of the detection stage.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -112,6 +121,14 @@ pub struct Detector {
     labeled: bool,
     /// The background model, for [`MaskMethod::BackgroundDifference`].
     background: Option<Background>,
+    /// The static bright pixels learned by the automatic threshold.
+    statics: StaticMap,
+    /// Around the blob analysed in the last frame (the LED): not learned as static.
+    keep_out: Option<Window>,
+    /// Frames segmented so far, for a clock when the caller gives none.
+    frames_segmented: u64,
+    /// The time of the frame being segmented.
+    t_us: u64,
 }
 
 impl Detector {
@@ -131,6 +148,10 @@ impl Detector {
             max_area_px: (size.pixels() as f32 * MAX_BLOB_FRACTION) as u32,
             labeled: false,
             background,
+            statics: StaticMap::new(size.width(), size.height()),
+            keep_out: None,
+            frames_segmented: 0,
+            t_us: 0,
         })
     }
 
@@ -157,8 +178,18 @@ impl Detector {
     /// (a mismatched frame is simply found empty). `best` is left empty: the caller picks a
     /// candidate (see [`Detector::candidates`]) and analyses it with [`Detector::analyze`].
     pub fn segment(&mut self, frame: &Frame<'_>) -> Detection {
+        let t_us = self.frames_segmented.saturating_mul(NOMINAL_FRAME_US);
+        self.segment_at(frame, t_us)
+    }
+
+    /// [`Detector::segment`] for the frame taken at `t_us`: what the static map learns is
+    /// counted in frame time (see [`threshold::static_map`]).
+    pub fn segment_at(&mut self, frame: &Frame<'_>, t_us: u64) -> Detection {
+        self.frames_segmented += 1;
+        self.t_us = t_us;
         self.streak.reset();
         let mut learning = false;
+        let mut glare_px = 0;
         let (levels, mut mask_px) = match (&mut self.background, self.config.method) {
             (Some(background), MaskMethod::BackgroundDifference { diff_luma, .. }) => {
                 learning = !background.is_ready();
@@ -184,7 +215,11 @@ impl Detector {
                     )
                 }
             }
-            (_, _) if self.config.threshold == Threshold::Auto => self.cut_auto(frame),
+            (_, _) if self.config.threshold == Threshold::Auto => {
+                let (levels, count, glare) = self.cut_auto(frame);
+                glare_px = glare;
+                (levels, count)
+            }
             _ => threshold::apply(frame, self.config.threshold, &mut self.mask),
         };
         if self.config.erosions > 0 && mask_px > 0 {
@@ -203,7 +238,7 @@ impl Detector {
             mask_px,
             blob_count: 0,
             overflow: Overflow::default(),
-            blinded: mask_px as f32 > self.size.pixels() as f32 * BLINDED_FRACTION,
+            blinded: (mask_px + glare_px) as f32 > self.size.pixels() as f32 * BLINDED_FRACTION,
             learning,
             best: None,
         };
@@ -221,26 +256,45 @@ impl Detector {
     /// The automatic threshold, blob by blob: a low first cut, its blobs, and each blob cut
     /// again at its own top level (see [`threshold::blob_level`]). When the first cut is too
     /// busy for the blob tables, one level for the whole frame instead.
-    fn cut_auto(&mut self, frame: &Frame<'_>) -> (Levels, usize) {
+    ///
+    /// Static bright pixels (see [`threshold::static_map`]) are learned from the first cut
+    /// and taken out of it before any blob is found, so they set no level and are never
+    /// candidates.
+    ///
+    /// Returns the levels, the pixels left in the mask, and the pixels of glare dropped as
+    /// too large to be an LED.
+    fn cut_auto(&mut self, frame: &Frame<'_>) -> (Levels, usize, usize) {
         let (top_luma, count) = threshold::first_cut(frame, &mut self.mask);
         let mut levels = Levels {
             top_luma,
             threshold_luma: None,
         };
+        let keep_out = self.keep_out.take();
+        if frame.size() == self.size {
+            self.statics.observe(&self.mask, keep_out, self.t_us);
+        }
+        let count = count.saturating_sub(self.statics.clear_static(&mut self.mask));
         if count == 0 || frame.size() != self.size {
             self.mask.clear_all();
-            return (levels, 0);
+            return (levels, 0, 0);
         }
         self.labeler.label(&self.mask);
         match blob_level::cut_each_blob(
             frame,
             &self.labeler,
             self.config.min_area_px,
+            self.max_area_px,
             &mut self.mask,
         ) {
             Some(cut) => {
                 levels.threshold_luma = cut.brightest_level_luma;
-                (levels, cut.count)
+                (levels, cut.count, cut.glare_px)
+            }
+            // Too busy to cut blob by blob: one level for the frame, and only for a frame
+            // with something clipped in it.
+            None if top_luma < threshold::MIN_CLIP_LUMA => {
+                self.mask.clear_all();
+                (levels, 0, 0)
             }
             None => {
                 let level = top_luma.saturating_sub(AUTO_MARGIN_LUMA);
@@ -248,6 +302,7 @@ impl Detector {
                 (
                     levels,
                     threshold::recut_rows(frame, level, &mut self.mask, count),
+                    0,
                 )
             }
         }
@@ -297,6 +352,12 @@ impl Detector {
             return None;
         }
         let blob = *self.labeler.blobs().get(index)?;
+        let b = blob.bbox;
+        let margin_px = b.width_px().max(b.height_px()) + KEEP_OUT_MARGIN_PX;
+        self.keep_out = Some(
+            self.mask
+                .window_around(b.x_min_px, b.y_min_px, b.x_max_px, b.y_max_px, margin_px),
+        );
         // Each blob was cut at its own level (automatic threshold), and a difference mask has
         // no saturation level at all: the blob's brightest pixel stands in for it, so rim
         // weights and tip ramps work as on a saturated blob.
@@ -327,5 +388,10 @@ impl Detector {
     /// The blobs of the last frame.
     pub fn blobs(&self) -> &[Blob] {
         self.labeler.blobs()
+    }
+
+    /// The pixels learned as static bright things (automatic threshold only).
+    pub fn static_pixels(&self) -> &BitImage {
+        self.statics.flag()
     }
 }

@@ -9,15 +9,27 @@
 //! - A tracked LED is the candidate nearest its prediction inside the gate, unless that
 //!   candidate has stood still since it appeared. A tracked LED that stops stays tracked (it
 //!   is never entered among the distractors). Once its velocity is known, a tracked LED lost
-//!   for a frame is not replaced by anything outside the gate: the frame reads `found: false`
-//!   until it is back in the gate or the track expires.
+//!   for a frame is not replaced by one of several things outside the gate (other LEDs of the
+//!   same robot): the frame reads `found: false` until it is back in the gate or the track
+//!   expires. The one thing in view is taken back (the LED turned sharply, or came back from
+//!   behind an obstacle), so a robot's other LED alone in view can still take the track.
 //! - Acquisition takes only what moved: a blob that appeared where nothing stood in the last
 //!   frame while something of that frame went away, or one that crept from where it first
 //!   appeared. Among several that moved (several LEDs on one robot), the largest. However
 //!   round or elongated, a blob that has stood still since it appeared is never taken, and
 //!   when several candidates stand still the frame is `ambiguous` until one moves.
-//! - A lone candidate with nothing else in view is the LED (the first frame of a run, or the
-//!   LED coming back after the track expired).
+//! - A lone candidate with nothing else in view is the LED when it appeared where nothing
+//!   stood in the frame before (the LED coming back after the track expired, or coming into
+//!   view). In the first frame of a run nothing has appeared: there a lone candidate is taken
+//!   only when it is smeared (longer than the spot is wide, see [`SMEARED_ELONGATION`]); a
+//!   round one (a glare spot, or an LED at rest) is `ambiguous` until it moves.
+//! - A track taken that way is tentative until it moves: if it stands still for the two
+//!   frames after it is withdrawn (the frame is `ambiguous`), so that a lamp switched on or a
+//!   glare bar alone in the first frame is reported at most in the frame it appeared in and
+//!   the next (a streak that reverses between two frames covers the same pixels), never
+//!   after. A track that moved is proven; once proven, an LED that stops stays tracked.
+//! - A track acquired because it moved starts from where it came from (the nearest blob of
+//!   the frame before that left its place): its first frame has a head and a velocity.
 //!
 //! - The streak's tips are where the LED was at the start and the end of the exposure. The
 //!   head is the tip farther from the previous position: after a straight move the far end is
@@ -56,6 +68,17 @@ pub const GATE_TRAVEL_FACTOR: f32 = 2.5;
 
 /// After this many frames without the LED the track is dropped and acquisition starts over.
 pub const MAX_MISSED_FRAMES: u32 = 15;
+
+/// Frames a tentative track may stand still before it is withdrawn. Two, not one: a streak
+/// that reverses between two frames covers the same pixels in both.
+pub const TENTATIVE_STILL_FRAMES: u64 = 2;
+
+/// A blob at least this elongated (ratio of its principal second moments) is a smear: a disk
+/// of radius r swept over a length L has the ratio `1 + L² / (3 r²)`, and a streak at least as
+/// long as the spot is wide (`L ≥ 2 r`) gives `1 + 4/3`. A round spot alone in the first
+/// frame may be a lamp or an LED at rest; a smear is the LED moving (or a lamp shaped like
+/// one, withdrawn in the next frame when it stands still).
+pub const SMEARED_ELONGATION: f32 = 1.0 + 4.0 / 3.0;
 
 /// Settings of the tracker.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -156,6 +179,20 @@ pub struct Tracker {
     tentative: bool,
     /// Where a tentative track was taken.
     acquired_at_px: (f32, f32),
+    /// The frame a tentative track was taken in.
+    acquired_frame: u64,
+    /// Whether any frame was chosen in yet: in the first one nothing can have appeared.
+    seen_a_frame: bool,
+    /// The time of the last frame chosen in.
+    last_t_us: u64,
+    /// When the LED was just acquired because it moved: where it most likely was in the
+    /// frame before (the nearest blob of that frame that left its place), and that frame's
+    /// time. The first frame of the track then has a head and a velocity, so that the second
+    /// does not predict it standing still and take another LED of the same robot that is now
+    /// nearer its old place. Of LEDs in a row the one in front is always matched to its own
+    /// old place; the one behind only while it moves less than half their spacing a frame
+    /// (beyond that its first velocity is wrong, but it is not the one that would jump).
+    came_from: Option<Sample>,
 }
 
 /// How the chosen blob came to be the LED.
@@ -205,15 +242,43 @@ impl Tracker {
         frame_index: u64,
         t_us: u64,
     ) -> Choice {
-        let (choice, acquired) = self.pick(candidates.clone(), frame_index, t_us);
+        let (mut choice, acquired) = self.pick(candidates.clone(), frame_index, t_us);
+        self.seen_a_frame = true;
         let chosen = candidates
             .clone()
             .find(|&(index, _)| choice == Choice::Blob(index))
             .map(|(_, b)| b.mass_centre_px);
+        self.came_from = match (acquired, chosen) {
+            (Acquired::Moving, Some(at)) => self.statics.came_from(at, frame_index).map(|p| {
+                let estimate = Estimate {
+                    position_px: p,
+                    position_method: PositionMethod::Mid,
+                    mid_px: p,
+                    velocity_px_s: None,
+                };
+                Sample {
+                    t_us: self.last_t_us,
+                    estimate,
+                }
+            }),
+            _ => None,
+        };
+        self.last_t_us = t_us;
         match (acquired, chosen) {
             (Acquired::Alone, Some(at)) => {
                 self.tentative = true;
                 self.acquired_at_px = at;
+                self.acquired_frame = frame_index;
+            }
+            // A tentative track that stood still since it was taken is not shown to be the
+            // LED: withdrawn, it joins the static blobs, and is taken again once it moves.
+            (Acquired::Tracked, Some(at))
+                if self.tentative
+                    && frame_index >= self.acquired_frame + TENTATIVE_STILL_FRAMES
+                    && dist(at, self.acquired_at_px) <= statics::DRIFT_PX =>
+            {
+                self.withdraw();
+                choice = Choice::Ambiguous;
             }
             (Acquired::Moving, _) => self.tentative = false,
             (Acquired::Tracked, Some(at)) if dist(at, self.acquired_at_px) > statics::DRIFT_PX => {
@@ -230,6 +295,14 @@ impl Tracker {
         }
         self.statics.expire(frame_index);
         choice
+    }
+
+    /// Drops the track: acquisition starts over.
+    fn withdraw(&mut self) {
+        self.history.clear();
+        self.tentative = false;
+        self.previous_found = false;
+        self.missed_frames = 0;
     }
 
     fn pick(
@@ -254,9 +327,17 @@ impl Tracker {
             .filter(|(_, b)| moved(b))
             .max_by_key(|(_, b)| b.area_px)
             .map(|(index, _)| (Choice::Blob(index), Acquired::Moving));
+        // A lone candidate is the LED when it appeared (nothing stood there in the frame
+        // before); in the first frame, only when it is smeared.
         let mut all = possible.clone();
         let lone = match (all.next(), all.next()) {
-            (Some((index, blob)), None) if known(&blob) == Known::Fresh => Some(index),
+            (Some((index, blob)), None)
+                if known(&blob) == Known::Fresh
+                    && !self.statics.stood_still(blob.mass_centre_px, frame_index)
+                    && (self.seen_a_frame || blob.elongation >= SMEARED_ELONGATION) =>
+            {
+                Some(index)
+            }
             _ => None,
         };
         if let Some((predicted, gate_px)) = self.prediction(t_us) {
@@ -279,7 +360,8 @@ impl Tracker {
             }
             // A track whose motion is known predicts well: of several things outside its
             // gate none is taken (another LED of the same robot, a reflection), while the one
-            // thing in view is the LED back from behind an obstacle, or turned sharply.
+            // thing in view is the LED back from behind an obstacle, or turned sharply (a
+            // reversal between frames, with a frame dropped, lands outside the gate).
             let has_velocity = self
                 .history
                 .recent()
@@ -303,6 +385,7 @@ impl Tracker {
     /// Updates the state with the frame at `t_us`: `streak` is the chosen blob's geometry, or
     /// `None` when the LED was not found. Returns the estimate for a found frame.
     pub fn update(&mut self, t_us: u64, streak: Option<&Streak>) -> Option<Estimate> {
+        self.seen_a_frame = true;
         let Some(streak) = streak else {
             self.missed_frames = self.missed_frames.saturating_add(1);
             self.previous_found = false;
@@ -312,7 +395,8 @@ impl Tracker {
             .history
             .recent()
             .copied()
-            .filter(|_| self.previous_found);
+            .filter(|_| self.previous_found)
+            .or(self.came_from.take());
         let mid_px = streak.mid_px;
         let head = streak.path.and_then(|path| {
             let before = previous?.estimate.position_px;
@@ -488,28 +572,28 @@ mod tests {
     }
 
     #[test]
-    fn a_lone_lamp_taken_at_the_start_yields_to_the_first_thing_that_moves() {
+    fn a_lone_round_spot_in_the_first_frame_is_never_reported() {
+        // A round glare spot alone in view, no LED: ambiguous in every frame.
         let mut t = Tracker::new(TrackerConfig::default());
         let lamp = (0, blob_at(100.0, 100.0));
-        assert_eq!(t.choose([lamp].into_iter(), 0, 0), Choice::Blob(0));
-        t.update(0, Some(&streak((100.0, 100.0), None)));
-        assert_eq!(t.choose([lamp].into_iter(), 1, FRAME_US), Choice::Blob(0));
-        t.update(FRAME_US, Some(&streak((100.0, 100.0), None)));
-        // The LED comes into view, then moves: from then on it is the LED, and the lamp,
-        // which stood still since it appeared, is never taken again.
+        for i in 0..20u64 {
+            assert_eq!(
+                t.choose([lamp].into_iter(), i, i * FRAME_US),
+                Choice::Ambiguous,
+                "frame {i}"
+            );
+            t.update(i * FRAME_US, None);
+        }
+        // The LED comes into view beside it (two candidates: ambiguous) and moves: from then
+        // on it is the LED, and the lamp, which stood still since it appeared, is never taken.
         let led = |x: f32| (1, blob_at(x, 300.0));
         assert_eq!(
-            t.choose([lamp, led(400.0)].into_iter(), 2, 2 * FRAME_US),
-            Choice::Blob(0)
+            t.choose([lamp, led(400.0)].into_iter(), 20, 20 * FRAME_US),
+            Choice::Ambiguous
         );
-        t.update(2 * FRAME_US, Some(&streak((100.0, 100.0), None)));
-        assert_eq!(
-            t.choose([lamp, led(410.0)].into_iter(), 3, 3 * FRAME_US),
-            Choice::Blob(1)
-        );
-        t.update(3 * FRAME_US, Some(&streak((410.0, 300.0), None)));
-        for i in 4..10u64 {
-            let x = 410.0 + 10.0 * (i - 3) as f32;
+        t.update(20 * FRAME_US, None);
+        for i in 21..30u64 {
+            let x = 400.0 + 10.0 * (i - 20) as f32;
             assert_eq!(
                 t.choose([lamp, led(x)].into_iter(), i, i * FRAME_US),
                 Choice::Blob(1),
@@ -517,23 +601,58 @@ mod tests {
             );
             t.update(i * FRAME_US, Some(&streak((x, 300.0), None)));
         }
-        // A track that moved since it was taken alone is proven: a mover elsewhere is not
-        // taken instead of it.
+    }
+
+    #[test]
+    fn a_lone_smear_is_taken_at_once_and_withdrawn_if_it_stands_still() {
+        let smear = |x: f32| Blob {
+            elongation: 4.0,
+            ..blob_at(x, 100.0)
+        };
+        // A moving LED, smeared in the first frame: taken at once, and kept as it moves.
         let mut t = Tracker::new(TrackerConfig::default());
         for i in 0..4u64 {
-            let x = 100.0 + 5.0 * i as f32;
-            let other = (1, blob_at(300.0 + 10.0 * i as f32, 300.0));
-            let frame: &[(usize, Blob)] = if i < 2 {
-                &[(0, blob_at(x, 100.0))]
-            } else {
-                &[(0, blob_at(x, 100.0)), other]
-            };
+            let x = 100.0 + 20.0 * i as f32;
             assert_eq!(
-                t.choose(frame.iter().copied(), i, i * FRAME_US),
-                Choice::Blob(0)
+                t.choose([(0, smear(x))].into_iter(), i, i * FRAME_US),
+                Choice::Blob(0),
+                "frame {i}"
             );
             t.update(i * FRAME_US, Some(&streak((x, 100.0), None)));
         }
+        // Once it moved it is proven: it stops and stays tracked.
+        for i in 4..10u64 {
+            assert_eq!(
+                t.choose([(0, smear(160.0))].into_iter(), i, i * FRAME_US),
+                Choice::Blob(0),
+                "stopped, frame {i}"
+            );
+            t.update(i * FRAME_US, Some(&streak((160.0, 100.0), None)));
+        }
+        // A glare bar alone in the first frame looks the same, but stands still: withdrawn
+        // after two frames (a reversing streak stands still for one) and never taken again
+        // while it stands.
+        let mut t = Tracker::new(TrackerConfig::default());
+        for i in 0..2u64 {
+            assert_eq!(
+                t.choose([(0, smear(100.0))].into_iter(), i, i * FRAME_US),
+                Choice::Blob(0)
+            );
+            t.update(i * FRAME_US, Some(&streak((100.0, 100.0), None)));
+        }
+        for i in 2..10u64 {
+            assert_eq!(
+                t.choose([(0, smear(100.2))].into_iter(), i, i * FRAME_US),
+                Choice::Ambiguous,
+                "frame {i}"
+            );
+            t.update(i * FRAME_US, None);
+        }
+        // Then it moves (the LED at rest after all): taken.
+        assert_eq!(
+            t.choose([(0, smear(104.0))].into_iter(), 10, 10 * FRAME_US),
+            Choice::Blob(0)
+        );
     }
 
     #[test]
@@ -570,6 +689,47 @@ mod tests {
             Choice::Blob(1),
             "back in the gate"
         );
+    }
+
+    #[test]
+    fn a_track_acquired_as_it_moved_starts_from_where_it_came_from() {
+        // Two LEDs 20 px apart move right 15 px a frame; the one in front (larger) is taken.
+        // In the next frame the one behind is nearer where the taken one was: without knowing
+        // its motion the track would jump back to it.
+        let mut t = Tracker::new(TrackerConfig::default());
+        let at = |dx: f32| {
+            [
+                (0, blob_at(100.0 + dx, 100.0)),
+                (
+                    1,
+                    Blob {
+                        area_px: 50,
+                        ..blob_at(120.0 + dx, 100.0)
+                    },
+                ),
+            ]
+        };
+        assert_eq!(t.choose(at(0.0).into_iter(), 0, 0), Choice::Ambiguous);
+        t.update(0, None);
+        assert_eq!(t.choose(at(15.0).into_iter(), 1, FRAME_US), Choice::Blob(1));
+        let e = t
+            .update(FRAME_US, Some(&streak((135.0, 100.0), None)))
+            .unwrap();
+        let ((vx, _), method) = e.velocity_px_s.unwrap();
+        assert_eq!(method, VelocityMethod::Frames);
+        assert!(
+            (vx * FRAME_US as f32 * 1e-6 - 15.0).abs() < 1e-3,
+            "{vx} px/s"
+        );
+        for i in 2..6u64 {
+            let dx = 15.0 * i as f32;
+            assert_eq!(
+                t.choose(at(dx).into_iter(), i, i * FRAME_US),
+                Choice::Blob(1),
+                "frame {i}"
+            );
+            t.update(i * FRAME_US, Some(&streak((120.0 + dx, 100.0), None)));
+        }
     }
 
     #[test]

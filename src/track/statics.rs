@@ -104,6 +104,16 @@ impl Statics {
         })
     }
 
+    /// Where the blob of the frame before `frame_index` nearest `position_px` was, when one
+    /// was there and is not at `position_px` now: the place a blob that moved came from.
+    pub fn came_from(&self, position_px: (f32, f32), frame_index: u64) -> Option<(f32, f32)> {
+        self.entries
+            .iter()
+            .filter(|e| e.last_seen_frame + 1 == frame_index && !near(e.position_px, position_px))
+            .map(|e| e.position_px)
+            .min_by(|a, b| dist(*a, position_px).total_cmp(&dist(*b, position_px)))
+    }
+
     /// Notes a blob that is not the LED, seen in frame `frame_index`; `led_elsewhere` when
     /// the LED was tracked elsewhere in that frame.
     pub fn observe(&mut self, position_px: (f32, f32), frame_index: u64, led_elsewhere: bool) {

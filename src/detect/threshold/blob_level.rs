@@ -8,19 +8,31 @@
 //! thing is measured on itself:
 //!
 //! - blobs smaller than the LED's minimum area (a hot pixel, a speck of noise) are dropped
-//!   and set no level;
-//! - blobs whose top is too dark to be a clipped (or nearly clipped) light are dropped, as the
-//!   whole frame was before;
+//!   and set no level, and so are blobs larger than an LED can be (a window): cut again, a
+//!   window whose noise straddles its own level would break into thousands of specks;
+//! - blobs whose top is too dark to be a clipped light ([`MIN_CLIP_LUMA`]) are dropped, unless
+//!   they are a light that does not clip: a top of at least [`MIN_LIGHT_LUMA`] and at least
+//!   [`LIGHT_CONTRAST_LUMA`] above the mean luma of a ring around the blob (a dot on the floor,
+//!   not a bright floor, nor the rim of a window);
 //! - a static window or lamp keeps its own level and cannot raise anyone else's; telling it
 //!   from the LED is the tracker's job (it learns what stands still).
 //!
 //! Only the pixels of the low cut are visited, so the cost is that of the few bright pixels in
 //! view, not of the frame.
 
-use super::{Levels, AUTO_MARGIN_LUMA, MIN_CLIP_LUMA};
+use super::{Levels, AUTO_MARGIN_LUMA, MIN_CLIP_LUMA, MIN_LIGHT_LUMA};
 use crate::detect::bitimage::BitImage;
-use crate::detect::blobs::{Labeler, MAX_BLOBS};
+use crate::detect::blobs::{BoundingBox, Labeler, MAX_BLOBS};
 use crate::frame::Frame;
+
+/// How far above its surroundings a light that does not clip must peak: a quarter of the luma
+/// range. A dot on a floor stands out by far more; a speck of bright floor or the unlearned
+/// rim of a window, by far less.
+pub const LIGHT_CONTRAST_LUMA: u8 = 64;
+
+/// Pixels between a blob's bounding box and the ring its surroundings are measured on: clear
+/// of its own blur.
+pub const RING_GAP_PX: usize = 3;
 
 /// What the blob-by-blob cut found.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -29,16 +41,20 @@ pub struct BlobCut {
     pub count: usize,
     /// The level of the brightest blob that kept any pixels (`None` when none did).
     pub brightest_level_luma: Option<u8>,
+    /// Pixels of the clipped blobs dropped as larger than an LED can be (a window, a lamp in
+    /// the lens, a white frame): glare, for the "blinded" test.
+    pub glare_px: usize,
 }
 
 /// Cuts every blob that `labeler` found in `mask` (the low first cut of `frame`) at its own
-/// top luma minus [`AUTO_MARGIN_LUMA`], clearing blobs of fewer than `min_area_px` pixels and
-/// blobs whose top is below [`MIN_CLIP_LUMA`]. `None` when the labeller overflowed, so that the
+/// top luma minus [`AUTO_MARGIN_LUMA`], clearing blobs of fewer than `min_area_px` or more
+/// than `max_area_px` pixels and blobs that are not lights (see the module's rules). `None` when the labeller overflowed, so that the
 /// caller can fall back to one level for the frame.
 pub fn cut_each_blob(
     frame: &Frame<'_>,
     labeler: &Labeler,
     min_area_px: u32,
+    max_area_px: u32,
     mask: &mut BitImage,
 ) -> Option<BlobCut> {
     if labeler.overflow().any() {
@@ -58,12 +74,20 @@ pub fn cut_each_blob(
             *top = (*top).max(run_top);
         }
     }
-    let level_of = |slot: usize| -> Option<u8> {
-        let blob = blobs.get(slot)?;
-        let top = *tops.get(slot)?;
-        (blob.area_px >= min_area_px && top >= MIN_CLIP_LUMA)
-            .then(|| top.saturating_sub(AUTO_MARGIN_LUMA))
-    };
+    let mut levels = [None; MAX_BLOBS];
+    let mut glare_px = 0;
+    for ((level, blob), &top) in levels.iter_mut().zip(blobs).zip(&tops) {
+        if blob.area_px > max_area_px && top >= MIN_CLIP_LUMA {
+            glare_px += blob.area_px as usize;
+        }
+        let light = top >= MIN_CLIP_LUMA
+            || (top >= MIN_LIGHT_LUMA
+                && ring_mean_luma(frame, &blob.bbox)
+                    .is_some_and(|ring| f32::from(top) >= ring + f32::from(LIGHT_CONTRAST_LUMA)));
+        *level = ((min_area_px..=max_area_px).contains(&blob.area_px) && light)
+            .then(|| top.saturating_sub(AUTO_MARGIN_LUMA));
+    }
+    let level_of = |slot: usize| -> Option<u8> { *levels.get(slot)? };
     let mut count = 0;
     let mut brightest_level_luma = None;
     for run in labeler.runs() {
@@ -87,7 +111,31 @@ pub fn cut_each_blob(
     Some(BlobCut {
         count,
         brightest_level_luma,
+        glare_px,
     })
+}
+
+/// The mean luma on the rectangle [`RING_GAP_PX`] outside `bbox` (its sides clipped to the
+/// frame); `None` when no side of it lies in the frame.
+fn ring_mean_luma(frame: &Frame<'_>, bbox: &BoundingBox) -> Option<f32> {
+    let x0 = bbox.x_min_px.checked_sub(RING_GAP_PX);
+    let y0 = bbox.y_min_px.checked_sub(RING_GAP_PX);
+    let (x1, y1) = (bbox.x_max_px + RING_GAP_PX, bbox.y_max_px + RING_GAP_PX);
+    let (xa, xb) = (x0.unwrap_or(0), x1);
+    let (ya, yb) = (y0.unwrap_or(0), y1);
+    let rows = [y0, Some(y1)]
+        .into_iter()
+        .flatten()
+        .flat_map(|y| (xa..=xb).map(move |x| (x, y)));
+    let cols = [x0, Some(x1)]
+        .into_iter()
+        .flatten()
+        .flat_map(|x| (ya..=yb).map(move |y| (x, y)));
+    let (sum, n) = rows
+        .chain(cols)
+        .filter_map(|(x, y)| frame.luma(x, y))
+        .fold((0u64, 0u32), |(s, n), l| (s + u64::from(l), n + 1));
+    (n > 0).then(|| sum as f32 / n as f32)
 }
 
 /// The levels of one blob of the final mask: its own top and the cut below it, from its runs.

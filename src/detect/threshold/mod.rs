@@ -18,14 +18,22 @@ use crate::frame::Frame;
 
 pub mod blob_level;
 mod kernels;
+pub mod static_map;
 
 /// The lowest top luma level that can be a clipped sensor. Studio range clips at 235, so
-/// anything dimmer than this is a frame with nothing saturated in it.
+/// anything dimmer than this is a frame with nothing saturated in it (lights dimmer than this
+/// are only taken blob by blob, see [`MIN_LIGHT_LUMA`]).
 pub const MIN_CLIP_LUMA: u8 = 230;
 
 /// How far below the frame's top level the automatic threshold sits, in luma levels. Pixels of
 /// a clipped LED sit exactly at the top level; the margin admits its brightest rim too.
 pub const AUTO_MARGIN_LUMA: u8 = 8;
+
+/// The dimmest top a light that does not clip may have to be cut blob by blob (a dot seen on
+/// real footage peaked at 216–250 beside a window that clipped at 244+). Such a blob must also
+/// stand out from what surrounds it by [`blob_level::LIGHT_CONTRAST_LUMA`], so that a bright
+/// floor or the rim of a window is not one. One full pass at this level is the only cost.
+pub const MIN_LIGHT_LUMA: u8 = 208;
 
 /// How the saturation level is chosen for each frame.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -57,7 +65,7 @@ pub struct Levels {
 }
 
 /// The level the first, fused pass cuts at: the lowest automatic threshold there can be.
-pub const AUTO_FIRST_PASS_LUMA: u8 = MIN_CLIP_LUMA - AUTO_MARGIN_LUMA;
+pub const AUTO_FIRST_PASS_LUMA: u8 = MIN_LIGHT_LUMA - AUTO_MARGIN_LUMA;
 
 /// Writes one bit per pixel into `mask`, set where luma ≥ `threshold_luma`, and returns how
 /// many pixels were set. `mask` must have the frame's dimensions.
@@ -87,6 +95,7 @@ pub fn apply(frame: &Frame<'_>, threshold: Threshold, mask: &mut BitImage) -> (L
     }
     let (top_luma, count) = first_cut(frame, mask);
     if top_luma < MIN_CLIP_LUMA {
+        mask.clear_all();
         return (
             Levels {
                 top_luma,
@@ -105,7 +114,7 @@ pub fn apply(frame: &Frame<'_>, threshold: Threshold, mask: &mut BitImage) -> (L
 
 /// The first pass of the automatic threshold: cuts `frame` into `mask` at
 /// [`AUTO_FIRST_PASS_LUMA`] while measuring the frame's top luma. Returns the top and the
-/// count of set pixels; when the top is below [`MIN_CLIP_LUMA`] nothing can be saturated and
+/// count of set pixels; when the top is below [`MIN_LIGHT_LUMA`] nothing can be a light and
 /// the mask is cleared (count 0).
 pub fn first_cut(frame: &Frame<'_>, mask: &mut BitImage) -> (u8, usize) {
     let format = frame.format();
@@ -117,7 +126,7 @@ pub fn first_cut(frame: &Frame<'_>, mask: &mut BitImage) -> (u8, usize) {
         count += n;
         top_luma = top_luma.max(top);
     }
-    if top_luma < MIN_CLIP_LUMA {
+    if top_luma < MIN_LIGHT_LUMA {
         mask.clear_all();
         return (top_luma, 0);
     }
