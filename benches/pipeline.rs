@@ -58,7 +58,7 @@ fn stages(c: &mut Criterion) {
         group.bench_function("static_map", |b| {
             b.iter(|| {
                 t_us += 33_333;
-                statics.observe(black_box(&mask), None, t_us);
+                statics.observe(black_box(&mask), &[], t_us);
                 cut.copy_window_from(&mask, whole);
                 statics.clear_static(&mut cut)
             })

@@ -202,6 +202,36 @@ fn leaving_the_view_and_an_occlusion() {
     check("fleet-leave-return");
 }
 
+/// Two robots drive to a spot and park there for 6 s, longer than the static map takes to learn
+/// a light that stands still (3.2 s), while a third circles: every parked robot's surroundings
+/// are kept out of the map, so none of them is learned as glare and lost.
+#[test]
+fn robots_parked_longer_than_the_static_map_learns_stay_tracked() {
+    use glint_tools::scene::{Point, Trajectory};
+    let (mut config, _) = Fleet::preset_config("fleet-meeting").unwrap();
+    config.frame_count = 7 * config.fps as usize;
+    let park = |x: f64, y: f64, start_s: f64| Trajectory::StopGo {
+        waypoints_px: vec![Point::new(x, y), Point::new(x + 60.0, y)],
+        move_s: 0.5,
+        hold_s: 6.0,
+        start_s,
+    };
+    let trajectories = [
+        park(150.0, 150.0, 0.1),
+        park(420.0, 300.0, 0.2),
+        Trajectory::Circle {
+            centre_px: Point::new(320.0, 200.0),
+            radius_px: 50.0,
+            rev_per_s: 0.3,
+            phase_rad: 0.0,
+        },
+    ];
+    check_fleet(
+        "two parked robots",
+        &Fleet::new(&config, &trajectories).unwrap(),
+    );
+}
+
 /// The crossing again across the LED's size and brightness, the exposure (streak length), the
 /// sensor's noise and tone curve, and the floor's seed: the same bounds at every point.
 #[test]

@@ -42,6 +42,10 @@ pub const MAX_BLOB_FRACTION: f32 = 0.02;
 /// between frames, and a robot parked in view must never be learned as a window.
 pub const KEEP_OUT_MARGIN_PX: usize = 24;
 
+/// How many analysed blobs a frame keeps out of the static map: one per tracked LED, so that
+/// every robot of a fleet (at most `track::MAX_ROBOTS`, checked there) may stand still.
+pub const MAX_KEEP_OUT: usize = 16;
+
 /// The frame interval assumed by [`Detector::segment`], which is given no frame times.
 pub const NOMINAL_FRAME_US: u64 = 33_333;
 
@@ -124,7 +128,7 @@ pub struct Detector {
     /// The static bright pixels learned by the automatic threshold.
     statics: StaticMap,
     /// Around the blob analysed in the last frame (the LED): not learned as static.
-    keep_out: Option<Window>,
+    keep_out: heapless::Vec<Window, MAX_KEEP_OUT>,
     /// Frames segmented so far, for a clock when the caller gives none.
     frames_segmented: u64,
     /// The time of the frame being segmented.
@@ -149,7 +153,7 @@ impl Detector {
             labeled: false,
             background,
             statics: StaticMap::new(size.width(), size.height()),
-            keep_out: None,
+            keep_out: heapless::Vec::new(),
             frames_segmented: 0,
             t_us: 0,
         })
@@ -269,10 +273,10 @@ impl Detector {
             top_luma,
             threshold_luma: None,
         };
-        let keep_out = self.keep_out.take();
         if frame.size() == self.size {
-            self.statics.observe(&self.mask, keep_out, self.t_us);
+            self.statics.observe(&self.mask, &self.keep_out, self.t_us);
         }
+        self.keep_out.clear();
         let count = count.saturating_sub(self.statics.clear_static(&mut self.mask));
         if count == 0 || frame.size() != self.size {
             self.mask.clear_all();
@@ -354,7 +358,8 @@ impl Detector {
         let blob = *self.labeler.blobs().get(index)?;
         let b = blob.bbox;
         let margin_px = b.width_px().max(b.height_px()) + KEEP_OUT_MARGIN_PX;
-        self.keep_out = Some(
+        // Full only with more tracks than the bound, which the tracker refuses at start.
+        let _ = self.keep_out.push(
             self.mask
                 .window_around(b.x_min_px, b.y_min_px, b.x_max_px, b.y_max_px, margin_px),
         );

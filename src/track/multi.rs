@@ -36,6 +36,10 @@ use super::{dist, Estimate, PositionMethod, TrackState, Tracker, TrackerConfig};
 /// The most robots one run can follow: every per-robot table is sized for this many.
 pub const MAX_ROBOTS: usize = 16;
 
+// Every tracked LED's surroundings are kept out of the static map, so that a parked robot is
+// never learned as a window.
+const _: () = assert!(MAX_ROBOTS <= crate::detect::MAX_KEEP_OUT);
+
 /// A number of robots outside 1 ..= [`MAX_ROBOTS`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct RobotsOutOfRange(pub usize);

@@ -71,10 +71,10 @@ impl StaticMap {
     }
 
     /// Adds the bright pixels (`bright`, of the map's size) of the frame at `t_us` to the
-    /// period, except inside `keep_out` (the tracked LED's surroundings), and once the period
+    /// period, except inside the `keep_out` windows (the tracked LEDs' surroundings), and once the period
     /// has lasted [`UPDATE_PERIOD_US`] steps the counters (once, however long it lasted). A
     /// mask of another size is ignored; time going backwards starts a new period.
-    pub fn observe(&mut self, bright: &BitImage, keep_out: Option<Window>, t_us: u64) {
+    pub fn observe(&mut self, bright: &BitImage, keep_out: &[Window], t_us: u64) {
         if !bright.same_shape(&self.period) {
             return;
         }
@@ -87,10 +87,12 @@ impl StaticMap {
             }
         };
         for y in 0..bright.height() {
-            let kept = keep_out.filter(|w| (w.y0..w.y1).contains(&y));
             let src = bright.row(y);
             for (k, (dst, &word)) in self.period.row_mut(y).iter_mut().zip(src).enumerate() {
-                if !kept.is_some_and(|w| (w.k0..w.k1).contains(&k)) {
+                let kept = keep_out
+                    .iter()
+                    .any(|w| (w.y0..w.y1).contains(&y) && (w.k0..w.k1).contains(&k));
+                if !kept {
                     *dst |= word;
                 }
             }
@@ -190,18 +192,18 @@ mod tests {
         fn new(width: usize, height: usize) -> Self {
             let mut map = StaticMap::new(width, height);
             // The first frame starts the first period.
-            map.observe(&BitImage::with_dimensions(width, height), None, 0);
+            map.observe(&BitImage::with_dimensions(width, height), &[], 0);
             Fed { map, t_us: 0 }
         }
 
-        fn frames(&mut self, bright: &BitImage, keep_out: Option<Window>, n: u64) {
+        fn frames(&mut self, bright: &BitImage, keep_out: &[Window], n: u64) {
             for _ in 0..n {
                 self.t_us += UPDATE_PERIOD_US / 8;
                 self.map.observe(bright, keep_out, self.t_us);
             }
         }
 
-        fn periods(&mut self, bright: &BitImage, keep_out: Option<Window>, n: u8) {
+        fn periods(&mut self, bright: &BitImage, keep_out: &[Window], n: u8) {
             self.frames(bright, keep_out, 8 * u64::from(n));
         }
 
@@ -215,25 +217,25 @@ mod tests {
         let lit = BitImage::from_ascii(&["..##.", "....."]);
         let dark = BitImage::from_ascii(&[".....", "....."]);
         let mut map = Fed::new(5, 2);
-        map.periods(&lit, None, LEARN_AT_COUNT - 1);
+        map.periods(&lit, &[], LEARN_AT_COUNT - 1);
         assert_eq!(map.flag().count_ones(), 0, "one period short");
-        map.periods(&lit, None, 1);
+        map.periods(&lit, &[], 1);
         assert_eq!(map.flag().to_ascii(), ["..##.", "....."]);
         // Saturated at 15, it stays static through 11 dark periods and goes at the 12th.
-        map.periods(&lit, None, 10);
-        map.periods(&dark, None, 11);
+        map.periods(&lit, &[], 10);
+        map.periods(&dark, &[], 11);
         assert_eq!(map.flag().count_ones(), 2);
-        map.periods(&dark, None, 1);
+        map.periods(&dark, &[], 1);
         assert_eq!(map.flag().count_ones(), 0);
         // Back from 3 it takes 9 periods, not 12, to be learned again.
-        map.periods(&lit, None, 8);
+        map.periods(&lit, &[], 8);
         assert_eq!(map.flag().count_ones(), 0);
-        map.periods(&lit, None, 1);
+        map.periods(&lit, &[], 1);
         assert_eq!(map.flag().count_ones(), 2);
         // Counted in time, not frames: at 1000 fps a period is 267 frames.
         let mut fast = StaticMap::new(5, 2);
         for t_us in 0..u64::from(LEARN_AT_COUNT) * 260 {
-            fast.observe(&lit, None, t_us * 1_000);
+            fast.observe(&lit, &[], t_us * 1_000);
         }
         assert_eq!(fast.flag().count_ones(), 0, "3.1 s at 1000 fps");
     }
@@ -245,7 +247,7 @@ mod tests {
         let off = BitImage::from_ascii(&["........"]);
         // Bright in one frame of every three: bright in every period.
         for i in 0..u64::from(LEARN_AT_COUNT) * 8 {
-            map.frames(if i % 3 == 0 { &on } else { &off }, None, 1);
+            map.frames(if i % 3 == 0 { &on } else { &off }, &[], 1);
         }
         assert_eq!(map.flag().to_ascii(), ["#......."]);
         // Something that passes each pixel once is never learned.
@@ -253,7 +255,7 @@ mod tests {
         for x in 0..200 {
             let mut pass = BitImage::with_dimensions(200, 1);
             pass.set(x, 0);
-            map.frames(&pass, None, 1);
+            map.frames(&pass, &[], 1);
         }
         assert_eq!(map.flag().count_ones(), 0);
     }
@@ -274,7 +276,7 @@ mod tests {
             k0: 0,
             k1: 1,
         };
-        map.periods(&lit, Some(keep_out), LEARN_AT_COUNT);
+        map.periods(&lit, &[keep_out], LEARN_AT_COUNT);
         assert_eq!(map.flag().count_ones(), width + (width - 64));
         assert_eq!(map.flag().row(0)[1], (1 << (width - 64)) - 1, "no padding");
         let mut mask = lit.clone();
