@@ -6,6 +6,9 @@
 //! of the same sweep (the README's figures use 200), and `GLINT_SWEEP_SEED` another sweep.
 //!
 //! It measures `--streak-model fit` (`GLINT_STREAK_MODEL=ramps` measures the default ramps).
+//! To see where the errors come from: `GLINT_SWEEP_ONLY=5,13` runs only those points,
+//! `GLINT_SWEEP_FLAT_FLOOR=1` renders the floor without texture and `GLINT_SWEEP_NO_NOISE=1`
+//! without read noise.
 //!
 //! NOT YET HELD: neither model holds these bounds on every point of the sweep yet (README,
 //! "Accuracy over the sweep"), so the test is ignored by default and run on purpose with
@@ -29,6 +32,8 @@ const HEAD_MEDIAN_MAX_PX: f64 = 0.5;
 const HEAD_P95_MAX_PX: f64 = 1.5;
 const MID_MEDIAN_MAX_PX: f64 = 0.2;
 const MID_P95_MAX_PX: f64 = 0.5;
+/// The middle is held to its bounds on streaks this long (the table).
+const MIDDLE_STREAK_PX: f64 = 60.0;
 const SPEED_MEDIAN_MAX: f64 = 0.03;
 const SPEED_P95_MAX: f64 = 0.10;
 /// Single-frame speed is held to its bounds on streaks at least this long.
@@ -61,7 +66,15 @@ struct PointScore {
 }
 
 fn run_point(point: &SweepPoint, model: StreakModel) -> PointScore {
-    let scene = Scene::new(point.config()).expect("sweep scene");
+    let mut config = point.config();
+    // Diagnostics: which error comes from the floor's texture, which from the noise.
+    if std::env::var_os("GLINT_SWEEP_FLAT_FLOOR").is_some() {
+        config.floor.contrast = 0.0;
+    }
+    if std::env::var_os("GLINT_SWEEP_NO_NOISE").is_some() {
+        config.camera.noise_sigma = 0.0;
+    }
+    let scene = Scene::new(config).expect("sweep scene");
     let size = FrameSize::new(scene.width_px(), scene.height_px()).unwrap();
     let config = PipelineConfig {
         tracker: TrackerConfig {
@@ -251,7 +264,13 @@ fn every_sweep_point_holds_the_bounds() {
     };
     let mut failures = Vec::new();
     let (mut all_head, mut all_mid60, mut all_speed) = (Vec::new(), Vec::new(), Vec::new());
+    let only: Option<Vec<usize>> = std::env::var("GLINT_SWEEP_ONLY")
+        .ok()
+        .map(|v| v.split(',').filter_map(|i| i.parse().ok()).collect());
     for point in SweepPoint::sweep(seed, count) {
+        if only.as_ref().is_some_and(|o| !o.contains(&point.index)) {
+            continue;
+        }
         let s = run_point(&point, model);
         let q = |v: &[f64], q: f64| quantile(v, q).unwrap_or(0.0);
         eprintln!(
@@ -283,7 +302,10 @@ fn every_sweep_point_holds_the_bounds() {
                 q(&s.head_px, 0.95)
             ));
         }
-        if q(&s.mid_px, 0.5) > MID_MEDIAN_MAX_PX || q(&s.mid_px, 0.95) > MID_P95_MAX_PX {
+        // The bound on the middle is for 60 px streaks.
+        if point.path.length_px() == MIDDLE_STREAK_PX
+            && (q(&s.mid_px, 0.5) > MID_MEDIAN_MAX_PX || q(&s.mid_px, 0.95) > MID_P95_MAX_PX)
+        {
             fail(format!(
                 "middle {:.2}/{:.2} px",
                 q(&s.mid_px, 0.5),
@@ -303,7 +325,7 @@ fn every_sweep_point_holds_the_bounds() {
             ));
         }
         all_head.extend(&s.head_px);
-        if point.path.length_px() == 60.0 {
+        if point.path.length_px() == MIDDLE_STREAK_PX {
             all_mid60.extend(&s.mid_px);
         }
         all_speed.extend(&s.speed);

@@ -55,6 +55,9 @@ const GLOW_RATIO0: f32 = 0.05;
 /// The tone exponent starts at that of a gamma-2.2 camera.
 const TONE0: f32 = 0.45;
 
+/// The glow ratio's index in the parameters.
+const GLOW_RATIO: usize = 8;
+
 type Params = SVector<f32, PARAMS>;
 type Normal = SMatrix<f32, PARAMS, PARAMS>;
 
@@ -124,13 +127,8 @@ pub fn fit(frame: &Frame<'_>, rough: &Rough, clip_luma: u8) -> Option<PathFit> {
     let (p, _) = levenberg_marquardt(&samples, p, clip, &core_only)?;
     let mut p = p;
     p[8] = GLOW_RATIO0;
-    let (p, cost, normal) = match levenberg_marquardt(&samples, p, clip, &[true; PARAMS]) {
-        Some((q, _)) => {
-            let cost = cost_of(&samples, &q, clip)?;
-            (q, cost, normal_equations(&samples, &q, clip)?.0)
-        }
-        None => return None,
-    };
+    let (p, cost) = levenberg_marquardt(&samples, p, clip, &[true; PARAMS])?;
+    let normal = normal_equations(&samples, &p, clip, &[true; PARAMS])?.0;
     let sigma = p[5].exp();
     let ends_px = [(p[0], p[1]), (p[2], p[3])];
     // The skeleton's ends of a fat blob lie up to half its width from the path's.
@@ -150,7 +148,7 @@ pub fn fit(frame: &Frame<'_>, rough: &Rough, clip_luma: u8) -> Option<PathFit> {
     let end_var = (covariance[(0, 0)] + covariance[(1, 1)])
         .max(covariance[(2, 2)] + covariance[(3, 3)])
         .max(0.0);
-    let path = Path::new(&p);
+    let path = Path::new(&p, true);
     Some(PathFit {
         ends_px,
         mid_px: path.mid,
@@ -185,10 +183,10 @@ fn levenberg_marquardt(
     clip: f32,
     active: &[bool; PARAMS],
 ) -> Option<(Params, f32)> {
-    let mut cost = cost_of(samples, &p, clip)?;
+    let mut cost = cost_of(samples, &p, clip, active)?;
     let mut lambda = 1e-2f32;
     for _ in 0..MAX_ITERATIONS {
-        let (mut jtj, mut jtr) = normal_equations(samples, &p, clip)?;
+        let (mut jtj, mut jtr) = normal_equations(samples, &p, clip, active)?;
         for (i, &on) in active.iter().enumerate() {
             if !on {
                 jtj.row_mut(i).fill(0.0);
@@ -213,7 +211,7 @@ fn levenberg_marquardt(
                 step *= MAX_PATH_STEP_PX / reach;
             }
             let trial = clamp_params(p + step);
-            match cost_of(samples, &trial, clip) {
+            match cost_of(samples, &trial, clip, active) {
                 Some(c) if c < cost => {
                     let converged = (cost - c) < 1e-4 * cost;
                     p = trial;
@@ -255,6 +253,9 @@ struct Path {
     mid: (f32, f32),
     /// The core's and the glow's σ.
     sigmas: [f32; 2],
+    /// Components whose light is drawn: the core alone while the glow is left out (the
+    /// first stage), which halves that stage's cost.
+    components: usize,
 }
 
 #[derive(Clone, Copy, Default)]
@@ -265,7 +266,8 @@ struct Piece {
 }
 
 impl Path {
-    fn new(p: &Params) -> Path {
+    /// The path of `p`, with the glow's light drawn when `glow` (else it reads zero).
+    fn new(p: &Params, glow: bool) -> Path {
         let (a, b) = ((p[0], p[1]), (p[2], p[3]));
         let (dx, dy) = (b.0 - a.0, b.1 - a.1);
         let len = dx.hypot(dy).max(1e-6);
@@ -305,6 +307,7 @@ impl Path {
             length,
             mid,
             sigmas: [p[5].exp(), p[6].exp()],
+            components: if glow { 2 } else { 1 },
         }
     }
 
@@ -316,7 +319,7 @@ impl Path {
     /// centre: the spot's line integral along the path over the path's length.
     fn light2(&self, x: f32, y: f32) -> (f32, f32) {
         let mut out = [0.0f32; 2];
-        for (light, &sigma) in out.iter_mut().zip(&self.sigmas) {
+        for (light, &sigma) in out.iter_mut().zip(&self.sigmas).take(self.components) {
             let inv = 1.0 / sigma;
             if self.length < 1e-3 * sigma {
                 let (dx, dy) = (x - self.mid.0, y - self.mid.1);
@@ -389,8 +392,9 @@ fn residual(luma: f32, model: f32, clip: f32) -> f32 {
     }
 }
 
-fn cost_of(s: &Samples, p: &Params, clip: f32) -> Option<f32> {
-    let path = Path::new(p);
+/// The sum of squared residuals at `p` (the glow drawn only when it is `active`).
+fn cost_of(s: &Samples, p: &Params, clip: f32, active: &[bool; PARAMS]) -> Option<f32> {
+    let path = Path::new(p, active[GLOW_RATIO]);
     let mut cost = 0.0;
     for (&(x, y), &luma) in s.xy.iter().zip(&s.luma).take(s.len) {
         let r = residual(luma, model(&path, p, x, y, clip).0, clip);
@@ -400,15 +404,21 @@ fn cost_of(s: &Samples, p: &Params, clip: f32) -> Option<f32> {
 }
 
 /// `JᵀJ` and `Jᵀr` at `p`: numeric derivatives for the path and σ, analytic ones for the
-/// amplitude, exponent and floor.
-fn normal_equations(s: &Samples, p: &Params, clip: f32) -> Option<(Normal, Params)> {
+/// amplitude, exponent and floor. Derivatives of parameters not `active` are left zero
+/// (not computed: each numeric one costs a model evaluation per pixel).
+fn normal_equations(
+    s: &Samples,
+    p: &Params,
+    clip: f32,
+    active: &[bool; PARAMS],
+) -> Option<(Normal, Params)> {
     const NUMERIC: usize = 7;
     const STEP: [f32; NUMERIC] = [1e-2, 1e-2, 1e-2, 1e-2, 1e-2, 1e-3, 1e-3];
-    let base = Path::new(p);
+    let base = Path::new(p, active[GLOW_RATIO]);
     let shifted: [(Path, Params); NUMERIC] = core::array::from_fn(|i| {
         let mut q = *p;
         q[i] += STEP[i];
-        (Path::new(&q), q)
+        (Path::new(&q, active[GLOW_RATIO]), q)
     });
     let mut jtj = Normal::zeros();
     let mut jtr = Params::zeros();
@@ -420,7 +430,12 @@ fn normal_equations(s: &Samples, p: &Params, clip: f32) -> Option<(Normal, Param
             continue;
         }
         let mut row = Params::zeros();
-        for (i, (path, shifted_p)) in shifted.iter().enumerate() {
+        for (i, ((path, shifted_p), _)) in shifted
+            .iter()
+            .zip(active)
+            .enumerate()
+            .filter(|(_, (_, &on))| on)
+        {
             row[i] = (model(path, shifted_p, x, y, clip).0 - m) / STEP[i];
         }
         let v = (p[10] + p[7] * q).max(1e-6);
