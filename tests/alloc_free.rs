@@ -384,6 +384,13 @@ fn the_marker_recheck_and_a_pose_refit_allocate_nothing() {
     frames.extend(
         (rendered.end..rendered.end + 3 * period).map(|i| (i, vec![0u8; scene.frame_len_bytes()])),
     );
+    // A watched preview drawing the floor grid, redrawn after the refit.
+    let mut preview =
+        glint::sink::preview::PreviewSink::start("127.0.0.1:0".parse().unwrap(), size, Vec::new())
+            .unwrap()
+            .with_floor_camera(camera);
+    let (status, _) = common::live::get(preview.local_addr(), "/state.json");
+    assert_eq!(status, "HTTP/1.1 200 OK");
     let mut ages: heapless::Vec<f64, 128> = heapless::Vec::new();
     let allocations = allocations_during(|| {
         for (i, bytes) in &frames {
@@ -397,9 +404,17 @@ fn the_marker_recheck_and_a_pose_refit_allocate_nothing() {
             };
             let report = pipeline.process(&frame, meta);
             ages.push(report.calib.unwrap().age_s).unwrap();
+            glint::sink::Sink::write_frame(&mut preview, &frame, &report).unwrap();
+            if *i == knock_frame + 8 {
+                // The next frame is copied, with the grid redrawn through the refitted pose.
+                std::thread::sleep(glint::sink::preview::COPY_PERIOD);
+            }
         }
     });
-    assert_eq!(allocations, 0, "marker re-check and pose refit");
+    assert_eq!(
+        allocations, 0,
+        "marker re-check, pose refit and the preview's grid"
+    );
     let refit = pipeline.floor().unwrap().camera().unwrap().pose;
     assert_ne!(
         refit, camera.pose,

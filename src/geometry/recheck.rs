@@ -53,6 +53,8 @@ pub struct CalibStatus {
     pub residual_px: f64,
     /// No marker has been seen for a while after markers were seen: the camera may have moved.
     pub stale: bool,
+    /// The camera the floor numbers were mapped through (after a refit, the refitted pose).
+    pub camera: Option<CameraModel>,
 }
 
 /// What a re-check did.
@@ -164,6 +166,7 @@ impl MarkerRecheck {
             age_s: timestamp_us.saturating_sub(since) as f64 * 1e-6,
             residual_px: self.residual_px,
             stale: self.seen_any && self.misses >= STALE_AFTER_CHECKS,
+            camera: floor.camera().copied(),
         }
     }
 
