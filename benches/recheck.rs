@@ -1,15 +1,17 @@
 //! The re-check of the calibration's markers while tracking (`glint::geometry::recheck`), on
-//! 640×480 frames of the six-marker map seen through the mild lens: a frame between checks,
-//! a check that confirms the pose (detection of six markers), and a check after a 0.8° knock
-//! that refits the pose (detection plus the pose-only bundle adjustment). Averaged over the 15
-//! frames of a re-check period, the cost per frame is (check + 14 × between) / 15.
+//! 640×480 frames of the six-marker map seen through the mild lens: a frame between checks, one
+//! frame's search (the region around one marker; or one band of rows of the whole-frame search
+//! made after a check that found no marker), and a whole check (the six searches in a row,
+//! which in use fall on six frames) that confirms the pose or, after a 0.8° knock, refits it
+//! (plus the pose-only bundle adjustment). The whole-frame detection each check made before the
+//! work was spread is measured for comparison.
 
 use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use glint::detect::aruco::Dictionary;
 use glint::frame::{Frame, FrameSize};
-use glint::geometry::recheck::MarkerRecheck;
+use glint::geometry::recheck::{MarkerRecheck, RECHECK_PERIOD_FRAMES};
 use glint::geometry::{fit_camera, FloorStage, FloorUnit, LensChoice, MarkerPlacement};
 use glint_tools::scene::Scene;
 
@@ -45,27 +47,57 @@ fn bench(c: &mut Criterion) {
     let stage = FloorStage::from_camera(fit.camera, FloorUnit::Cm);
     let new = || MarkerRecheck::new(size, Dictionary::Aruco6x6_250, &map, fit.rms_residual_px);
 
+    let period = RECHECK_PERIOD_FRAMES;
     let mut recheck = new();
     let mut floor_stage = stage;
     c.bench_function("recheck: frame between checks", |b| {
-        b.iter(|| black_box(recheck.check(black_box(&frame), 1, 33_333, &mut floor_stage)))
+        b.iter(|| black_box(recheck.check(black_box(&frame), period - 1, 33_333, &mut floor_stage)))
     });
     let mut recheck = new();
-    c.bench_function("recheck: check that confirms the pose (6 markers)", |b| {
+    c.bench_function("recheck: one marker's region (one of six frames)", |b| {
         b.iter(|| {
             let mut s = stage;
-            black_box(recheck.check(black_box(&frame), 0, 0, &mut s))
+            black_box(recheck.check(black_box(&frame), 1, 0, &mut s))
         })
     });
+    // After a check that found no marker (a black picture), the whole frame band by band.
+    let black = vec![0u8; scene.frame_len_bytes()];
+    let black = Frame::new_checked(&black, size, size.row_bytes()).expect("frame");
+    let mut recheck = new();
+    let mut s = stage;
+    for i in 0..map.len() as u64 {
+        recheck.check(&black, i, 0, &mut s);
+    }
+    c.bench_function("recheck: one band of the whole-frame search", |b| {
+        b.iter(|| black_box(recheck.check(black_box(&frame), period + 1, 0, &mut s)))
+    });
+    // A whole check, its six searches in a row (in use, one per frame).
+    let mut recheck = new();
+    c.bench_function(
+        "recheck: a whole check that confirms the pose (6 regions)",
+        |b| {
+            b.iter(|| {
+                let mut s = stage;
+                for i in 0..map.len() as u64 {
+                    black_box(recheck.check(black_box(&frame), i, 0, &mut s));
+                }
+            })
+        },
+    );
     let knocked = Frame::new_checked(&after, size, size.row_bytes()).expect("frame");
     let mut recheck = new();
-    c.bench_function("recheck: check after a knock, pose refit", |b| {
+    c.bench_function("recheck: a whole check after a knock, pose refit", |b| {
         b.iter(|| {
             let mut s = stage;
-            let status = recheck.check(black_box(&knocked), 0, 0, &mut s);
+            for i in 0..map.len() as u64 {
+                black_box(recheck.check(black_box(&knocked), i, 0, &mut s));
+            }
             assert_ne!(s, stage, "the pose is refitted");
-            black_box(status)
         })
+    });
+    // For comparison: the whole-frame detection each check made before it was spread.
+    c.bench_function("recheck: whole-frame marker detection", |b| {
+        b.iter(|| black_box(detector.detect(black_box(&frame), None).map(|m| m.len())))
     });
 }
 

@@ -327,8 +327,9 @@ fn the_stop_aware_file_source_allocates_nothing_per_frame() {
     assert_eq!(allocations, 0, "allocations during {count} frames");
 }
 
-/// The re-check of the calibration's markers (detection twice a second, a pose refit after a
-/// knock) allocates nothing per frame either.
+/// The re-check of the calibration's markers (a search around each marker, a pose refit after a
+/// knock, the whole frame searched band by band once no marker is seen) allocates nothing per
+/// frame either.
 #[test]
 fn the_marker_recheck_and_a_pose_refit_allocate_nothing() {
     use glint::detect::aruco::Dictionary;
@@ -368,14 +369,29 @@ fn the_marker_recheck_and_a_pose_refit_allocate_nothing() {
         .unwrap()
         .with_floor(floor)
         .with_recheck(recheck);
-    let frames: Vec<(usize, Vec<u8>)> = (knock_frame - 16..knock_frame + 16)
+    let rendered = knock_frame - 16..knock_frame + 16;
+    let mut frames: Vec<(usize, Vec<u8>)> = rendered
+        .clone()
         .map(|i| {
             let mut bytes = vec![0u8; scene.frame_len_bytes()];
             scene.render(i, &mut bytes).unwrap();
             (i, bytes)
         })
         .collect();
-    let mut ages: heapless::Vec<f64, 64> = heapless::Vec::new();
+    // Then two periods of a black picture: a check finds no marker, and the next searches the
+    // whole frame band by band.
+    let period = glint::geometry::recheck::RECHECK_PERIOD_FRAMES as usize;
+    frames.extend(
+        (rendered.end..rendered.end + 3 * period).map(|i| (i, vec![0u8; scene.frame_len_bytes()])),
+    );
+    // A watched preview drawing the floor grid, redrawn after the refit.
+    let mut preview =
+        glint::sink::preview::PreviewSink::start("127.0.0.1:0".parse().unwrap(), size, Vec::new())
+            .unwrap()
+            .with_floor_camera(camera);
+    let (status, _) = common::live::get(preview.local_addr(), "/state.json");
+    assert_eq!(status, "HTTP/1.1 200 OK");
+    let mut ages: heapless::Vec<f64, 128> = heapless::Vec::new();
     let allocations = allocations_during(|| {
         for (i, bytes) in &frames {
             let frame = Frame::new_checked(bytes, size, size.row_bytes()).unwrap();
@@ -388,9 +404,17 @@ fn the_marker_recheck_and_a_pose_refit_allocate_nothing() {
             };
             let report = pipeline.process(&frame, meta);
             ages.push(report.calib.unwrap().age_s).unwrap();
+            glint::sink::Sink::write_frame(&mut preview, &frame, &report).unwrap();
+            if *i == knock_frame + 8 {
+                // The next frame is copied, with the grid redrawn through the refitted pose.
+                std::thread::sleep(glint::sink::preview::COPY_PERIOD);
+            }
         }
     });
-    assert_eq!(allocations, 0, "marker re-check and pose refit");
+    assert_eq!(
+        allocations, 0,
+        "marker re-check, pose refit and the preview's grid"
+    );
     let refit = pipeline.floor().unwrap().camera().unwrap().pose;
     assert_ne!(
         refit, camera.pose,
@@ -401,7 +425,9 @@ fn the_marker_recheck_and_a_pose_refit_allocate_nothing() {
         camera.lens
     );
     // Confirmed at the checks before the knock and refitted at the knock: ages restart.
-    assert!(ages.iter().all(|&a| a < 0.55), "{ages:?}");
+    assert!(ages[..rendered.len()].iter().all(|&a| a < 0.55), "{ages:?}");
+    // In the black frames nothing confirms the pose.
+    assert!(ages.last().is_some_and(|&a| a > 0.9), "{ages:?}");
 }
 
 /// The MAVLink sink's per-frame call (messages built on the stack, posted to the writer

@@ -25,6 +25,7 @@ use glint::geometry::lens_file;
 use glint::geometry::{
     fit_camera, CalibrationRecord, CameraFit, LensChoice, MarkerPlacement, Point, RecordedMarker,
 };
+use glint::small_file;
 use glint::source::dump::{DumpError, DumpSource};
 use glint::source::FrameSource;
 
@@ -130,18 +131,12 @@ struct CornerSums {
     frames: u32,
 }
 
-/// Reads a lens file (OpenCV's or ROS's camera YAML), at most a little past its size cap so
+/// Reads a lens file (OpenCV's or ROS's camera YAML): a regular file only, opened without
+/// waiting (a FIFO is refused rather than waited on), and of at most the parser's size cap, so
 /// that a device or a huge file is refused rather than read whole.
-// A shared capped-file reader is coming with the hardening work; this read uses the same cap.
 fn read_lens(path: &std::path::Path, size: FrameSize) -> Result<glint::geometry::Lens> {
-    let file = File::open(path).with_context(|| format!("cannot open lens {}", path.display()))?;
-    if !file.metadata().map(|m| m.is_file()).unwrap_or(false) {
-        bail!("lens {}: not a regular file", path.display());
-    }
-    let mut text = String::new();
-    file.take(lens_file::MAX_LENS_FILE_BYTES as u64 + 1)
-        .read_to_string(&mut text)
-        .with_context(|| format!("cannot read lens {}", path.display()))?;
+    let text = small_file::read_text(path, lens_file::MAX_LENS_FILE_BYTES as u64)
+        .with_context(|| format!("lens {}", path.display()))?;
     lens_file::parse(&text, size).with_context(|| format!("lens {}", path.display()))
 }
 

@@ -109,18 +109,28 @@ fn memory_plan(args: &RunArgs) -> MemoryPlan {
 
 /// Starts the preview server and says where it is (the address actually bound, for port 0).
 fn start_preview(addr: SocketAddr, settings: &TrackSettings) -> Result<PreviewSink> {
-    // The calibration was checked when the pipeline was built; here only its markers are read.
-    let markers = match settings.floor.calib.as_deref() {
+    // The calibration was checked when the pipeline was built; here its markers and its camera
+    // (for the floor grid) are read.
+    let (markers, camera) = match settings.floor.calib.as_deref() {
         Some(path) => {
             let text = small_file::read_text(path, small_file::MAX_SETTINGS_BYTES)
                 .with_context(|| format!("calib = {:?}: cannot read it", path.display()))?;
-            CalibrationFile::marker_corners_px(&text)
+            let camera = CalibrationFile::parse(&text, settings.size)
                 .with_context(|| format!("calib = {:?}", path.display()))?
+                .floor
+                .camera()
+                .copied();
+            let markers = CalibrationFile::marker_corners_px(&text)
+                .with_context(|| format!("calib = {:?}", path.display()))?;
+            (markers, camera)
         }
-        None => Vec::new(),
+        None => (Vec::new(), None),
     };
-    let preview = PreviewSink::start(addr, settings.size, markers)
+    let mut preview = PreviewSink::start(addr, settings.size, markers)
         .with_context(|| format!("preview = \"{addr}\": cannot serve there"))?;
+    if let Some(camera) = camera {
+        preview = preview.with_floor_camera(camera);
+    }
     log::info!("preview on http://{}/", preview.local_addr());
     Ok(preview)
 }

@@ -8,6 +8,7 @@ pub mod calibration_record;
 pub mod camera;
 pub mod camera_fit;
 pub mod floor;
+pub mod floor_grid;
 pub mod heading;
 pub mod homography;
 pub mod lens_file;

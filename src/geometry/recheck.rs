@@ -1,10 +1,16 @@
 //! Staying calibrated: the calibration's markers re-detected while tracking, and the camera's
 //! pose refitted (the pose only: the lens stays) when a knock has moved them.
 //!
-//! Every [`RECHECK_PERIOD_FRAMES`]th frame the marker detector runs on the frame (it allocates
-//! nothing after start-up, and costs a couple of milliseconds at 640×480, a small part of one
-//! frame period, once in that many frames). The map's markers seen exactly once are compared
-//! with where the current pose puts them:
+//! Every [`RECHECK_PERIOD_FRAMES`] frames the markers are checked once, the detection spread
+//! over the period's first frames so that no frame pays for a whole-frame search (about 4 ms at
+//! 640×480, more than the rest of the per-frame path by far): while the markers are where the
+//! pose puts them, frame `k` of the period searches only the region around marker `k`'s
+//! expected outline (half the marker's size on every side: room for a knock that moves it by
+//! that much); after a
+//! check that found no marker, the period searches the whole frame in [`SEARCH_BANDS`]
+//! overlapping bands of rows instead, one per frame. The detector allocates nothing after
+//! start-up. After the period's last search, the markers found once each are compared with
+//! where the current pose puts them:
 //! - within [`MOVED_RMS_PX`] of the calibration's own residual: the pose is confirmed (its
 //!   age restarts);
 //! - farther: the pose is refitted to them with the lens held, and taken if the refit fits them
@@ -20,7 +26,7 @@ use super::camera::CameraModel;
 use super::camera_fit::{fit_camera, LensChoice, MAX_FIT_POINTS};
 use super::floor::FloorStage;
 use super::homography::Point;
-use crate::detect::aruco::{Detector, DetectorConfig, Dictionary, MAX_MARKERS};
+use crate::detect::aruco::{Detector, DetectorConfig, Dictionary, Roi, MAX_MARKERS};
 use crate::frame::{Frame, FrameSize};
 
 /// Frames between two re-checks (0.5 s at 30 fps: a knock is caught well within a second).
@@ -30,6 +36,13 @@ pub const RECHECK_PERIOD_FRAMES: u64 = 15;
 pub const MOVED_RMS_PX: f64 = 1.0;
 /// Checks in a row without any marker before the floor numbers are called stale.
 pub const STALE_AFTER_CHECKS: u32 = 4;
+/// Bands of rows a whole-frame search is spread over, one per frame.
+pub const SEARCH_BANDS: u64 = 5;
+/// Least margin around a marker's expected outline, pixels: the adaptive threshold's largest
+/// window (23 px) must fit beside the marker for its edge to be found as in a whole frame.
+const MIN_MARGIN_PX: f64 = 16.0;
+/// Least overlap of two search bands, pixels, when the map's markers are smaller than this.
+const MIN_BAND_OVERLAP_PX: usize = 32;
 
 /// Which calibration a frame's floor numbers come from.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -40,6 +53,8 @@ pub struct CalibStatus {
     pub residual_px: f64,
     /// No marker has been seen for a while after markers were seen: the camera may have moved.
     pub stale: bool,
+    /// The camera the floor numbers were mapped through (after a refit, the refitted pose).
+    pub camera: Option<CameraModel>,
 }
 
 /// What a re-check did.
@@ -62,6 +77,14 @@ pub struct MarkerRecheck {
     misses: u32,
     seen_any: bool,
     start_us: Option<u64>,
+    /// Corners found so far in this period: floor and screen, and the ids they belong to.
+    floor_pts: heapless::Vec<Point, MAX_FIT_POINTS>,
+    screen_pts: heapless::Vec<Point, MAX_FIT_POINTS>,
+    found_ids: heapless::Vec<u16, MAX_MARKERS>,
+    /// The last check found no marker: this period searches the whole frame, band by band.
+    search_bands: bool,
+    /// Checks made, to turn which markers a period searches when there are more than frames.
+    checks: u64,
 }
 
 impl MarkerRecheck {
@@ -92,11 +115,27 @@ impl MarkerRecheck {
             misses: 0,
             seen_any: false,
             start_us: None,
+            floor_pts: heapless::Vec::new(),
+            screen_pts: heapless::Vec::new(),
+            found_ids: heapless::Vec::new(),
+            search_bands: false,
+            checks: 0,
         }
     }
 
-    /// Runs the re-check on frame `index` (every [`RECHECK_PERIOD_FRAMES`]th), refitting the
-    /// floor stage's pose when the markers moved; returns the calibration's status.
+    /// Searches this period makes, one per frame from its first.
+    fn searches(&self) -> u64 {
+        let n = if self.search_bands {
+            SEARCH_BANDS
+        } else {
+            self.map.len() as u64
+        };
+        n.clamp(1, RECHECK_PERIOD_FRAMES)
+    }
+
+    /// Runs the re-check's share of frame `index` (one search in each of the first frames of
+    /// every [`RECHECK_PERIOD_FRAMES`]), refitting the floor stage's pose when the period's
+    /// markers moved; returns the calibration's status.
     pub fn check(
         &mut self,
         frame: &Frame<'_>,
@@ -105,10 +144,21 @@ impl MarkerRecheck {
         floor: &mut FloorStage,
     ) -> CalibStatus {
         let start_us = *self.start_us.get_or_insert(timestamp_us);
-        if index.is_multiple_of(RECHECK_PERIOD_FRAMES) {
-            match self.recheck(frame, floor) {
-                Outcome::Nothing => {}
-                Outcome::Confirmed | Outcome::Refit => self.confirmed_us = Some(timestamp_us),
+        let step = index % RECHECK_PERIOD_FRAMES;
+        let searches = self.searches();
+        if step < searches {
+            if step == 0 {
+                self.floor_pts.clear();
+                self.screen_pts.clear();
+                self.found_ids.clear();
+            }
+            self.search(frame, step, floor);
+            if step + 1 == searches {
+                self.checks = self.checks.wrapping_add(1);
+                match self.evaluate(floor) {
+                    Outcome::Nothing => {}
+                    Outcome::Confirmed | Outcome::Refit => self.confirmed_us = Some(timestamp_us),
+                }
             }
         }
         let since = self.confirmed_us.unwrap_or(start_us);
@@ -116,44 +166,99 @@ impl MarkerRecheck {
             age_s: timestamp_us.saturating_sub(since) as f64 * 1e-6,
             residual_px: self.residual_px,
             stale: self.seen_any && self.misses >= STALE_AFTER_CHECKS,
+            camera: floor.camera().copied(),
         }
     }
 
-    fn recheck(&mut self, frame: &Frame<'_>, floor: &mut FloorStage) -> Outcome {
+    /// Search `step` of the period: one marker's region, or one band of rows.
+    fn search(&mut self, frame: &Frame<'_>, step: u64, floor: &FloorStage) {
         let Some(camera) = floor.camera().copied() else {
-            return Outcome::Nothing;
+            return;
         };
-        let Ok(seen) = self.detector.detect(frame, None) else {
-            return Outcome::Nothing;
+        let (roi, only) = if self.search_bands {
+            (self.band(step, &camera), None)
+        } else {
+            let n = self.map.len() as u64;
+            let turn = self.checks.wrapping_mul(self.searches());
+            let Some(&marker) = usize::try_from(turn.wrapping_add(step) % n.max(1))
+                .ok()
+                .and_then(|i| self.map.get(i))
+            else {
+                return;
+            };
+            (marker_region(&camera, &marker), Some(marker.id))
         };
-        let mut floor_pts: heapless::Vec<Point, MAX_FIT_POINTS> = heapless::Vec::new();
-        let mut screen_pts: heapless::Vec<Point, MAX_FIT_POINTS> = heapless::Vec::new();
+        let Some(roi) = roi else {
+            return;
+        };
+        let Ok(seen) = self.detector.detect(frame, Some(roi)) else {
+            return;
+        };
         for p in &self.map {
+            if only.is_some_and(|id| id != p.id) || self.found_ids.contains(&p.id) {
+                continue;
+            }
             let mut matching = seen.iter().filter(|m| m.id == p.id);
             let (Some(m), None) = (matching.next(), matching.next()) else {
                 continue;
             };
+            let room = self.floor_pts.capacity() - self.floor_pts.len();
+            if room < 4 || self.found_ids.push(p.id).is_err() {
+                break;
+            }
             for (f, s) in p.corners().iter().zip(&m.corners) {
-                if floor_pts.push(*f).is_err() || screen_pts.push(*s).is_err() {
-                    break;
-                }
+                // Room for four was checked above.
+                let _ = self.floor_pts.push(*f);
+                let _ = self.screen_pts.push(*s);
             }
         }
+    }
+
+    /// Band `step` of [`SEARCH_BANDS`]: full rows, overlapping the next band by the height of
+    /// the map's tallest marker as the pose puts it, so that a marker lies wholly in one band.
+    fn band(&self, step: u64, camera: &CameraModel) -> Option<Roi> {
+        let (w, h) = (self.size.width(), self.size.height());
+        let tallest_px = self
+            .map
+            .iter()
+            .filter_map(|m| outline_px(camera, m))
+            .map(|(lo, hi)| (hi.y - lo.y).ceil())
+            .fold(0.0f64, f64::max);
+        // A marker's height plus the threshold's margin on both sides; a float cast saturates.
+        let overlap = ((tallest_px + 2.0 * MIN_MARGIN_PX) as usize).max(MIN_BAND_OVERLAP_PX);
+        let bands = usize::try_from(SEARCH_BANDS).ok()?;
+        let stride = h.div_ceil(bands);
+        let top = usize::try_from(step).ok()?.checked_mul(stride)?;
+        (top < h).then(|| Roi {
+            x_px: 0,
+            y_px: top,
+            width_px: w,
+            height_px: (stride + overlap).min(h - top),
+        })
+    }
+
+    /// The period's markers against the pose: confirm it, refit it, or count a miss.
+    fn evaluate(&mut self, floor: &mut FloorStage) -> Outcome {
+        let Some(camera) = floor.camera().copied() else {
+            return Outcome::Nothing;
+        };
+        let (floor_pts, screen_pts) = (&self.floor_pts, &self.screen_pts);
+        self.search_bands = floor_pts.is_empty();
         if floor_pts.is_empty() {
             self.misses = self.misses.saturating_add(1);
             return Outcome::Nothing;
         }
         self.misses = 0;
         self.seen_any = true;
-        let current = rms_px(&camera, &floor_pts, &screen_pts);
+        let current = rms_px(&camera, floor_pts, screen_pts);
         let moved_px = self.calibration_px + MOVED_RMS_PX;
         if current <= moved_px {
             self.residual_px = current;
             return Outcome::Confirmed;
         }
         let Ok(fit) = fit_camera(
-            &floor_pts,
-            &screen_pts,
+            floor_pts,
+            screen_pts,
             self.size,
             LensChoice::Known(camera.lens),
         ) else {
@@ -190,6 +295,40 @@ impl MarkerRecheck {
         }
         Outcome::Nothing
     }
+}
+
+/// The bounding box (least and greatest corner) of `marker`'s outline as `camera` sees it.
+fn outline_px(camera: &CameraModel, marker: &MarkerPlacement) -> Option<(Point, Point)> {
+    let mut lo = Point::new(f64::INFINITY, f64::INFINITY);
+    let mut hi = Point::new(f64::NEG_INFINITY, f64::NEG_INFINITY);
+    for c in marker.corners() {
+        let p = camera.project(&c, 0.0).ok()?;
+        lo = Point::new(lo.x.min(p.x), lo.y.min(p.y));
+        hi = Point::new(hi.x.max(p.x), hi.y.max(p.y));
+    }
+    (lo.x.is_finite() && lo.y.is_finite() && hi.x.is_finite() && hi.y.is_finite())
+        .then_some((lo, hi))
+}
+
+/// The region searched for `marker`: its expected outline with half its size on every side (at
+/// least [`MIN_MARGIN_PX`]), room for a knock that moves it by that much. `None` when
+/// it is not in front of the camera; the detector clips the region to the frame and refuses one
+/// wholly outside it.
+fn marker_region(camera: &CameraModel, marker: &MarkerPlacement) -> Option<Roi> {
+    let (lo, hi) = outline_px(camera, marker)?;
+    let margin = (0.5 * (hi.x - lo.x).max(hi.y - lo.y)).max(MIN_MARGIN_PX);
+    // Float-to-integer casts saturate: a region far off the frame is clipped to nothing.
+    let (x0, y0) = ((lo.x - margin).max(0.0), (lo.y - margin).max(0.0));
+    let (x1, y1) = (hi.x + margin + 1.0, hi.y + margin + 1.0);
+    if x1 <= x0 || y1 <= y0 {
+        return None;
+    }
+    Some(Roi {
+        x_px: x0 as usize,
+        y_px: y0 as usize,
+        width_px: (x1 - x0).ceil() as usize,
+        height_px: (y1 - y0).ceil() as usize,
+    })
 }
 
 /// Rms distance between `screen` and `floor` seen through `camera`.

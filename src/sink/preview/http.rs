@@ -351,6 +351,12 @@ fn state_json(s: &Seen, calibration_markers_px: &[[(f32, f32); 4]]) -> Vec<u8> {
             .iter()
             .map(|m| m.map(point))
             .collect::<Vec<_>>(),
+        "floor_grid_px": s
+            .grid_px
+            .split(|p| p.0.is_nan())
+            .filter(|line| line.len() >= 2)
+            .map(|line| line.iter().copied().map(point).collect::<Vec<_>>())
+            .collect::<Vec<_>>(),
         "fps": s.fps,
     });
     state.to_string().into_bytes()

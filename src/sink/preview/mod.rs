@@ -28,6 +28,8 @@ use heapless::{Deque, Vec as BoundedVec};
 
 use super::Sink;
 use crate::frame::{Frame, FrameSize};
+use crate::geometry::floor_grid;
+use crate::geometry::CameraModel;
 use crate::report::FrameReport;
 
 /// How often a frame is copied while someone watches (2 Hz).
@@ -52,6 +54,8 @@ struct Snapshot {
     luma: Vec<u8>,
     /// Everything but the pixels: small, so a request for the state copies only this.
     seen: Seen,
+    /// The camera the floor grid in `seen` was drawn through.
+    grid_camera: Option<CameraModel>,
 }
 
 /// What the page draws and prints about the copied frame.
@@ -70,6 +74,10 @@ struct Seen {
     track_px: BoundedVec<Px, TRACK_POINTS>,
     /// Frames per second over the last copy period; `None` until two copies were made.
     fps: Option<f64>,
+    /// The floor's 10 cm grid through the calibration's lens and current pose: polylines
+    /// separated by [`floor_grid::BREAK`]. Its capacity is allocated once, when a camera is
+    /// given ([`PreviewSink::with_floor_camera`]); empty without one.
+    grid_px: Vec<Px>,
 }
 
 impl Snapshot {
@@ -88,8 +96,23 @@ impl Snapshot {
                 marker_px: None,
                 track_px: BoundedVec::new(),
                 fps: None,
+                grid_px: Vec::new(),
             },
+            grid_camera: None,
         }
+    }
+
+    /// Redraws the floor grid when `camera` is not the one it was drawn for (at start, and
+    /// after a re-check refitted the pose), into the capacity allocated at start.
+    fn draw_grid(&mut self, camera: Option<CameraModel>) {
+        if camera == self.grid_camera {
+            return;
+        }
+        match &camera {
+            Some(c) => floor_grid::floor_grid_px(c, self.seen.size, &mut self.seen.grid_px),
+            None => self.seen.grid_px.clear(),
+        }
+        self.grid_camera = camera;
     }
 
     /// Copies the frame's luma (whatever its pixel format) and the report. A frame of
@@ -176,6 +199,8 @@ pub struct PreviewSink {
     last_copy: Option<Instant>,
     /// Frames since `last_copy`.
     frames_since_copy: u64,
+    /// The calibration's camera as last known: given at start, then as the re-check reports it.
+    camera: Option<CameraModel>,
 }
 
 impl PreviewSink {
@@ -202,7 +227,26 @@ impl PreviewSink {
             track: Deque::new(),
             last_copy: None,
             frames_since_copy: 0,
+            camera: None,
         })
+    }
+
+    /// The same preview drawing the floor's 10 cm grid through `camera` (the calibration's lens
+    /// and pose), redrawn whenever a re-check refits the pose. Allocates the grid's buffer.
+    pub fn with_floor_camera(mut self, camera: CameraModel) -> Self {
+        self.camera = Some(camera);
+        let mut snapshot = self
+            .shared
+            .snapshot
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner);
+        snapshot
+            .seen
+            .grid_px
+            .reserve_exact(floor_grid::MAX_GRID_POINTS);
+        snapshot.draw_grid(Some(camera));
+        drop(snapshot);
+        self
     }
 
     /// Where the page is served.
@@ -225,6 +269,12 @@ impl Sink for PreviewSink {
 
     fn write_frame(&mut self, frame: &Frame<'_>, report: &FrameReport) -> io::Result<()> {
         self.write(report)?;
+        // Only a preview given a camera at start draws the grid (and has room for it).
+        if self.camera.is_some() {
+            if let Some(camera) = report.calib.and_then(|c| c.camera) {
+                self.camera = Some(camera);
+            }
+        }
         let now = Instant::now();
         if !self.shared.watched(now) {
             self.last_copy = None;
@@ -240,6 +290,7 @@ impl Sink for PreviewSink {
             return Ok(());
         };
         snapshot.fill(frame, report, &self.track);
+        snapshot.draw_grid(self.camera);
         snapshot.seen.fps = since.map(|s| self.frames_since_copy as f64 / s.as_secs_f64());
         self.last_copy = Some(now);
         self.frames_since_copy = 0;
