@@ -29,6 +29,8 @@ pub mod frame;
 pub mod geometry;
 pub mod latency;
 pub mod monitor;
+#[cfg(feature = "net")]
+pub mod net;
 pub mod options;
 pub mod pipeline;
 pub mod sink;

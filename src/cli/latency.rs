@@ -53,6 +53,9 @@ pub fn run(args: LatencyArgs) -> Result<ExitCode> {
         );
     };
     let port = port.to_owned();
+    if args.settings.publish.publish.is_some() {
+        bail!("glint latency measures the serial link alone: drop --publish");
+    }
     let Opened {
         mut source,
         mut pipeline,
