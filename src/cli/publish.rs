@@ -78,7 +78,7 @@ impl PublishArgs {
 mod enabled {
     use anyhow::{Context, Result};
     use glint::budget::MemoryPlan;
-    use glint::net::{self, Keys, PublishConfig};
+    use glint::net::{self, KeyError, Keys, PublishConfig};
 
     use super::PublishArgs;
 
@@ -91,12 +91,11 @@ mod enabled {
             return Ok(None);
         };
         let camera = args.camera_name();
-        let keys = Keys::new(key, &camera, args.ros_domain_id()?).with_context(|| {
-            if args.camera_name.is_none() {
-                format!("--publish {key}: the host name as --camera-name")
-            } else {
-                format!("--publish {key}")
+        let keys = Keys::new(key, &camera, args.ros_domain_id()?).map_err(|e| match e {
+            KeyError::BadCameraName(_) if args.camera_name.is_none() => {
+                anyhow::anyhow!("--publish {key}: the host name as {e}: give --camera-name")
             }
+            _ => anyhow::anyhow!("--publish {key}: {e}"),
         })?;
         let config = PublishConfig {
             keys,

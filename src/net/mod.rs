@@ -55,7 +55,9 @@ pub struct PublishConfig {
 /// Publishing could not start.
 #[derive(Debug)]
 pub enum PublishError {
-    /// Zenoh refused the configuration (an endpoint it cannot parse).
+    /// An endpoint that is not `tcp/HOST:PORT`.
+    Endpoint(String),
+    /// Zenoh refused the configuration.
     Config(String),
     /// The session or a publisher could not be opened (say, a port to listen on is taken).
     Open(String),
@@ -66,6 +68,10 @@ pub enum PublishError {
 impl fmt::Display for PublishError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
+            PublishError::Endpoint(e) => write!(
+                f,
+                "endpoint {e:?}: write tcp/HOST:PORT (TCP is this build's only transport)"
+            ),
             PublishError::Config(e) => write!(f, "zenoh configuration: {e}"),
             PublishError::Open(e) => write!(f, "cannot open the zenoh session: {e}"),
             PublishError::Thread(e) => write!(f, "cannot start the publisher thread: {e}"),

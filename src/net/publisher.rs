@@ -12,6 +12,7 @@ use std::sync::mpsc::Receiver;
 use std::time::{SystemTime, UNIX_EPOCH};
 
 use zenoh::bytes::Encoding;
+use zenoh::config::EndPoint;
 use zenoh::pubsub::Publisher;
 use zenoh::qos::CongestionControl;
 use zenoh::{Config, Session, Wait};
@@ -139,6 +140,9 @@ impl Publishers {
 /// Zenoh's configuration: peer mode, and with endpoints given, exactly those links and no
 /// multicast scouting; without, Zenoh's defaults (scouting, a listener on a free TCP port).
 fn zenoh_config(config: &PublishConfig) -> Result<Config, PublishError> {
+    for endpoint in config.connect.iter().chain(&config.listen) {
+        check_endpoint(endpoint)?;
+    }
     let mut zenoh = Config::default();
     let mut set = |key: &str, value: String| {
         zenoh
@@ -152,6 +156,20 @@ fn zenoh_config(config: &PublishConfig) -> Result<Config, PublishError> {
         set("listen/endpoints", json_list(&config.listen))?;
     }
     Ok(zenoh)
+}
+
+/// An endpoint this build can use: `tcp/` and an address with a port, which Zenoh then parses
+/// (its own message names source files; this one names the form).
+fn check_endpoint(endpoint: &str) -> Result<(), PublishError> {
+    let address = endpoint.strip_prefix("tcp/").unwrap_or_default();
+    let port = address.rsplit_once(':').map(|(_, port)| port);
+    let host_ok = address
+        .split_once(':')
+        .is_some_and(|(host, _)| !host.is_empty());
+    match port.map(str::parse::<u16>) {
+        Some(Ok(_)) if host_ok && endpoint.parse::<EndPoint>().is_ok() => Ok(()),
+        _ => Err(PublishError::Endpoint(endpoint.to_owned())),
+    }
 }
 
 fn json_list(items: &[String]) -> String {
@@ -187,11 +205,24 @@ mod tests {
             "false"
         );
         assert_eq!(zenoh.get_json("listen/endpoints").unwrap(), "[]");
-        config.connect = vec!["nonsense".into()];
-        let e = zenoh_config(&config).unwrap_err().to_string();
-        assert!(
-            e.starts_with("zenoh configuration: connect/endpoints"),
-            "{e}"
-        );
+        for bad in [
+            "nonsense",
+            "udp/1.2.3.4:5",
+            "tcp/1.2.3.4",
+            "tcp/:7447",
+            "tcp/h:99999",
+        ] {
+            config.connect = vec![bad.into()];
+            let e = zenoh_config(&config).unwrap_err().to_string();
+            assert!(
+                e.starts_with(&format!("endpoint {bad:?}: write tcp/")),
+                "{e}"
+            );
+        }
+        for good in ["tcp/[::1]:7447", "tcp/0.0.0.0:0", "tcp/pi.local:7447"] {
+            config.listen = vec![good.into()];
+            config.connect = Vec::new();
+            assert!(zenoh_config(&config).is_ok(), "{good}");
+        }
     }
 }
