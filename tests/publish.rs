@@ -358,16 +358,25 @@ fn an_independent_peer_receives_every_report_in_every_form() {
     assert!(log.contains(&summary), "{summary} not in\n{log}");
 }
 
+/// `glint run` with the settings in its file, so the file's keys are tried too.
 #[test]
 fn a_subscriber_that_restarts_loses_reports_not_the_process() {
-    const SIZE: &str = "160x120";
     const FRAME_BYTES: usize = 160 * 120 * 2;
     let port = free_port();
+    let dir = tempfile::tempdir().unwrap();
+    let settings = dir.path().join("glint.toml");
+    std::fs::write(
+        &settings,
+        format!(
+            "input = \"-\"\nsize = \"160x120\"\nsummary-every = 0.5\npublish = \"{KEY}\"\n\
+             camera-name = \"{CAMERA}\"\nzenoh-connect = [\"tcp/127.0.0.1:{port}\"]\n"
+        ),
+    )
+    .unwrap();
     let first = Subscriber::start(port);
     let mut child = glint()
-        .args(["-v", "track", "--input", "-", "--size", SIZE])
-        .args(["--publish", KEY, "--camera-name", CAMERA])
-        .args(["--zenoh-connect", &format!("tcp/127.0.0.1:{port}")])
+        .args(["run", "--config"])
+        .arg(&settings)
         .stdin(Stdio::piped())
         .stdout(Stdio::null())
         .stderr(Stdio::piped())
@@ -404,5 +413,6 @@ fn a_subscriber_that_restarts_loses_reports_not_the_process() {
         "no report after frame {before} reached the restarted subscriber:\n{log}"
     );
     assert!(out.status.success(), "{log}");
+    assert!(log.contains(", publish (sent "), "no status: {log}");
     assert!(log.contains("publish: queued="), "{log}");
 }
