@@ -25,7 +25,7 @@ pub mod wire;
 
 use core::fmt;
 use std::io;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::mpsc::{self, SyncSender, TrySendError};
 use std::sync::Arc;
 use std::thread::JoinHandle;
@@ -109,6 +109,8 @@ impl fmt::Display for PublishStats {
 struct Counters {
     sent: AtomicU64,
     failed: AtomicU64,
+    /// Whether any subscriber matched the JSON key at the last report.
+    subscribed: AtomicBool,
 }
 
 /// The tracking thread's end: a [`Sink`] that queues reports for the publisher thread.
@@ -185,9 +187,14 @@ impl Sink for PublishSink {
 
     fn status(&self, out: &mut fmt::Formatter<'_>) -> fmt::Result {
         let stats = self.stats();
+        let audience = if self.counters.subscribed.load(Ordering::Relaxed) {
+            "subscribed"
+        } else {
+            "no subscriber"
+        };
         write!(
             out,
-            ", publish (sent {}, dropped {})",
+            ", publish {audience} (sent {}, dropped {})",
             stats.sent, stats.dropped
         )
     }

@@ -97,6 +97,14 @@ impl Publishers {
             }
             let counter = if ok { &counters.sent } else { &counters.failed };
             counter.fetch_add(1, Ordering::Relaxed);
+            // For the status line: whether anyone listens (a peer that went away, or an
+            // endpoint nobody serves, shows there rather than in Zenoh's own log).
+            let subscribed = self
+                .json
+                .matching_status()
+                .wait()
+                .is_ok_and(|m| m.matching());
+            counters.subscribed.store(subscribed, Ordering::Relaxed);
         }
         if let Err(e) = self.session.close().wait() {
             log::warn!("publish: closing the zenoh session: {e}");
