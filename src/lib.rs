@@ -6,8 +6,9 @@
 //! the read buffer of a dump source (a camera's mmap buffers belong to the driver), the
 //! bit-packed masks, the static map (six bit planes), the morphology and skeleton scratch, the
 //! bounded run and blob tables, the background model, the marker detector's scratch, the
-//! latency histograms, the output writer's buffer, and the serial sink's mailbox and writer
-//! thread. After that, processing a frame
+//! latency histograms, the output writer's buffer, the serial sink's mailbox and writer
+//! thread, and (`--publish`, the `net` feature) the publish queue and its thread. After that,
+//! processing a frame
 //! performs **zero heap allocations**: frames are borrowed views of the source's buffer,
 //! bounded lists are `heapless` with their capacity in the type, reports are formatted straight
 //! into the reused writer, and serial packets are encoded into stack buffers.
@@ -36,6 +37,8 @@ pub mod geometry;
 pub mod identify;
 pub mod latency;
 pub mod monitor;
+#[cfg(feature = "net")]
+pub mod net;
 pub mod options;
 pub mod pipeline;
 pub mod report;

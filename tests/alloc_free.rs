@@ -642,3 +642,66 @@ fn identifying_several_robots_over_a_shared_line_allocates_nothing_per_frame() {
         scene.frame_count()
     );
 }
+
+/// Publishing (`--publish`): the tracking thread only copies each report into the publish
+/// queue, whether it has room or not; the publisher thread, which may allocate, sends them on a
+/// real Zenoh session (listening on the loopback only, no scouting, nobody subscribed).
+#[cfg(feature = "net")]
+#[test]
+fn publishing_allocates_nothing_on_the_tracking_thread() {
+    use glint::net::{Keys, PublishConfig, PublishSink, QUEUE_REPORTS};
+    use glint::sink::Sink;
+    use glint::source::FrameSource;
+
+    let (size, bytes, count) = frames();
+    let config = PublishConfig {
+        keys: Keys::new("glint/alloc-test", "cam", 0).unwrap(),
+        connect: Vec::new(),
+        listen: vec!["tcp/127.0.0.1:0".into()],
+    };
+    let mut sink = PublishSink::start(&config).unwrap();
+    let mut source = DumpSource::new(Cursor::new(&bytes), size, 30.0);
+    let mut pipeline = Pipeline::new(size, PipelineConfig::default())
+        .unwrap()
+        .with_floor(reference_floor());
+    let allocations = allocations_during(|| {
+        let (s, result) = pipeline::run(&mut source, &mut pipeline, &mut sink);
+        result.unwrap();
+        assert!(s.found > s.frames / 2, "{s:?}");
+    });
+    assert_eq!(
+        allocations, 0,
+        "allocations during {count} published frames"
+    );
+
+    let published = sink.stats();
+    assert_eq!(
+        published.queued + published.dropped,
+        count as u64,
+        "{published}"
+    );
+    assert_eq!(
+        published.sent + published.failed,
+        published.queued,
+        "{published}"
+    );
+
+    // A burst far faster than the publisher thread: the full queue drops, without allocating.
+    let mut sink = PublishSink::start(&config).unwrap();
+    let mut source = DumpSource::new(Cursor::new(&bytes), size, 30.0);
+    let mut pipeline = Pipeline::new(size, PipelineConfig::default()).unwrap();
+    let (frame, meta) = source.next_frame().unwrap().expect("a frame");
+    let report = pipeline.process(&frame, meta);
+    let burst = 4 * QUEUE_REPORTS as u64;
+    let allocations = allocations_during(|| {
+        for _ in 0..burst {
+            sink.write(&report).unwrap();
+        }
+    });
+    assert_eq!(allocations, 0, "allocations during a burst of {burst}");
+    sink.finish().unwrap();
+    let stats = sink.stats();
+    assert_eq!(stats.queued + stats.dropped, burst, "{stats}");
+    assert!(stats.dropped > 0, "the burst overflowed the queue: {stats}");
+    assert_eq!(stats.sent + stats.failed, stats.queued, "{stats}");
+}

@@ -57,6 +57,9 @@ pub fn run(args: LatencyArgs) -> Result<ExitCode> {
             "glint latency asks over one line: give --serial PORT (and --robot ID), not ID=PORT"
         ),
     };
+    if args.settings.publish.publish.is_some() {
+        bail!("glint latency measures the serial link alone: drop --publish");
+    }
     let Opened {
         mut source,
         mut pipeline,

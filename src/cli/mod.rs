@@ -11,6 +11,7 @@ mod input;
 mod latency;
 mod logger;
 mod memory;
+mod publish;
 #[cfg(feature = "v4l2")]
 mod record;
 mod run;

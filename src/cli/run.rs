@@ -68,6 +68,7 @@ pub fn run(args: RunArgs) -> Result<ExitCode> {
         mut source,
         mut pipeline,
         serial,
+        publish,
         ..
     } = track::open(&args.settings, &memory_plan(&args))?;
     // Unlike `glint track`, every run reports its status, whatever the source.
@@ -78,7 +79,7 @@ pub fn run(args: RunArgs) -> Result<ExitCode> {
         .preview
         .map(|addr| start_preview(addr, &args.settings))
         .transpose()?;
-    let mut sink = Tee::new(Tee::new(jsonl, preview), serial);
+    let mut sink = Tee::new(Tee::new(jsonl, preview), Tee::new(serial, publish));
     let (summary, result) = monitor::run(&mut source, &mut pipeline, &mut sink, &mut monitor);
     let totals = monitor.totals();
     log::info!(

@@ -10,7 +10,7 @@ use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
 
 use super::serial_ports::{self, SerialArg, SerialPlan};
-use super::{calib_args, input, memory, signals};
+use super::{calib_args, input, memory, publish, signals};
 
 use glint::budget::{self, MemoryPlan};
 use glint::detect::bgdiff::MAX_BACKGROUND_FRAMES;
@@ -139,6 +139,9 @@ pub struct TrackSettings {
 
     #[command(flatten)]
     pub memory: memory::MemoryArgs,
+
+    #[command(flatten)]
+    pub publish: publish::PublishArgs,
 }
 
 /// What positions go out: as measured, or extrapolated to their arrival.
@@ -243,6 +246,7 @@ impl TrackSettings {
                 budget::background_bytes(size, usize::from(self.background_frames)),
             );
         }
+        publish::plan(&self.publish, &mut plan);
         plan
     }
 
@@ -271,11 +275,14 @@ pub struct Opened {
     pub monitor: Monitor,
     pub pipeline: Pipeline,
     pub serial: SerialLink,
+    /// `--publish`: reports to the network.
+    pub publish: Option<publish::PublishSink>,
 }
 
 /// Checks that `plan` (these settings' memory, and whatever the caller adds) fits the limit,
 /// then opens the input, builds the pipeline (learning a separate background when asked) and
-/// opens the serial link, in that order; from then on Ctrl-C and SIGTERM stop the run cleanly.
+/// opens the serial link and starts publishing, in that order; from then on Ctrl-C and SIGTERM
+/// stop the run cleanly.
 pub fn open(settings: &TrackSettings, plan: &MemoryPlan) -> Result<Opened> {
     settings.memory.check(plan)?;
     // A bad combination of --serial values is refused before anything is opened.
@@ -319,12 +326,14 @@ pub fn open(settings: &TrackSettings, plan: &MemoryPlan) -> Result<Opened> {
             .context("identifying the robots")?;
     }
     let serial = open_serial(settings, &pipeline)?;
+    let publish = publish::open(&settings.publish)?;
     Ok(Opened {
         source: Stoppable::new(source, stop),
         live,
         monitor,
         pipeline,
         serial,
+        publish,
     })
 }
 
@@ -409,19 +418,21 @@ pub fn run(args: TrackArgs) -> Result<ExitCode> {
         mut monitor,
         mut pipeline,
         serial,
+        publish,
     } = open(&args.settings, &args.settings.memory_plan())?;
     let stdout = BufWriter::with_capacity(OUTPUT_BUFFER_BYTES, io::stdout().lock());
+    let links = Tee::new(serial, publish);
     let (summary, result) = match args.format {
         Format::Jsonl => monitor::run(
             &mut source,
             &mut pipeline,
-            &mut Tee::new(jsonl_sink(stdout, live, &args.settings), serial),
+            &mut Tee::new(jsonl_sink(stdout, live, &args.settings), links),
             &mut monitor,
         ),
         Format::Csv => monitor::run(
             &mut source,
             &mut pipeline,
-            &mut Tee::new(CsvSink::new(stdout, live), serial),
+            &mut Tee::new(CsvSink::new(stdout, live), links),
             &mut monitor,
         ),
     };
