@@ -1,8 +1,8 @@
 //! The robot-in-the-loop rig, end to end with real parts: the renderer's frames, `glint run`
-//! (built in release: a debug glint cannot keep up with 30 fps on a loaded machine), a real pty
-//! pair, the example firmware in qemu-system-arm (mps2-an386), and the simulated robot. A few
-//! seconds each with and without latency compensation; the bounds are on accuracy and on the
-//! firmware's age against the truth, never on time.
+//! (built optimised, profile `rig`: a debug glint cannot keep up with 30 fps on a loaded
+//! machine), a real pty pair, the example firmware in qemu-system-arm (mps2-an386), and the
+//! simulated robot. A few seconds each with and without latency compensation; the bounds are
+//! on accuracy and on the firmware's age against the truth, never on time.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -24,7 +24,7 @@ fn cargo_build(dir: &Path, args: &[&str]) {
     let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
     let status = Command::new(cargo)
         .current_dir(dir)
-        .args(["build", "--release", "--quiet"])
+        .args(["build", "--quiet"])
         .args(args)
         .status()
         .expect("run cargo");
@@ -58,11 +58,25 @@ fn run(compensate: bool, glint: &Path, firmware: &Path) -> LoopReport {
 #[test]
 fn the_firmware_in_qemu_steers_the_robot_along_the_figure_eight_from_glints_positions() {
     let root = repo_root();
-    cargo_build(&root, &["--bin", "glint"]);
+    // The rig needs neither capture nor publishing; the `rig` profile (Cargo.toml) is the
+    // release build without its slow whole-program optimisation.
+    cargo_build(
+        &root,
+        &[
+            "--profile",
+            "rig",
+            "--no-default-features",
+            "-p",
+            "glint",
+            "--bin",
+            "glint",
+        ],
+    );
     let firmware_dir = root.join("board/firmware");
     cargo_build(
         &firmware_dir,
         &[
+            "--release",
             "--target",
             "thumbv7em-none-eabihf",
             "--features",
@@ -71,7 +85,7 @@ fn the_firmware_in_qemu_steers_the_robot_along_the_figure_eight_from_glints_posi
             "glint-firmware-mps2",
         ],
     );
-    let glint = root.join("target/release/glint");
+    let glint = root.join("target/rig/glint");
     let firmware = firmware_dir.join("target/thumbv7em-none-eabihf/release/glint-firmware-mps2");
 
     let compensated = run(true, &glint, &firmware);
