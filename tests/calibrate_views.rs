@@ -154,6 +154,7 @@ fn a_board_moved_over_the_picture_determines_a_wide_lens_one_view_cannot() {
                 continue;
             }
             assert!(run.status.success(), "{count} views: {}", stderr(&run));
+            eprint!("{stdout}");
             assert!(
                 stdout.contains(&format!(
                     "calibrated from {} corners in {count} views",
@@ -162,6 +163,7 @@ fn a_board_moved_over_the_picture_determines_a_wide_lens_one_view_cannot() {
                 "{stdout}"
             );
             assert!(stdout.contains("view 1: 24 corners over 2 frames (the floor pose written)"));
+            assert!(stdout.contains("the map kept is the floor view's 6 marker(s)"));
             let (px, cm) = worst_errors(&calib, truth, PLACES_CM[0]);
             eprintln!(
                 "k1 {k1}: {count} views: worst {px:.2} px, {cm:.2} cm over the picture; \

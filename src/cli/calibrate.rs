@@ -470,7 +470,7 @@ fn summary(record: &CalibrationRecord, fit: &CameraFit, views: Option<Views>) ->
             }
             writeln!(
                 s,
-                "  the floor view's {} marker(s) are the map kept:",
+                "  the map kept is the floor view's {} marker(s) (their residuals below)",
                 record.markers.len()
             )?;
         }

@@ -21,7 +21,16 @@
 //! in pixels, is large, the lens is not known there, and the caller is told which parts of the
 //! picture need markers.
 //!
-//! Fitting runs once, at calibration; it uses fixed-size matrices and allocates nothing.
+//! Several views (a board moved over the picture between dumps) share the lens and get a pose
+//! each: the parameters are the lens's, then one pose per view (at most [`MAX_VIEWS`]), and a
+//! corner moves only its own view's pose. The uncertainty is carried to the floor of one view,
+//! the floor view, whose pose is the calibration's; far from that view's own markers it is the
+//! pose's extrapolation, not the lens, that limits it. The principal point stays at the centre
+//! here too (one view of a plane per pose is still one plane per pose).
+//!
+//! Fitting runs once, at calibration, or for the pose alone when a knocked camera is refitted
+//! while tracking; it uses fixed-size matrices (13 parameters for one view, 31 for several) and
+//! allocates nothing.
 
 use core::fmt;
 
