@@ -2,9 +2,15 @@
 //! camera (lens and pose over the floor) to them, and write the calibration as a documented
 //! TOML file (version 2, see `glint::geometry::calibration_file`).
 //!
-//! Each named marker's corners are averaged over every frame it is seen in (noise falls with
-//! the square root of the frame count), then all corners of all seen markers are fitted at once.
-//! Markers of the map that this camera does not see are listed and left out.
+//! Each named marker's corners are averaged over every frame of a dump it is seen in (noise
+//! falls with the square root of the frame count: within one dump the camera and the markers
+//! are taken to stay put), then all corners of all seen markers are fitted at once. Markers of
+//! the map that this camera does not see are listed and left out.
+//!
+//! Several dumps (`--input` repeated) are several views of the floor for one lens: a board of
+//! markers moved to another part of the picture between them, say, so that the lens is seen
+//! bending everywhere. Each view gets its own pose, all share the lens, and the pose written is
+//! that of `--floor-view` (the camera's place over the floor it will track).
 
 use std::collections::BTreeSet;
 use std::fmt::Write as _;
@@ -20,10 +26,11 @@ use clap::Args;
 use glint::budget::{self, MemoryPlan};
 use glint::detect::aruco::{Detector, DetectorConfig, Dictionary};
 use glint::frame::FrameSize;
-use glint::geometry::camera_fit::{LENS_UNDETERMINED_PX, LENS_WEAK_PX};
+use glint::geometry::camera_fit::{LENS_UNDETERMINED_PX, LENS_WEAK_PX, MAX_VIEWS};
 use glint::geometry::lens_file;
 use glint::geometry::{
-    fit_camera, CalibrationRecord, CameraFit, LensChoice, MarkerPlacement, Point, RecordedMarker,
+    fit_camera_views, CalibrationRecord, CameraFit, LensChoice, MarkerPlacement, Point,
+    RecordedMarker, ViewCorners,
 };
 use glint::small_file;
 use glint::source::dump::{DumpError, DumpSource};
@@ -36,9 +43,16 @@ const NOMINAL_FPS: f64 = 30.0;
 
 #[derive(Debug, Args)]
 pub struct CalibrateArgs {
-    /// A raw YUYV dump, or `-` for standard input.
-    #[arg(long, value_name = "PATH|-")]
-    input: String,
+    /// A raw YUYV dump, or `-` for standard input. Repeat (up to 4) for several views of the
+    /// floor fitted with one lens and a pose each: a board of markers moved to other parts of
+    /// the picture between them. All views are dumps of --size.
+    #[arg(long, value_name = "PATH|-", required = true)]
+    input: Vec<String>,
+
+    /// With several --input: the view (1 = the first) whose pose over the floor is written,
+    /// and whose markers are the map kept in the calibration: the camera's place for tracking.
+    #[arg(long, value_name = "N", default_value_t = 1)]
+    floor_view: usize,
 
     /// Frame size in pixels: sides 1 to 16384, the width even.
     #[arg(long, value_name = "WxH")]
@@ -131,6 +145,128 @@ struct CornerSums {
     frames: u32,
 }
 
+/// What one view (one dump) gives: each named marker's corners averaged over its frames.
+struct View {
+    frames: u64,
+    markers: Vec<RecordedMarker>,
+    /// Named markers not seen in this view.
+    unseen: Vec<u16>,
+    /// Every marker id detected, named or not.
+    seen_ids: BTreeSet<u16>,
+}
+
+/// The views, for the summary.
+struct Views<'a> {
+    /// 1-based.
+    floor_view: usize,
+    each: &'a [String],
+}
+
+/// Opens a dump for reading: `-` is standard input; a regular file's length must be a whole
+/// number of frames of `size`, or it is a dump of another size (or a cut one).
+fn open_dump(input: &str, size: FrameSize) -> Result<Box<dyn Read>> {
+    if input == "-" {
+        return Ok(Box::new(io::stdin().lock()));
+    }
+    let file = File::open(input).with_context(|| format!("cannot open {input}"))?;
+    let meta = file.metadata().ok();
+    if meta.as_ref().is_some_and(|m| m.is_dir()) {
+        bail!("{input} is a directory, not a dump");
+    }
+    let frame_bytes = budget::frame_bytes(size) as u64;
+    if let Some(len) = meta.filter(|m| m.is_file()).map(|m| m.len()) {
+        if len > 0 && frame_bytes > 0 && len % frame_bytes != 0 {
+            bail!(
+                "{input}: {len} bytes is not a whole number of {size} frames ({frame_bytes} \
+                 bytes each); every view must be a dump of --size {size}"
+            );
+        }
+    }
+    Ok(Box::new(file))
+}
+
+/// Reads one view: detects the markers in every frame of the dump and averages each named
+/// marker's corners over the frames it is seen in.
+fn read_view(
+    input: &str,
+    size: FrameSize,
+    detector: &mut Detector,
+    placements: &[MarkerPlacement],
+) -> Result<View> {
+    let mut source = DumpSource::try_new(open_dump(input, size)?, size, NOMINAL_FPS)?;
+    let mut sums = vec![CornerSums::default(); placements.len()];
+    let mut seen_ids = BTreeSet::new();
+    let mut frames = 0u64;
+    let mut capped_frames = 0u64;
+    loop {
+        let (frame, _meta) = match source.next_frame() {
+            Ok(Some(next)) => next,
+            Ok(None) => break,
+            Err(DumpError::Empty) => {
+                bail!("{input} holds no whole frame of {size}")
+            }
+            Err(e) => return Err(e).with_context(|| format!("after {frames} whole frames")),
+        };
+        frames += 1;
+        let markers = detector.detect(&frame, None)?;
+        seen_ids.extend(markers.iter().map(|m| m.id));
+        for (p, sum) in placements.iter().zip(sums.iter_mut()) {
+            let mut matching = markers.iter().filter(|m| m.id == p.id);
+            match (matching.next(), matching.next()) {
+                (Some(m), None) => {
+                    for (s, c) in sum.sums.iter_mut().zip(&m.corners) {
+                        s[0] += c.x;
+                        s[1] += c.y;
+                    }
+                    sum.frames += 1;
+                }
+                (Some(_), Some(_)) => log::warn!(
+                    "{input}, frame {}: marker {} seen more than once; frame skipped for it",
+                    frames - 1,
+                    p.id
+                ),
+                _ => {}
+            }
+        }
+        if detector.stats().capped {
+            if capped_frames == 0 {
+                log::warn!(
+                    "{input}, frame {}: marker detection hit its cost cap (a cluttered frame); \
+                     part of the frame was not searched",
+                    frames - 1
+                );
+            }
+            capped_frames += 1;
+        }
+    }
+    if capped_frames > 0 {
+        log::warn!(
+            "{input}: marker detection hit its cost cap in {capped_frames} of {frames} frames; \
+             markers there may have been missed"
+        );
+    }
+    let mut markers = Vec::new();
+    let mut unseen = Vec::new();
+    for (p, s) in placements.iter().zip(&sums) {
+        if s.frames == 0 {
+            unseen.push(p.id);
+            continue;
+        }
+        let n = f64::from(s.frames);
+        markers.push(RecordedMarker {
+            placement: *p,
+            frames_seen: s.frames,
+            corners_px: s.sums.map(|[x, y]| Point::new(x / n, y / n)),
+        });
+    }
+    Ok(View {
+        frames,
+        markers,
+        unseen,
+        seen_ids,
+    })
+}
+
 /// Reads a lens file (OpenCV's or ROS's camera YAML): a regular file only, opened without
 /// waiting (a FIFO is refused rather than waited on), and of at most the parser's size cap, so
 /// that a device or a huge file is refused rather than read whole.
@@ -197,143 +333,148 @@ pub fn run(args: CalibrateArgs) -> Result<ExitCode> {
             (LensChoice::Known(lens), path.display().to_string())
         }
     };
-    let reader: Box<dyn Read> = if args.input == "-" {
-        Box::new(io::stdin().lock())
-    } else {
-        let file =
-            File::open(&args.input).with_context(|| format!("cannot open {}", args.input))?;
-        if file.metadata().map(|m| m.is_dir()).unwrap_or(false) {
-            bail!("{} is a directory, not a dump", args.input);
-        }
-        Box::new(file)
-    };
-    let mut source = DumpSource::try_new(reader, args.size, NOMINAL_FPS)?;
-    let mut detector = Detector::new(args.size, config);
-    let mut sums = vec![CornerSums::default(); placements.len()];
-    let mut seen_ids = BTreeSet::new();
-    let mut frames = 0u64;
-    let mut capped_frames = 0u64;
-    loop {
-        let (frame, _meta) = match source.next_frame() {
-            Ok(Some(next)) => next,
-            Ok(None) => break,
-            Err(DumpError::Empty) => {
-                bail!("{} holds no whole frame of {}", args.input, args.size)
-            }
-            Err(e) => return Err(e).with_context(|| format!("after {frames} whole frames")),
-        };
-        frames += 1;
-        let markers = detector.detect(&frame, None)?;
-        seen_ids.extend(markers.iter().map(|m| m.id));
-        for (p, sum) in placements.iter().zip(sums.iter_mut()) {
-            let mut matching = markers.iter().filter(|m| m.id == p.id);
-            match (matching.next(), matching.next()) {
-                (Some(m), None) => {
-                    for (s, c) in sum.sums.iter_mut().zip(&m.corners) {
-                        s[0] += c.x;
-                        s[1] += c.y;
-                    }
-                    sum.frames += 1;
-                }
-                (Some(_), Some(_)) => log::warn!(
-                    "frame {}: marker {} seen more than once; frame skipped for it",
-                    frames - 1,
-                    p.id
-                ),
-                _ => {}
-            }
-        }
-        if detector.stats().capped {
-            if capped_frames == 0 {
-                log::warn!(
-                    "frame {}: marker detection hit its cost cap (a cluttered frame); \
-                     part of the frame was not searched",
-                    frames - 1
-                );
-            }
-            capped_frames += 1;
-        }
+    let count = args.input.len();
+    if count > MAX_VIEWS {
+        bail!("{count} --input views: at most {MAX_VIEWS} are fitted together");
     }
-    if capped_frames > 0 {
-        log::warn!(
-            "marker detection hit its cost cap in {capped_frames} of {frames} frames; \
-             markers there may have been missed"
-        );
+    if args.input.iter().filter(|i| *i == "-").count() > 1 {
+        bail!("standard input (-) can be only one of the views");
     }
-    let mut recorded = Vec::new();
-    let mut unseen = Vec::new();
-    for (p, s) in placements.iter().zip(&sums) {
-        if s.frames == 0 {
-            unseen.push(p.id);
-            continue;
-        }
-        let n = f64::from(s.frames);
-        recorded.push(RecordedMarker {
-            placement: *p,
-            frames_seen: s.frames,
-            corners_px: s.sums.map(|[x, y]| Point::new(x / n, y / n)),
-        });
-    }
-    if recorded.is_empty() {
-        let seen: Vec<String> = seen_ids.iter().map(u16::to_string).collect();
-        let seen = if seen.is_empty() {
-            "no markers at all".to_owned()
-        } else {
-            format!("markers seen: {}", seen.join(", "))
-        };
+    if !(1..=count).contains(&args.floor_view) {
         bail!(
-            "none of the named markers was seen in any of {frames} frames with {} ({seen})",
-            args.dict
+            "--floor-view {}: there are {count} view(s), numbered from 1",
+            args.floor_view
         );
     }
-    let (floor, screen): (Vec<Point>, Vec<Point>) = recorded
+    let mut detector = Detector::new(args.size, config);
+    let mut views = Vec::with_capacity(count);
+    for (i, input) in args.input.iter().enumerate() {
+        // Name the view only when there are several: one dump reads as it always has.
+        let name = (count > 1).then(|| format!("view {} ({input})", i + 1));
+        let read = read_view(input, args.size, &mut detector, &placements);
+        let view = match &name {
+            Some(name) => read.with_context(|| name.clone())?,
+            None => read?,
+        };
+        if view.markers.is_empty() {
+            let seen: Vec<String> = view.seen_ids.iter().map(u16::to_string).collect();
+            let seen = if seen.is_empty() {
+                "no markers at all".to_owned()
+            } else {
+                format!("markers seen: {}", seen.join(", "))
+            };
+            let prefix = name.map(|n| format!("{n}: ")).unwrap_or_default();
+            bail!(
+                "{prefix}none of the named markers was seen in any of {} frames with {} ({seen})",
+                view.frames,
+                args.dict
+            );
+        }
+        views.push(view);
+    }
+    let corners: Vec<(Vec<Point>, Vec<Point>)> = views
         .iter()
-        .flat_map(|m| m.placement.corners().into_iter().zip(m.corners_px))
-        .unzip();
-    let fit = fit_camera(&floor, &screen, args.size, choice).context("calibration failed")?;
+        .map(|v| {
+            v.markers
+                .iter()
+                .flat_map(|m| m.placement.corners().into_iter().zip(m.corners_px))
+                .unzip()
+        })
+        .collect();
+    let view_corners: Vec<ViewCorners> = corners
+        .iter()
+        .map(|(floor, screen)| ViewCorners { floor, screen })
+        .collect();
+    let floor_view = args.floor_view - 1;
+    let fit = fit_camera_views(&view_corners, floor_view, args.size, choice)
+        .context("calibration failed")?;
     if matches!(args.lens, LensArg::Fit) && !fit.determined() {
         let regions: Vec<&str> = fit.regions_above(LENS_UNDETERMINED_PX).collect();
+        let over = if count > 1 {
+            format!(" of {count} views")
+        } else {
+            String::new()
+        };
         bail!(
-            "the markers do not determine the lens: the mapping is uncertain by up to {:.1} px \
-             in the {} of the picture; put markers there (the lens shows most near the edges \
-             and corners), or pass --lens ideal to assume a distortion-free lens",
+            "the markers{over} do not determine the lens: the mapping is uncertain by up to \
+             {:.1} px in the {} of the picture; put markers there (the lens shows most near the \
+             edges and corners), or pass --lens ideal to assume a distortion-free lens",
             fit.picture_uncertainty_px,
             regions.join(", ")
         );
     }
+    let frames = views.iter().map(|v| v.frames).sum();
+    let view_summary = views
+        .iter()
+        .zip(&corners)
+        .map(|(v, (floor, _))| format!("{} corners over {} frames", floor.len(), v.frames))
+        .collect::<Vec<_>>();
+    let Some(floor) = views.into_iter().nth(floor_view) else {
+        bail!("--floor-view {}: no such view", args.floor_view);
+    };
     let record = CalibrationRecord {
         size: args.size,
         dictionary: args.dict,
         frames,
         lens_source,
         camera: fit.camera,
-        markers: recorded,
-        unseen,
+        markers: floor.markers,
+        unseen: floor.unseen,
     };
     let toml = record.to_toml()?;
     std::fs::write(&args.out, toml)
         .with_context(|| format!("cannot write {}", args.out.display()))?;
     // The file is written; a closed or full standard output is not worth a panic.
     let mut stdout = io::stdout().lock();
-    write!(stdout, "{}", summary(&record, &fit)?)
+    let views = (count > 1).then_some(Views {
+        floor_view: args.floor_view,
+        each: &view_summary,
+    });
+    write!(stdout, "{}", summary(&record, &fit, views)?)
         .and_then(|()| writeln!(stdout, "wrote {}", args.out.display()))
         .context("writing the summary to standard output")?;
     Ok(ExitCode::SUCCESS)
 }
 
 /// The lines printed for a person.
-fn summary(record: &CalibrationRecord, fit: &CameraFit) -> Result<String> {
+fn summary(record: &CalibrationRecord, fit: &CameraFit, views: Option<Views>) -> Result<String> {
     let mut s = String::new();
     let lens = &fit.camera.lens;
-    writeln!(
-        s,
-        "calibrated from {} corners of {} marker(s) over {} frames: residual rms {:.3} px, max {:.3} px",
-        fit.corners,
-        record.markers.len(),
-        record.frames,
-        fit.rms_residual_px,
-        fit.max_residual_px
-    )?;
+    match views {
+        None => writeln!(
+            s,
+            "calibrated from {} corners of {} marker(s) over {} frames: residual rms {:.3} px, max {:.3} px",
+            fit.corners,
+            record.markers.len(),
+            record.frames,
+            fit.rms_residual_px,
+            fit.max_residual_px
+        )?,
+        Some(views) => {
+            writeln!(
+                s,
+                "calibrated from {} corners in {} views over {} frames: residual rms {:.3} px, max {:.3} px",
+                fit.corners,
+                fit.views,
+                record.frames,
+                fit.rms_residual_px,
+                fit.max_residual_px
+            )?;
+            for (i, each) in views.each.iter().enumerate() {
+                let floor = if i + 1 == views.floor_view {
+                    " (the floor pose written)"
+                } else {
+                    ""
+                };
+                writeln!(s, "  view {}: {each}{floor}", i + 1)?;
+            }
+            writeln!(
+                s,
+                "  the map kept is the floor view's {} marker(s) (their residuals below)",
+                record.markers.len()
+            )?;
+        }
+    }
     if !record.unseen.is_empty() {
         let ids: Vec<String> = record.unseen.iter().map(u16::to_string).collect();
         writeln!(s, "  not seen (left out): marker {}", ids.join(", "))?;

@@ -21,7 +21,16 @@
 //! in pixels, is large, the lens is not known there, and the caller is told which parts of the
 //! picture need markers.
 //!
-//! Fitting runs once, at calibration; it uses fixed-size matrices and allocates nothing.
+//! Several views (a board moved over the picture between dumps) share the lens and get a pose
+//! each: the parameters are the lens's, then one pose per view (at most [`MAX_VIEWS`]), and a
+//! corner moves only its own view's pose. The uncertainty is carried to the floor of one view,
+//! the floor view, whose pose is the calibration's; far from that view's own markers it is the
+//! pose's extrapolation, not the lens, that limits it. The principal point stays at the centre
+//! here too (one view of a plane per pose is still one plane per pose).
+//!
+//! Fitting runs once, at calibration, or for the pose alone when a knocked camera is refitted
+//! while tracking; it uses fixed-size matrices (13 parameters for one view, 31 for several) and
+//! allocates nothing.
 
 use core::fmt;
 
@@ -31,16 +40,28 @@ use super::camera::{CameraError, CameraModel, Lens, Pose};
 use super::homography::{FloorMapping, HomographyError, Point};
 use crate::frame::FrameSize;
 
-/// Parameters: rotation vector (3), translation (3), focal length, principal point (2),
-/// `k1, k2, p1, p2`.
-const PARAMS: usize = 13;
-type Params = SVector<f64, PARAMS>;
-type Normal = SMatrix<f64, PARAMS, PARAMS>;
+/// Lens parameters, first in the parameter vector: focal length, principal point (2),
+/// `k1, k2, p1, p2`. Each view's pose follows: rotation vector (3), translation (3).
+const LENS_PARAMS: usize = 7;
+const POSE_PARAMS: usize = 6;
+/// Parameters of a one-view fit (the pose re-fit while tracking uses this size).
+const ONE_VIEW_PARAMS: usize = LENS_PARAMS + POSE_PARAMS;
+/// Most views pooled into one lens.
+pub const MAX_VIEWS: usize = 4;
+/// Parameters of a several-view fit.
+const MANY_VIEW_PARAMS: usize = LENS_PARAMS + POSE_PARAMS * MAX_VIEWS;
+type Params<const P: usize> = SVector<f64, P>;
+type Normal<const P: usize> = SMatrix<f64, P, P>;
 
-const FOCAL: usize = 6;
-const CX: usize = 7;
-const CY: usize = 8;
-const K1: usize = 9;
+const FOCAL: usize = 0;
+const CX: usize = 1;
+const CY: usize = 2;
+const K1: usize = 3;
+
+/// Index of view `view`'s pose parameters.
+fn pose_at(view: usize) -> usize {
+    LENS_PARAMS + POSE_PARAMS * view
+}
 
 /// Levenberg–Marquardt iterations at most per stage.
 const MAX_ITERATIONS: usize = 200;
@@ -134,8 +155,10 @@ pub struct CameraFit {
     pub rms_residual_px: f64,
     /// Largest corner residual, pixels.
     pub max_residual_px: f64,
-    /// Corners fitted.
+    /// Corners fitted, over all views.
     pub corners: usize,
+    /// Views pooled into the lens.
+    pub views: usize,
     /// The corner noise the uncertainty assumes (1σ per coordinate), pixels.
     pub noise_px: f64,
     /// Largest uncertainty (1σ) of the mapping over the picture's floor, in pixels;
@@ -166,21 +189,31 @@ impl CameraFit {
     }
 }
 
-/// The model for a parameter vector.
-fn model(p: &Params, choice: &LensChoice) -> CameraModel {
-    let rotation = Rotation3::new(Vector3::new(p[0], p[1], p[2]));
-    let translation = Vector3::new(p[3], p[4], p[5]);
+/// The corners of one view: where they lie on the floor (floor units) and where they were
+/// detected (pixels). In a view of a moved board, "floor" is the board's own coordinates.
+#[derive(Debug, Clone, Copy)]
+pub struct ViewCorners<'a> {
+    pub floor: &'a [Point],
+    pub screen: &'a [Point],
+}
+
+/// The model of view `view` for a parameter vector.
+fn model<const P: usize>(p: &Params<P>, choice: &LensChoice, view: usize) -> CameraModel {
+    let o = pose_at(view);
+    let at = |k: usize| p.get(k).copied().unwrap_or(f64::NAN);
+    let rotation = Rotation3::new(Vector3::new(at(o), at(o + 1), at(o + 2)));
+    let translation = Vector3::new(at(o + 3), at(o + 4), at(o + 5));
     let lens = match choice {
         LensChoice::Known(lens) => *lens,
         _ => Lens {
-            fx: p[FOCAL],
-            fy: p[FOCAL],
-            cx: p[CX],
-            cy: p[CY],
-            k1: p[K1],
-            k2: p[K1 + 1],
-            p1: p[K1 + 2],
-            p2: p[K1 + 3],
+            fx: at(FOCAL),
+            fy: at(FOCAL),
+            cx: at(CX),
+            cy: at(CY),
+            k1: at(K1),
+            k2: at(K1 + 1),
+            p1: at(K1 + 2),
+            p2: at(K1 + 3),
             k3: 0.0,
         },
     };
@@ -193,10 +226,10 @@ fn model(p: &Params, choice: &LensChoice) -> CameraModel {
     }
 }
 
-/// Which parameters a stage changes.
-fn free_mask(choice: &LensChoice, with_lens: bool) -> [bool; PARAMS] {
-    let mut free = [false; PARAMS];
-    for f in free.iter_mut().take(6) {
+/// Which parameters a stage changes, for `views` views.
+fn free_mask<const P: usize>(choice: &LensChoice, with_lens: bool, views: usize) -> [bool; P] {
+    let mut free = [false; P];
+    for f in free.iter_mut().skip(LENS_PARAMS).take(POSE_PARAMS * views) {
         *f = true;
     }
     match choice {
@@ -205,7 +238,7 @@ fn free_mask(choice: &LensChoice, with_lens: bool) -> [bool; PARAMS] {
         LensChoice::Fit => {
             free[FOCAL] = true;
             if with_lens {
-                for f in free.iter_mut().skip(K1) {
+                for f in free.iter_mut().take(LENS_PARAMS).skip(K1) {
                     *f = true;
                 }
             }
@@ -214,13 +247,15 @@ fn free_mask(choice: &LensChoice, with_lens: bool) -> [bool; PARAMS] {
     free
 }
 
-/// Squared error over all corners, or `None` if a corner cannot be projected.
-fn cost(p: &Params, choice: &LensChoice, floor: &[Point], screen: &[Point]) -> Option<f64> {
-    let m = model(p, choice);
+/// Squared error over all corners of all views, or `None` if a corner cannot be projected.
+fn cost<const P: usize>(p: &Params<P>, choice: &LensChoice, views: &[ViewCorners]) -> Option<f64> {
     let mut sum = 0.0;
-    for (f, s) in floor.iter().zip(screen) {
-        let q = m.project(f, 0.0).ok()?;
-        sum += (q - s).norm_squared();
+    for (v, view) in views.iter().enumerate() {
+        let m = model(p, choice, v);
+        for (f, s) in view.floor.iter().zip(view.screen) {
+            let q = m.project(f, 0.0).ok()?;
+            sum += (q - s).norm_squared();
+        }
     }
     sum.is_finite().then_some(sum)
 }
@@ -229,24 +264,30 @@ fn step_of(value: f64) -> f64 {
     DERIVATIVE_STEP * value.abs().max(1.0)
 }
 
-/// The 2 × 13 derivative of the projection of `f` by central differences.
-fn point_jacobian(
-    p: &Params,
+/// The parameters a corner of view `view` depends on: the lens's and that view's pose.
+fn params_of(view: usize) -> impl Iterator<Item = usize> {
+    (0..LENS_PARAMS).chain(pose_at(view)..pose_at(view) + POSE_PARAMS)
+}
+
+/// The 2 × P derivative of the projection of `f` in view `view` by central differences.
+fn point_jacobian<const P: usize>(
+    p: &Params<P>,
     choice: &LensChoice,
-    free: &[bool; PARAMS],
+    free: &[bool; P],
+    view: usize,
     f: &Point,
-) -> Option<SMatrix<f64, 2, PARAMS>> {
-    let mut j = SMatrix::<f64, 2, PARAMS>::zeros();
-    for k in 0..PARAMS {
-        if !free[k] {
+) -> Option<SMatrix<f64, 2, P>> {
+    let mut j = SMatrix::<f64, 2, P>::zeros();
+    for k in params_of(view) {
+        if !free.get(k).copied().unwrap_or(false) {
             continue;
         }
         let h = step_of(p[k]);
         let (mut a, mut b) = (*p, *p);
         a[k] -= h;
         b[k] += h;
-        let qa = model(&a, choice).project(f, 0.0).ok()?;
-        let qb = model(&b, choice).project(f, 0.0).ok()?;
+        let qa = model(&a, choice, view).project(f, 0.0).ok()?;
+        let qb = model(&b, choice, view).project(f, 0.0).ok()?;
         let d = (qb - qa) / (2.0 * h);
         j[(0, k)] = d.x;
         j[(1, k)] = d.y;
@@ -255,46 +296,46 @@ fn point_jacobian(
 }
 
 /// Normal matrix and gradient at `p`.
-fn linearise(
-    p: &Params,
+fn linearise<const P: usize>(
+    p: &Params<P>,
     choice: &LensChoice,
-    free: &[bool; PARAMS],
-    floor: &[Point],
-    screen: &[Point],
-) -> Option<(Normal, Params)> {
-    let m = model(p, choice);
-    let mut jtj = Normal::zeros();
-    let mut jtr = Params::zeros();
-    for (f, s) in floor.iter().zip(screen) {
-        let r = m.project(f, 0.0).ok()? - s;
-        let j = point_jacobian(p, choice, free, f)?;
-        jtj += j.transpose() * j;
-        jtr += j.transpose() * Vector2::new(r.x, r.y);
+    free: &[bool; P],
+    views: &[ViewCorners],
+) -> Option<(Normal<P>, Params<P>)> {
+    let mut jtj = Normal::<P>::zeros();
+    let mut jtr = Params::<P>::zeros();
+    for (v, view) in views.iter().enumerate() {
+        let m = model(p, choice, v);
+        for (f, s) in view.floor.iter().zip(view.screen) {
+            let r = m.project(f, 0.0).ok()? - s;
+            let j = point_jacobian(p, choice, free, v, f)?;
+            jtj += j.transpose() * j;
+            jtr += j.transpose() * Vector2::new(r.x, r.y);
+        }
     }
     Some((jtj, jtr))
 }
 
 /// Levenberg–Marquardt over the free parameters.
-fn minimise(
-    mut p: Params,
+fn minimise<const P: usize>(
+    mut p: Params<P>,
     choice: &LensChoice,
-    free: &[bool; PARAMS],
-    floor: &[Point],
-    screen: &[Point],
-) -> Params {
-    let Some(mut c) = cost(&p, choice, floor, screen) else {
+    free: &[bool; P],
+    views: &[ViewCorners],
+) -> Params<P> {
+    let Some(mut c) = cost(&p, choice, views) else {
         return p;
     };
     let mut lambda = 1e-3;
     for _ in 0..MAX_ITERATIONS {
-        let Some((jtj, jtr)) = linearise(&p, choice, free, floor, screen) else {
+        let Some((jtj, jtr)) = linearise(&p, choice, free, views) else {
             break;
         };
         let mut improved = false;
         while lambda < 1e12 {
             let mut a = jtj;
-            for k in 0..PARAMS {
-                if free[k] {
+            for (k, &is_free) in free.iter().enumerate() {
+                if is_free {
                     a[(k, k)] += lambda * jtj[(k, k)].max(1e-12);
                 } else {
                     a[(k, k)] = 1.0;
@@ -305,7 +346,7 @@ fn minimise(
                 continue;
             };
             let trial = p + step;
-            match cost(&trial, choice, floor, screen) {
+            match cost(&trial, choice, views) {
                 Some(tc) if tc < c => {
                     let converged = c - tc <= CONVERGED * c;
                     p = trial;
@@ -324,22 +365,15 @@ fn minimise(
     p
 }
 
-/// Zhang's start: focal length from the homography (principal point at `centre`), then the
-/// pose from `K⁻¹ H`. For a known lens, the corners are undistorted first and `K` is that
-/// lens's.
-fn start(
-    floor: &[Point],
-    screen: &[Point],
-    size: FrameSize,
+/// The homography of one view's corners in the frame of `K`: pixels about the picture's
+/// centre, or a known lens's normalised rays.
+fn view_homography(
+    view: &ViewCorners,
+    centre: Point,
     choice: &LensChoice,
-) -> Result<Params, CameraFitError> {
-    let centre = Point::new(
-        (size.width() as f64 - 1.0) / 2.0,
-        (size.height() as f64 - 1.0) / 2.0,
-    );
-    // Points in the frame of `K`: pixels about the centre, or a known lens's normalised rays.
+) -> Result<nalgebra::Matrix3<f64>, CameraFitError> {
     let mut local: heapless::Vec<Point, MAX_FIT_POINTS> = heapless::Vec::new();
-    for s in screen {
+    for s in view.screen {
         let q = match choice {
             LensChoice::Known(lens) => {
                 let n = lens.undistort(s).map_err(CameraFitError::NoStart)?;
@@ -349,13 +383,13 @@ fn start(
         };
         local.push(q).map_err(|_| CameraFitError::BadInput)?;
     }
-    let h = *FloorMapping::fit(floor, &local)?
+    Ok(*FloorMapping::fit(view.floor, &local)?
         .floor_to_screen_homography()
-        .matrix();
-    let focal = match choice {
-        LensChoice::Known(_) => 1.0,
-        _ => zhang_focal(&h).unwrap_or(size.width() as f64),
-    };
+        .matrix())
+}
+
+/// The pose (rotation vector, translation) of a homography for focal length `focal`.
+fn pose_of(h: &nalgebra::Matrix3<f64>, focal: f64) -> (Vector3<f64>, Vector3<f64>) {
     let a = nalgebra::Matrix3::new(1.0 / focal, 0.0, 0.0, 0.0, 1.0 / focal, 0.0, 0.0, 0.0, 1.0) * h;
     let (a1, a2, a3) = (
         a.column(0).into_owned(),
@@ -369,11 +403,51 @@ fn start(
     let (r1, r2, t) = (a1 * scale, a2 * scale, a3 * scale);
     let r3 = r1.cross(&r2);
     let m = nalgebra::Matrix3::from_columns(&[r1, r2, r3]);
-    let rotation = Rotation3::from_matrix(&m);
-    let axis = rotation.scaled_axis();
-    let mut p = Params::zeros();
-    p.fixed_rows_mut::<3>(0).copy_from(&axis);
-    p.fixed_rows_mut::<3>(3).copy_from(&t);
+    (Rotation3::from_matrix(&m).scaled_axis(), t)
+}
+
+/// Zhang's start: the focal length from the views' homographies (principal point at the
+/// centre; their mean where more than one view says), then each view's pose from `K⁻¹ H`. For
+/// a known lens, the corners are undistorted first and `K` is that lens's.
+fn start<const P: usize>(
+    views: &[ViewCorners],
+    size: FrameSize,
+    choice: &LensChoice,
+) -> Result<Params<P>, CameraFitError> {
+    let centre = Point::new(
+        (size.width() as f64 - 1.0) / 2.0,
+        (size.height() as f64 - 1.0) / 2.0,
+    );
+    let mut homographies: heapless::Vec<nalgebra::Matrix3<f64>, MAX_VIEWS> = heapless::Vec::new();
+    for view in views {
+        homographies
+            .push(view_homography(view, centre, choice)?)
+            .map_err(|_| CameraFitError::BadInput)?;
+    }
+    let focal = match choice {
+        LensChoice::Known(_) => 1.0,
+        _ => {
+            let (sum, n) = homographies
+                .iter()
+                .filter_map(zhang_focal)
+                .fold((0.0, 0u32), |(s, n), f| (s + f, n + 1));
+            if n > 0 {
+                sum / f64::from(n)
+            } else {
+                size.width() as f64
+            }
+        }
+    };
+    let mut p = Params::<P>::zeros();
+    for (v, h) in homographies.iter().enumerate() {
+        let (axis, t) = pose_of(h, focal);
+        let o = pose_at(v);
+        if o + POSE_PARAMS > P {
+            return Err(CameraFitError::BadInput);
+        }
+        p.fixed_rows_mut::<3>(o).copy_from(&axis);
+        p.fixed_rows_mut::<3>(o + 3).copy_from(&t);
+    }
     p[FOCAL] = focal;
     p[CX] = centre.x;
     p[CY] = centre.y;
@@ -409,27 +483,61 @@ pub fn fit_camera(
     size: FrameSize,
     choice: LensChoice,
 ) -> Result<CameraFit, CameraFitError> {
-    if floor.len() != screen.len() || floor.len() > MAX_FIT_POINTS {
+    fit_camera_views(&[ViewCorners { floor, screen }], 0, size, choice)
+}
+
+/// Fits one lens to the corners of several views (at most [`MAX_VIEWS`]) of frames of `size`,
+/// with one pose per view: a board moved between views, or the camera turned. The fitted
+/// camera's pose, and the uncertainty of the mapping, are those of view `floor_view`.
+pub fn fit_camera_views(
+    views: &[ViewCorners],
+    floor_view: usize,
+    size: FrameSize,
+    choice: LensChoice,
+) -> Result<CameraFit, CameraFitError> {
+    let well_formed = views
+        .iter()
+        .all(|v| v.floor.len() == v.screen.len() && v.floor.len() <= MAX_FIT_POINTS);
+    if views.is_empty() || views.len() > MAX_VIEWS || floor_view >= views.len() || !well_formed {
         return Err(CameraFitError::BadInput);
     }
-    let start = start(floor, screen, size, &choice)?;
-    let pinhole = minimise(start, &choice, &free_mask(&choice, false), floor, screen);
-    let free = free_mask(&choice, true);
-    let p = if free == free_mask(&choice, false) {
+    if views.len() == 1 {
+        fit::<ONE_VIEW_PARAMS>(views, floor_view, size, choice)
+    } else {
+        fit::<MANY_VIEW_PARAMS>(views, floor_view, size, choice)
+    }
+}
+
+fn fit<const P: usize>(
+    views: &[ViewCorners],
+    floor_view: usize,
+    size: FrameSize,
+    choice: LensChoice,
+) -> Result<CameraFit, CameraFitError> {
+    let count = views.len();
+    let start = start::<P>(views, size, &choice)?;
+    let pinhole_free = free_mask::<P>(&choice, false, count);
+    let pinhole = minimise(start, &choice, &pinhole_free, views);
+    let free = free_mask::<P>(&choice, true, count);
+    let p = if free == pinhole_free {
         pinhole
     } else {
-        minimise(pinhole, &choice, &free, floor, screen)
+        minimise(pinhole, &choice, &free, views)
     };
-    let camera = model(&p, &choice);
+    let camera = model(&p, &choice, floor_view);
     camera.lens.check(size).map_err(CameraFitError::BadLens)?;
     let mut sum_sq = 0.0;
     let mut max_px: f64 = 0.0;
-    for (f, s) in floor.iter().zip(screen) {
-        let d = (camera.project(f, 0.0).map_err(CameraFitError::BadLens)? - s).norm();
-        sum_sq += d * d;
-        max_px = max_px.max(d);
+    let mut n: usize = 0;
+    for (v, view) in views.iter().enumerate() {
+        let m = model(&p, &choice, v);
+        for (f, s) in view.floor.iter().zip(view.screen) {
+            let d = (m.project(f, 0.0).map_err(CameraFitError::BadLens)? - s).norm();
+            sum_sq += d * d;
+            max_px = max_px.max(d);
+            n += 1;
+        }
     }
-    let n = floor.len();
     let rms = (sum_sq / n.max(1) as f64).sqrt();
     let free_count = free.iter().filter(|&&f| f).count();
     // The corner noise per coordinate, from the residual with the fitted degrees removed.
@@ -439,33 +547,36 @@ pub fn fit_camera(
     } else {
         f64::INFINITY
     };
-    let covariance = linearise(&p, &choice, &free, floor, screen)
+    let covariance = linearise(&p, &choice, &free, views)
         .and_then(|(jtj, _)| {
             let mut a = jtj;
-            for k in 0..PARAMS {
-                if !free[k] {
+            for (k, &is_free) in free.iter().enumerate() {
+                if !is_free {
                     a[(k, k)] = 1.0;
                 }
             }
-            a.try_inverse()
+            a.cholesky().map(|c| c.inverse())
         })
         .filter(|c| c.iter().all(|v| v.is_finite()) && noise_px.is_finite())
         .map(|mut c| {
-            for k in 0..PARAMS {
-                for l in 0..PARAMS {
-                    if !(free[k] && free[l]) {
+            for (k, &free_k) in free.iter().enumerate() {
+                for (l, &free_l) in free.iter().enumerate() {
+                    if !(free_k && free_l) {
                         c[(k, l)] = 0.0;
                     }
                 }
             }
             c * noise_px * noise_px
         });
-    let uncertainty = Uncertainty::over_picture(&p, &choice, covariance.as_ref(), size, floor);
+    let markers = views.get(floor_view).map_or(&[][..], |v| v.floor);
+    let uncertainty =
+        Uncertainty::over_picture(&p, &choice, floor_view, covariance.as_ref(), size, markers);
     Ok(CameraFit {
         camera,
         rms_residual_px: rms,
         max_residual_px: max_px,
         corners: n,
+        views: count,
         noise_px,
         picture_uncertainty_px: uncertainty.max_px,
         markers_area_uncertainty: uncertainty.markers_area,
@@ -483,10 +594,11 @@ struct Uncertainty {
 }
 
 impl Uncertainty {
-    fn over_picture(
-        p: &Params,
+    fn over_picture<const P: usize>(
+        p: &Params<P>,
         choice: &LensChoice,
-        covariance: Option<&Normal>,
+        view: usize,
+        covariance: Option<&Normal<P>>,
         size: FrameSize,
         markers: &[Point],
     ) -> Uncertainty {
@@ -510,7 +622,7 @@ impl Uncertainty {
                 )
             },
         );
-        let camera = model(p, choice);
+        let camera = model(p, choice, view);
         let (w, h) = (size.width() as f64, size.height() as f64);
         let mut out = Uncertainty {
             max_px: 0.0,
@@ -528,7 +640,7 @@ impl Uncertainty {
                     continue;
                 };
                 // A variance that cannot be computed is no knowledge at all.
-                let sigma = floor_sigma(p, choice, covariance, &q).unwrap_or(f64::INFINITY);
+                let sigma = floor_sigma(p, choice, view, covariance, &q).unwrap_or(f64::INFINITY);
                 // Floor per pixel here, to say the uncertainty in pixels.
                 let Some(scale) = floor_per_px(&camera, &q) else {
                     continue;
@@ -557,18 +669,24 @@ impl Uncertainty {
 }
 
 /// 1σ of the floor point seen at `q` (root of the covariance's trace), floor units.
-fn floor_sigma(p: &Params, choice: &LensChoice, covariance: &Normal, q: &Point) -> Option<f64> {
-    let mut g = SMatrix::<f64, 2, PARAMS>::zeros();
-    for k in 0..PARAMS {
-        if covariance[(k, k)] == 0.0 {
+fn floor_sigma<const P: usize>(
+    p: &Params<P>,
+    choice: &LensChoice,
+    view: usize,
+    covariance: &Normal<P>,
+    q: &Point,
+) -> Option<f64> {
+    let mut g = SMatrix::<f64, 2, P>::zeros();
+    for k in params_of(view) {
+        if covariance.get((k, k)).is_none_or(|&c| c == 0.0) {
             continue;
         }
         let h = step_of(p[k]);
         let (mut a, mut b) = (*p, *p);
         a[k] -= h;
         b[k] += h;
-        let fa = model(&a, choice).floor_point(q, 0.0).ok()?;
-        let fb = model(&b, choice).floor_point(q, 0.0).ok()?;
+        let fa = model(&a, choice, view).floor_point(q, 0.0).ok()?;
+        let fb = model(&b, choice, view).floor_point(q, 0.0).ok()?;
         let d = (fb - fa) / (2.0 * h);
         g[(0, k)] = d.x;
         g[(1, k)] = d.y;
@@ -700,5 +818,103 @@ mod tests {
         assert_eq!(fit.camera.lens, lens);
         let centre = fit.camera.pose.centre();
         assert!((centre - camera.pose.centre()).norm() < 1.0, "{centre:?}");
+    }
+
+    /// A board of four 18 cm markers, its top-left marker at `at` on the floor; the corners
+    /// in the board's own coordinates and where `camera` sees them.
+    fn board(camera: &CameraModel, at: (f64, f64)) -> (Vec<Point>, Vec<Point>) {
+        let cells = [
+            (0.0, 0.0),
+            (25.0, 0.0),
+            (50.0, 0.0),
+            (0.0, 25.0),
+            (25.0, 25.0),
+            (50.0, 25.0),
+        ];
+        let on_floor: Vec<(f64, f64)> = cells.iter().map(|&(x, y)| (x + at.0, y + at.1)).collect();
+        let (floor, screen) = corners(camera, &on_floor);
+        let floor = floor
+            .into_iter()
+            .map(|f| Point::new(f.x - at.0, f.y - at.1))
+            .collect();
+        (floor, screen)
+    }
+
+    /// Worst reprojection error (px) over the whole picture: the floor point `camera` sees at
+    /// each pixel of a grid, in the coordinates of a board at `at`, through `fit`'s camera.
+    fn worst_px(fit: &CameraFit, camera: &CameraModel, at: (f64, f64)) -> f64 {
+        let mut worst: f64 = 0.0;
+        for v in (20..480).step_by(40) {
+            for u in (20..640).step_by(40) {
+                let q = Point::new(f64::from(u), f64::from(v));
+                let want = camera.floor_point(&q, 0.0).unwrap();
+                let on_board = Point::new(want.x - at.0, want.y - at.1);
+                let got = fit.camera.project(&on_board, 0.0).unwrap();
+                worst = worst.max((got - q).norm());
+            }
+        }
+        worst
+    }
+
+    #[test]
+    fn a_board_moved_over_the_picture_determines_a_lens_one_view_of_it_cannot() {
+        let lens = Lens {
+            k1: -0.30,
+            k2: 0.09,
+            ..Lens::ideal(460.0, 460.0, 319.5, 239.5)
+        };
+        let camera = truth(lens);
+        let places = [(-105.0, 45.0), (30.0, -72.0), (50.0, 52.0)];
+        let boards: Vec<_> = places.iter().map(|&at| board(&camera, at)).collect();
+        for (_, screen) in &boards {
+            let inside = screen
+                .iter()
+                .all(|s| (0.0..639.0).contains(&s.x) && (0.0..479.0).contains(&s.y));
+            assert!(inside, "a board leaves the picture: {screen:?}");
+        }
+        let views: Vec<ViewCorners> = boards
+            .iter()
+            .map(|(floor, screen)| ViewCorners { floor, screen })
+            .collect();
+        let one = fit_camera_views(&views[..1], 0, size(), LensChoice::Fit).unwrap();
+        assert!(!one.determined(), "{one:?}");
+        let one_px = worst_px(&one, &camera, places[0]);
+        for count in [2, 3] {
+            let fit = fit_camera_views(&views[..count], 0, size(), LensChoice::Fit).unwrap();
+            assert_eq!((fit.views, fit.corners), (count, 24 * count));
+            let px = worst_px(&fit, &camera, places[0]);
+            eprintln!(
+                "{count} views: worst {px:.3} px, uncertain by up to {:.2} px \
+                 (one view {one_px:.3} px, uncertain by {:.2} px)",
+                fit.picture_uncertainty_px, one.picture_uncertainty_px
+            );
+            assert!(
+                px < one_px / 10.0,
+                "{count} views: {px:.3} px, one view {one_px:.3} px"
+            );
+            // The fit's own uncertainty says how far off it may be.
+            assert!(
+                px < 3.0 * fit.picture_uncertainty_px,
+                "{count} views: {px:.3} px"
+            );
+            assert!(
+                (fit.camera.lens.k1 + 0.30).abs() < 0.03,
+                "{:?}",
+                fit.camera.lens
+            );
+            // Three boards, one in each of three corners, leave no corner of the picture
+            // undetermined; two leave the far ones weak.
+            assert!(
+                count < 3 || (fit.determined() && px < 1.0),
+                "{count} views: {fit:?}"
+            );
+        }
+        // The floor view's pose is the one written: the last board's, here.
+        let fit = fit_camera_views(&views, 2, size(), LensChoice::Fit).unwrap();
+        assert!(worst_px(&fit, &camera, places[2]) < 1.0);
+        assert_eq!(
+            fit_camera_views(&views, 3, size(), LensChoice::Fit),
+            Err(CameraFitError::BadInput)
+        );
     }
 }

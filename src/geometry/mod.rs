@@ -18,7 +18,9 @@ pub use calibration::{calibrate, Calibration, CalibrationError, MarkerPlacement}
 pub use calibration_file::{CalibrationFile, CalibrationFileError};
 pub use calibration_record::{CalibrationRecord, RecordedMarker, CALIBRATION_VERSION};
 pub use camera::{CameraError, CameraModel, Lens, Pose};
-pub use camera_fit::{fit_camera, CameraFit, CameraFitError, LensChoice};
+pub use camera_fit::{
+    fit_camera, fit_camera_views, CameraFit, CameraFitError, LensChoice, ViewCorners,
+};
 pub use floor::{FloorEstimate, FloorFix, FloorStage, FloorUnit, NeedsCameraPose};
 pub use heading::marker_heading_deg;
 pub use homography::{FloorMapping, Homography, HomographyError, Point};
