@@ -67,8 +67,6 @@ pub struct Tips {
     pub radius_px: f32,
     /// Path length from tip to tip through the middle.
     pub path_length_px: f32,
-    /// The spot's extent along the streak at each end (its semi-axis there).
-    pub along_px: [f32; 2],
     /// The blob is no longer than the spot itself (within the caps' uncertainty): a still LED,
     /// whose tips say nothing.
     pub still: bool,
@@ -159,7 +157,6 @@ pub fn refine(
         tips_px: tips,
         radius_px,
         path_length_px,
-        along_px,
         still,
     })
 }
