@@ -81,12 +81,12 @@ struct Errors {
 /// velocity of the middles between the frame before (`previous`) and this one.
 ///
 /// On these tours the LED moves under a pixel per exposure, and the lens squeezes its round spot
-/// into an ellipse (radially, up to 30 % near the corners of the wide lens). The ramps' tips read
-/// that ellipse as a 2 px streak along its long axis: they subtract the radius measured across
-/// the middle (the short axis) from the ends of the long one, so the head lands 1–2 px out along
-/// the long axis (the middle, found by symmetry, stays within 0.3 px). That is the detector's
-/// (`src/detect/tips.rs`, chosen for any skeleton chord of 2 px or more in `streak.rs`), not
-/// the mapping's; this position measures what the calibration and mapping deliver without it.
+/// into an ellipse (radially, up to 30 % near the corners of the wide lens). The detector's tips
+/// (`src/detect/tips.rs`) now read such a blob as still when it is no longer than the spot's own
+/// extent measured at its two caps, and the tracker then carries the middle as here; but some
+/// squeezed spots are still read as 1–2 px streaks along their long axis (their caps are read
+/// to a few tenths of a pixel), so glint's own output does not reach the goal in every case yet.
+/// This position measures what the calibration and mapping deliver without that.
 fn carried_middle_px(
     rep: &Value,
     previous: &Value,
@@ -166,6 +166,7 @@ fn errors_from(r: &Rendered, reports: &[Value], first: usize) -> Errors {
 struct Figures {
     mapping_p95: f64,
     floor_median: f64,
+    floor_p95: f64,
     carried_p95: f64,
 }
 
@@ -187,13 +188,25 @@ fn report(label: &str, e: &Errors) -> Figures {
     Figures {
         mapping_p95: m95,
         floor_median: f50,
+        floor_p95: f95,
         carried_p95: c95,
     }
 }
 
+/// What glint's own output is held to, besides the assertions every case makes.
+#[derive(Clone, Copy, PartialEq)]
+enum Output {
+    /// The goal, p95 ≤ 0.5 cm, on what glint reports (its head).
+    Goal,
+    /// Reported, not asserted: through a lens that squeezes the spot, some still or slow
+    /// spots are still read as short streaks (see `carried_middle_px`).
+    Reported,
+}
+
 /// The assertions every case makes: the mapping's share, the whole error's median, and the
-/// issue's goal for what the calibration and mapping deliver from the tracker's middle.
-fn assert_figures(label: &str, f: &Figures) {
+/// issue's goal for what the calibration and mapping deliver from the tracker's middle; and
+/// with [`Output::Goal`], the goal on glint's output too.
+fn assert_figures(label: &str, f: &Figures, output: Output) {
     assert!(
         f.mapping_p95 <= MAPPING_P95_MAX_CM,
         "{label}: mapping p95 {:.3} cm",
@@ -209,11 +222,18 @@ fn assert_figures(label: &str, f: &Figures) {
         "{label}: floor p95 from the carried middle {:.3} cm",
         f.carried_p95
     );
+    if output == Output::Goal {
+        assert!(
+            f.floor_p95 <= GOAL_P95_CM,
+            "{label}: floor p95 of glint's output {:.3} cm",
+            f.floor_p95
+        );
+    }
 }
 
 /// Calibrates with a fitted lens and tracks. With `GLINT_FLOOR_BEFORE=1`, also reports the
 /// ideal-lens calibration without the LED's height (what glint did before), for the README.
-fn check(config: SceneConfig, label: &str, extra: &[&str]) {
+fn check(config: SceneConfig, label: &str, extra: &[&str], output: Output) {
     let r = render(config);
     let dir = tempfile::tempdir().unwrap();
     let fitted = calibrate(&r, dir.path(), "fit");
@@ -224,9 +244,11 @@ fn check(config: SceneConfig, label: &str, extra: &[&str]) {
             &floor_errors(&r, &ideal, &["--no-recheck"]),
         );
     }
-    assert_figures(label, &report(label, &floor_errors(&r, &fitted, extra)));
-    // The whole error's p95 is reported, not asserted: it does not reach the goal yet, because
-    // of the detector's head on a lens-squeezed spot (see `carried_middle_px`).
+    assert_figures(
+        label,
+        &report(label, &floor_errors(&r, &fitted, extra)),
+        output,
+    );
 }
 
 fn preset(name: &str, seed: u64) -> SceneConfig {
@@ -242,7 +264,12 @@ fn a_wide_angle_lens_is_calibrated_from_six_markers() {
         let mut config = preset("lens-wide", seed);
         let v = config.view.as_mut().unwrap();
         v.lens = v.lens.with_distortion(k1, k2, 0.0, 0.0, 0.0);
-        check(config, &format!("lens k1 {k1} k2 {k2}"), &[]);
+        check(
+            config,
+            &format!("lens k1 {k1} k2 {k2}"),
+            &[],
+            Output::Reported,
+        );
     }
 }
 
@@ -252,7 +279,12 @@ fn a_milder_decentred_lens_is_calibrated() {
         let mut config = preset("lens-mild", seed);
         let v = config.view.as_mut().unwrap();
         v.lens = v.lens.with_distortion(-0.12, 0.0, 0.0, p1, p2);
-        check(config, &format!("mild lens p1 {p1} p2 {p2}"), &[]);
+        check(
+            config,
+            &format!("mild lens p1 {p1} p2 {p2}"),
+            &[],
+            Output::Reported,
+        );
     }
 }
 
@@ -266,6 +298,7 @@ fn an_led_on_a_mast_is_mapped_to_the_floor_under_it() {
             config,
             &format!("LED {height_cm} cm up"),
             &["--led-height-cm", &h],
+            Output::Goal,
         );
     }
 }
@@ -303,7 +336,7 @@ fn a_knocked_camera_is_recalibrated_from_the_markers_in_view() {
             "{label}: the knock must matter ({:.3} cm)",
             kept.carried_p95
         );
-        assert_figures(&label, &figures);
+        assert_figures(&label, &figures, Output::Goal);
         // Every line says which calibration it used; after the knock, a fresh one.
         for rep in &reports {
             let age = rep["calib"]["age_s"].as_f64().expect("calib on every line");
@@ -342,7 +375,7 @@ fn markers_out_of_sight_mark_the_floor_numbers_stale_and_occlusion_changes_nothi
     let occluded = render(covered);
     let reports = tracked(&occluded, &calib, &[]);
     let figures = report("two markers covered", &errors_from(&occluded, &reports, 0));
-    assert_figures("two markers covered", &figures);
+    assert_figures("two markers covered", &figures, Output::Goal);
     for rep in &reports {
         assert!(rep["calib"]["age_s"].as_f64().unwrap() < 1.0, "{rep}");
         assert!(rep.get("floor_stale").is_none(), "{rep}");

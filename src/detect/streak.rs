@@ -230,7 +230,9 @@ pub fn analyze(
                     )
                 })
                 .flatten();
-            let path = tips.map(|t| StreakPath {
+            // A still LED has no path: its ends would only be the spot's own outline, and the
+            // tracker carries its middle by the frames' velocity instead.
+            let path = tips.filter(|t| !t.still).map(|t| StreakPath {
                 ends_px: t.tips_px,
                 path_length_px: t.path_length_px,
                 fit_px: None,

@@ -7,7 +7,23 @@
 //! with the streak (a faster LED spends less time on each pixel). So, walking outward along
 //! the streak from a skeleton end, the brightness ramp is measured at two levels and
 //! extrapolated to where it meets the floor: that is the footprint's edge, R past the tip.
-//! R itself comes from the cross-section at the streak's middle, corrected for the same ramp.
+//!
+//! R comes from the cross-section at the streak's middle, corrected for the same ramp, and
+//! that is right for a round spot only. A lens squeezes the spot radially near the picture's
+//! edge (and a defocused LED can be elliptic): a still or slow LED then leaves an elliptic blob
+//! whose skeleton is a short line along its long axis, and subtracting the width across its
+//! middle from the ends of that axis makes up a path of 1–2 px, with a velocity. So each end's
+//! cap is measured on its own: a swept spot's footprint, cut at a brightness level, ends in the
+//! spot's own outline, and the half-widths of that outline at several depths behind the cap's
+//! apex are fitted with an ellipse (for any ellipse, however tilted, the squared half-length
+//! of a chord is quadratic in the chord's position along the axis). Its semi-axis along the
+//! streak is the spot's own extent there. A blob no longer along its axis than the spot's
+//! extents at its two ends, within the fits' scatter, is a still LED: it has no path, and the
+//! tracker takes the middle.
+//!
+//! The tips of a longer streak still subtract the width across the middle: the caps' fitted
+//! extents scatter by a few tenths of a pixel more than that width (a clipped edge is read to
+//! about a pixel), and subtracting them instead doubled the head error on the 1280×720 scene.
 
 use super::bitimage::{BitImage, Window};
 use crate::frame::Frame;
@@ -31,6 +47,17 @@ const AXIS_BASE_PX: f32 = 4.0;
 /// Skeleton pixels within this distance of an end give the streak's direction there.
 const DIRECTION_RADIUS_PX: f32 = 6.0;
 
+/// Step between the depths at which a cap's half-width is measured. Half a pixel: finer steps
+/// sample the same two pixels again (the contour is bilinear between pixel centres).
+const CAP_STEP_PX: f32 = 0.5;
+
+/// Most depths measured on one cap (an LED up to `CAP_MAX_DEPTHS × CAP_STEP_PX` px wide).
+const CAP_MAX_DEPTHS: usize = 24;
+
+/// A blob within this many of the caps' standard deviations of the spot's own length is still
+/// (as the fitted model's rule in `streak.rs`).
+const STILL_UNCERTAINTIES: f32 = 2.0;
+
 /// The refined tips of a streak.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Tips {
@@ -40,6 +67,9 @@ pub struct Tips {
     pub radius_px: f32,
     /// Path length from tip to tip through the middle.
     pub path_length_px: f32,
+    /// The blob is no longer than the spot itself (within the caps' uncertainty): a still LED,
+    /// whose tips say nothing.
+    pub still: bool,
 }
 
 /// Refines the skeleton `ends` of a streak with middle `mid` into path tips. `clip_luma` is
@@ -98,11 +128,133 @@ pub fn refine(
         )
     };
     let tips = [tip(0), tip(1)];
+    // Each end's cap outline at the low level gives the spot's own extent along the axis
+    // there, measured as deep as the outline is the spot's: no deeper than the spot is wide,
+    // nor than half the footprint (a still spot's two caps meet in its middle).
+    let half_length = 0.5 * (dist(origins[0], origins[1]) + ramps[0].0 + ramps[1].0);
+    let mut along_px = [radius_px; 2];
+    let mut spread = 0.0f32;
+    for i in 0..2 {
+        let (d, (edge, ramp_length)) = (dirs[i], ramps[i]);
+        let low = edge - LEVEL_LOW * ramp_length;
+        let apex = (origins[i].0 + low * d.0, origins[i].1 + low * d.1);
+        let depth_px = radius_px.min(half_length) - 0.5 * LEVEL_LOW * ramp_length;
+        // Without a cap to fit, the width across the middle stands in (a round spot).
+        if let Some(c) = cap(frame, apex, d, depth_px, radius_px, clip) {
+            along_px[i] = c.along_px;
+            spread = spread.hypot(c.sigma_px);
+        }
+    }
+    // One spot at both ends of a path this short: where its two measured extents disagree by
+    // more than their fits say, that disagreement is the scatter to beat.
+    spread = spread.hypot(along_px[0] - along_px[1]);
+    // A footprint no longer along its axis than the spot's own extent at its two ends (within
+    // the caps' scatter): the blob is the spot itself, and its tips would only be its outline.
+    let footprint_px = dist(origins[0], origins[1]) + ramps[0].0 + ramps[1].0;
+    let still = footprint_px <= along_px[0] + along_px[1] + STILL_UNCERTAINTIES * spread;
     let path_length_px = dist(tips[0], mid) + dist(mid, tips[1]);
     Some(Tips {
         tips_px: tips,
         radius_px,
         path_length_px,
+        still,
+    })
+}
+
+/// A cap's outline fitted as an ellipse.
+struct Cap {
+    /// Its semi-axis along the streak.
+    along_px: f32,
+    /// One standard deviation of that, from the fit's residual.
+    sigma_px: f32,
+}
+
+/// Gauss–Newton steps of the cap's two-parameter fit (it starts at a round spot, a few
+/// tenths from the answer, and converges quadratically).
+const CAP_FIT_STEPS: usize = 6;
+
+/// Fits the half-widths `w` of the cap's outline at depths `u` behind its `apex` (along `-d`,
+/// out to `depth_px`) with the ellipse of half-width `across_px` whose semi-axis along the
+/// axis is `a`, centred `c` behind the apex: `w² = across² · (1 − ((u − c)/a)²)`. `None` when
+/// too few widths could be read or the fit does not settle on a positive extent.
+fn cap(
+    frame: &Frame<'_>,
+    apex: (f32, f32),
+    d: (f32, f32),
+    depth_px: f32,
+    across_px: f32,
+    clip: f32,
+) -> Option<Cap> {
+    let n = (-d.1, d.0);
+    let mut widths = [(0.0f32, 0.0f32); CAP_MAX_DEPTHS];
+    let mut count = 0usize;
+    for j in 0..CAP_MAX_DEPTHS {
+        let u = (j + 1) as f32 * CAP_STEP_PX;
+        if u > depth_px {
+            break;
+        }
+        let q = (apex.0 - u * d.0, apex.1 - u * d.1);
+        let (Some(a), Some(b)) = (
+            ramp_along(frame, q, n, clip),
+            ramp_along(frame, q, (-n.0, -n.1), clip),
+        ) else {
+            continue;
+        };
+        if let Some(slot) = widths.get_mut(count) {
+            *slot = (u, 0.5 * (a.low_px + b.low_px) / across_px);
+            count += 1;
+        }
+    }
+    let widths = widths.get(..count)?;
+    if count < 3 {
+        return None;
+    }
+    // y = 1 − ((u − c)/a)² with y = (w/across)²: the outline's centre c behind the apex
+    // (free, so that where the apex was read does not matter) and its extent a, from a
+    // round spot.
+    let (mut c, mut a) = (across_px, across_px);
+    let mut normal = [[0.0f32; 2]; 2];
+    let mut sq = 0.0f32;
+    for _ in 0..CAP_FIT_STEPS {
+        normal = [[0.0f32; 2]; 2];
+        let mut rhs = [0.0f32; 2];
+        sq = 0.0;
+        for &(u, w) in widths {
+            let t = (u - c) / a;
+            let r = w * w - (1.0 - t * t);
+            let j = [2.0 * t / a, 2.0 * t * t / a];
+            for (row, &ji) in normal.iter_mut().zip(&j) {
+                for (cell, &jk) in row.iter_mut().zip(&j) {
+                    *cell += ji * jk;
+                }
+            }
+            for (ri, &ji) in rhs.iter_mut().zip(&j) {
+                *ri += ji * r;
+            }
+            sq += r * r;
+        }
+        let [[p, q], [_, t]] = normal;
+        let det = p * t - q * q;
+        if det <= f32::EPSILON {
+            return None;
+        }
+        c += (t * rhs[0] - q * rhs[1]) / det;
+        a += (p * rhs[1] - q * rhs[0]) / det;
+        if !(a.is_finite() && c.is_finite() && a > 0.0) {
+            return None;
+        }
+    }
+    // The residual's scatter through the fit's covariance.
+    let [[p, q], [_, t]] = normal;
+    let det = p * t - q * q;
+    let dof = count as f32 - 2.0;
+    if det <= f32::EPSILON || dof <= 0.0 {
+        return None;
+    }
+    let variance = sq / dof * p / det;
+    Some(Cap {
+        along_px: a,
+        sigma_px: variance.sqrt(),
     })
 }
 
