@@ -12,7 +12,7 @@ use std::io::{Read, Write};
 use std::os::unix::io::AsRawFd;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -345,14 +345,18 @@ fn mavlink_without_a_calibration_is_refused_with_one_line() {
 /// Reads a pty master on a thread until told to stop, then until it has been quiet for 200 ms.
 struct PtyReader {
     stop: Arc<AtomicBool>,
+    /// Bytes read so far.
+    received: Arc<AtomicUsize>,
     thread: std::thread::JoinHandle<Vec<u8>>,
 }
 
 impl PtyReader {
     fn start(mut master: TTYPort) -> Self {
         let stop = Arc::new(AtomicBool::new(false));
+        let received = Arc::new(AtomicUsize::new(0));
         let thread = {
             let stop = Arc::clone(&stop);
+            let received = Arc::clone(&received);
             std::thread::spawn(move || {
                 // Heartbeats come once a second: quiet is measured in time, not in reads.
                 master
@@ -366,13 +370,30 @@ impl PtyReader {
                 {
                     if let Ok(n @ 1..) = master.read(&mut buf) {
                         bytes.extend_from_slice(&buf[..n]);
+                        received.store(bytes.len(), Ordering::Relaxed);
                         last_byte = Instant::now();
                     }
                 }
                 bytes
             })
         };
-        PtyReader { stop, thread }
+        PtyReader {
+            stop,
+            received,
+            thread,
+        }
+    }
+
+    /// Waits until something has been read, for at most `timeout`.
+    fn wait_for_bytes(&self, timeout: Duration) -> bool {
+        let start = Instant::now();
+        while self.received.load(Ordering::Relaxed) == 0 {
+            if start.elapsed() > timeout {
+                return false;
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        true
     }
 
     /// Stops reading (the master end closes when the thread ends) and gives what was read.
@@ -461,12 +482,17 @@ fn an_unplugged_mavlink_port_is_reopened_and_sends_whole_frames_again() {
     let (master, _slave, name) = cloexec_pty();
     std::os::unix::fs::symlink(&name, &link).unwrap();
     let after = PtyReader::start(master);
+    // The writer finds the port again within its back-off (at most 5 s) and sends a heartbeat
+    // at once or within a second; only then do the last frames come, so that their positions
+    // are sent on the new port however late the machine schedules the writer.
+    assert!(
+        after.wait_for_bytes(Duration::from_secs(15)),
+        "the port was not reopened"
+    );
     for frame in &frames[2 * third..] {
         stdin.write_all(frame).unwrap();
         std::thread::sleep(pace);
     }
-    // The back-off is at most 5 s; give the writer time to find the port again.
-    std::thread::sleep(Duration::from_millis(1500));
     drop(stdin);
     let status = child.wait().unwrap();
     let reports = parse_jsonl(&stdout.join().unwrap());

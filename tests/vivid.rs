@@ -671,10 +671,11 @@ fn glint_record_writes_a_dump_and_sidecar_that_replays_with_the_real_timing() {
     assert_report_timeline(&reports);
     let (_, truths) = scene_feed();
     let mut previous_seq = None;
-    for ((report, t), frame) in reports
+    for (i, ((report, t), frame)) in reports
         .iter()
         .zip(timing)
         .zip(dump.chunks_exact(frame_bytes))
+        .enumerate()
     {
         let seq = t["seq"].as_u64().expect("seq");
         let t_us = t["t_us"].as_u64().expect("t_us");
@@ -692,6 +693,11 @@ fn glint_record_writes_a_dump_and_sidecar_that_replays_with_the_real_timing() {
         let k = (0..SCENE_FRAMES)
             .position(|k| scene_frame_id(k) == id)
             .unwrap_or_else(|| panic!("recorded frame with unknown id {id:#x}"));
+        // The replay's first frame is the light's first appearance: a round spot that has not
+        // moved yet is not taken (it could be glare), so it may be ambiguous; never after.
+        if i == 0 && report["ambiguous"] == true {
+            continue;
+        }
         assert_eq!(report["found"], true, "{report}");
         let truth = &truths[k];
         let error_px = (report["mid_x"].as_f64().unwrap() - truth.mid_x_px.unwrap())

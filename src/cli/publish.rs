@@ -5,9 +5,11 @@ use anyhow::Result;
 use clap::Args;
 
 /// Where a host name is read for the default camera name.
+#[cfg(feature = "net")]
 const HOSTNAME_PATH: &str = "/proc/sys/kernel/hostname";
 
 /// The camera name when the host has none that fits a key.
+#[cfg(feature = "net")]
 const FALLBACK_CAMERA_NAME: &str = "glint";
 
 /// The ROS 2 domain ids rmw_zenoh accepts.
@@ -44,6 +46,7 @@ pub struct PublishArgs {
     ros_domain_id: Option<u32>,
 }
 
+#[cfg(feature = "net")]
 impl PublishArgs {
     /// The camera name: given, or the host name.
     fn camera_name(&self) -> String {

@@ -148,8 +148,16 @@ pub struct PurePursuit {
     ages_seen: bool,
     /// The last command's turn rate, rad/s: the arc along which positions are moved on.
     turn_rad_s: f32,
+    /// glint has found the robot at least once.
+    seen: bool,
     ready: Option<WheelCommand>,
 }
+
+/// Straight-ahead speed before glint has found the robot once, mm/s. glint never takes a light
+/// that has stood still since it appeared (it could be glare), so a robot that waited for its
+/// first position would wait for ever: it creeps until it is seen. After that, a lost light
+/// stops it.
+pub const CREEP_MM_S: f32 = 100.0;
 
 impl PurePursuit {
     /// A controller at the start of the path.
@@ -159,6 +167,7 @@ impl PurePursuit {
             phase_rad: None,
             pending: None,
             ages_seen: false,
+            seen: false,
             turn_rad_s: 0.0,
             ready: None,
         }
@@ -258,9 +267,11 @@ impl PurePursuit {
             }
             None => {
                 self.turn_rad_s = 0.0;
-                (0.0, 0.0)
+                let creep = if self.seen { 0.0 } else { CREEP_MM_S };
+                (creep, creep)
             }
         };
+        self.seen |= measured.is_some();
         self.ready = Some(WheelCommand {
             seq: p.seq,
             timestamp_us: p.timestamp_us,
@@ -399,8 +410,24 @@ mod tests {
     }
 
     #[test]
+    fn a_robot_not_yet_seen_creeps_straight_ahead() {
+        let mut c = PurePursuit::new(PARAMS);
+        let mut p = position(1, (0.0, 0.0), (0.0, 0.0));
+        p.status = Status::Lost;
+        c.on_position(&p);
+        let cmd = c.take_command().unwrap();
+        let creep = CREEP_MM_S as i32;
+        assert_eq!(
+            (cmd.left_mm_s, cmd.right_mm_s, cmd.steering),
+            (creep, creep, false)
+        );
+    }
+
+    #[test]
     fn a_lost_light_or_screen_units_stop_the_robot() {
         let mut c = PurePursuit::new(PARAMS);
+        c.on_position(&position(0, (600.0, 0.0), (0.0, -500.0)));
+        assert!(c.take_command().unwrap().steering, "seen once");
         let mut p = position(1, (600.0, 0.0), (0.0, -500.0));
         p.status = Status::Lost;
         c.on_position(&p);

@@ -161,18 +161,38 @@ fn half_a_pixel_of_truth_moves_the_marker_half_a_block() {
     assert_eq!(cb - ca, (ia.layout.zoom / 2) as f64);
 }
 
+/// A frame interval at 30 fps.
+const FRAME_US: u64 = 33_333;
+
+/// A pipeline that has seen the disk 8 px to the left of (30, 20) in the frame before: a light
+/// that has stood still since it appeared is never taken as the LED, so the disk must move
+/// before the frame under test finds it.
+fn moved_into_view(size: FrameSize) -> Pipeline {
+    let mut pipeline = Pipeline::new(size, PipelineConfig::default()).unwrap();
+    let before = frame_bytes(Some(((22.0, 20.0), 3.2)));
+    let meta = FrameMeta {
+        index: 0,
+        sequence: 0,
+        dropped: 0,
+        timestamp_us: 0,
+        monotonic_us: 0,
+    };
+    pipeline.process(&frame(&before), meta);
+    pipeline
+}
+
 #[test]
 fn the_detector_s_mask_skeleton_and_answers_are_drawn() {
     let centre = (30.0, 20.0);
     let bytes = frame_bytes(Some((centre, 3.2)));
     let size = FrameSize::new(WIDTH_PX as u32, HEIGHT_PX as u32).unwrap();
-    let mut pipeline = Pipeline::new(size, PipelineConfig::default()).unwrap();
+    let mut pipeline = moved_into_view(size);
     let meta = FrameMeta {
         index: 7,
         sequence: 7,
         dropped: 0,
-        timestamp_us: 0,
-        monotonic_us: 0,
+        timestamp_us: FRAME_US,
+        monotonic_us: FRAME_US,
     };
     let report = pipeline.process(&frame(&bytes), meta);
     let position = report.position.expect("the disk is found");
@@ -211,13 +231,13 @@ fn the_detector_s_mask_skeleton_and_answers_are_drawn() {
 fn caption_reports_the_errors_against_the_truth() {
     let bytes = frame_bytes(Some(((30.0, 20.0), 3.2)));
     let size = FrameSize::new(WIDTH_PX as u32, HEIGHT_PX as u32).unwrap();
-    let mut pipeline = Pipeline::new(size, PipelineConfig::default()).unwrap();
+    let mut pipeline = moved_into_view(size);
     let meta = FrameMeta {
-        index: 0,
-        sequence: 0,
+        index: 1,
+        sequence: 1,
         dropped: 0,
-        timestamp_us: 0,
-        monotonic_us: 0,
+        timestamp_us: FRAME_US,
+        monotonic_us: FRAME_US,
     };
     let report = pipeline.process(&frame(&bytes), meta);
     // A truth 3 px to the right of the disk's centre.
