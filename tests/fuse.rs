@@ -13,29 +13,18 @@ mod common;
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
+use common::arena::{calibrate, small};
 use common::{glint, parse_jsonl, quantile};
 use glint_tools::scene::{Arena, ArenaCamera, ArenaConfig, Visibility};
 use serde_json::Value;
 
 /// The goal for the fused floor error, p95 (cm).
 const GOAL_P95_CM: f64 = 0.5;
-/// Frames of each camera `glint calibrate` reads.
-const CALIBRATION_FRAMES: usize = 4;
 /// How close the measured clock offset must come to the injected one, ms. A steady
 /// difference between the two calibrations along the robot's path reads as an offset: the
 /// cameras' own floor error (p95 about 0.15 cm here) over the robot's speed (80–100 cm/s) is
 /// up to 1.9 ms; the measurements are well inside that.
 const OFFSET_BOUND_MS: f64 = 1.5;
-
-/// Two 320×240 cameras at the standard arena's geometry, 3 s of the robot crossing.
-fn small(config: ArenaConfig) -> ArenaConfig {
-    ArenaConfig {
-        width_px: 320,
-        height_px: 240,
-        frame_count: 90,
-        ..config
-    }
-}
 
 /// One camera's reports.
 struct Recorded {
@@ -50,34 +39,6 @@ struct Run {
     b: Recorded,
     size: String,
     dir: tempfile::TempDir,
-}
-
-fn calibrate(cam: &ArenaCamera, dump: &Path, dir: &Path) -> PathBuf {
-    let bytes = std::fs::read(dump).unwrap();
-    let first = dir.join(format!("{}-calibration.yuv", cam.name));
-    std::fs::write(
-        &first,
-        &bytes[..CALIBRATION_FRAMES * cam.scene.frame_len_bytes()],
-    )
-    .unwrap();
-    let out = dir.join(format!("{}.toml", cam.name));
-    let size = format!("{}x{}", cam.scene.width_px(), cam.scene.height_px());
-    let mut cmd = glint();
-    cmd.args(["calibrate", "--input"])
-        .arg(&first)
-        .args(["--size", &size, "--lens", "ideal", "--out"])
-        .arg(&out);
-    for m in cam.marker_args() {
-        cmd.args(["--marker", &m]);
-    }
-    let run = cmd.output().unwrap();
-    assert!(
-        run.status.success(),
-        "{}: {}",
-        cam.name,
-        String::from_utf8_lossy(&run.stderr)
-    );
-    out
 }
 
 /// Renders, calibrates and tracks one camera; its JSON lines are written to `NAME.jsonl`.

@@ -1,12 +1,12 @@
 //! `glint fuse`: several cameras' reports merged into one track per robot
-//! (`glint::fuse`), from recorded JSON lines (`--input`, one file per camera).
+//! (`glint::fuse`), from recorded JSON lines (`--input`, one file per camera) or live from the
+//! cameras' `--publish` (`--subscribe`, [`super::fuse_live`]).
 //!
 //! One JSON line per fused time step goes to standard output; bad lines, reports out of
 //! order, cameras without floor numbers and the measured clock offsets go to standard error.
 //! With `--serial`, robot 1's fused track also goes to the robot as glint's position packets,
 //! through the serial sink `glint track` uses.
 
-use std::cell::RefCell;
 use std::collections::BTreeSet;
 use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
@@ -32,9 +32,9 @@ use glint_protocol::Units;
 use super::logger;
 
 /// Most cameras fused.
-const MAX_CAMERAS: usize = 16;
+pub(super) const MAX_CAMERAS: usize = 16;
 /// Bad lines reported one by one per camera; the rest are counted.
-const BAD_LINES_SHOWN: u64 = 5;
+pub(super) const BAD_LINES_SHOWN: u64 = 5;
 
 #[derive(Debug, Args)]
 pub struct FuseArgs {
@@ -46,8 +46,34 @@ pub struct FuseArgs {
     /// One camera's recorded JSON lines (from `glint run` or `glint track` with --calib
     /// against the shared marker map): PATH, or NAME=PATH to name the camera (default: the
     /// file's name without its extension). Repeat for each camera, at most 16.
-    #[arg(long = "input", value_name = "[NAME=]PATH", required = true)]
+    #[arg(
+        long = "input",
+        value_name = "[NAME=]PATH",
+        required_unless_present = "subscribe",
+        conflicts_with = "subscribe"
+    )]
     inputs: Vec<String>,
+
+    /// Fuse live instead: subscribe over Zenoh to the JSON lines the cameras publish with
+    /// `--publish KEY` (under KEY/CAMERA, at most 16 cameras), timed by their `unix_us`
+    /// (the cameras' clocks synced by NTP/PTP). Runs until Ctrl-C, SIGTERM or --seconds.
+    #[arg(long, value_name = "KEY")]
+    pub(super) subscribe: Option<String>,
+
+    /// With --subscribe: connect to this Zenoh endpoint (`tcp/HOST:PORT`); repeatable. Any
+    /// endpoint turns multicast scouting off.
+    #[arg(long, value_name = "ENDPOINT", requires = "subscribe")]
+    pub(super) zenoh_connect: Vec<String>,
+
+    /// With --subscribe: listen on this Zenoh endpoint (`tcp/ADDR:PORT`), for the cameras to
+    /// connect to; repeatable. Any endpoint turns multicast scouting off.
+    #[arg(long, value_name = "ENDPOINT", requires = "subscribe")]
+    pub(super) zenoh_listen: Vec<String>,
+
+    /// With --subscribe: stop after this many seconds.
+    #[arg(long, value_name = "S", requires = "subscribe",
+          value_parser = seconds)]
+    pub(super) seconds: Option<f64>,
 
     /// The cameras' picture size, so that a light near a picture's edge counts less (its spot
     /// is cut there). Without it every sighting counts by its uncertainty alone.
@@ -122,7 +148,124 @@ fn camera(input: &str) -> (String, PathBuf) {
     }
 }
 
+/// A positive, finite number of seconds.
+fn seconds(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(s) if s.is_finite() && s > 0.0 && s < 1e9 => Ok(s),
+        _ => Err(format!("{text:?} is not a positive number of seconds")),
+    }
+}
+
+/// Where the fused steps go: standard output, and robot 1's track to the serial link.
+pub(super) struct Emitter {
+    out: BufWriter<io::StdoutLock<'static>>,
+    link: Option<SerialSink>,
+    first_us: Option<i64>,
+    steps: u64,
+    /// The first write error; nothing more is written after it.
+    pub(super) error: Option<io::Error>,
+    /// Flush every step (live: a reader downstream waits for each).
+    flush_each: bool,
+}
+
+impl Emitter {
+    /// Writes one step; `names` are the cameras' names, by index.
+    pub(super) fn emit(&mut self, step: &FusedStep, names: &[String]) {
+        if let Some(link) = self.link.as_mut() {
+            let first = *self.first_us.get_or_insert(step.t_us);
+            send(link, step, self.steps, first);
+        }
+        self.steps += 1;
+        if self.error.is_none() {
+            let written = write_step(&mut self.out, step, names).and_then(|()| {
+                if self.flush_each {
+                    self.out.flush()
+                } else {
+                    Ok(())
+                }
+            });
+            if let Err(e) = written {
+                self.error = Some(e);
+            }
+        }
+    }
+
+    /// Flushes standard output and lets the serial link send what is pending.
+    fn finish(mut self) -> Result<()> {
+        if let Some(e) = self.error.take() {
+            return Err(e).context("cannot write the fused tracks");
+        }
+        self.out.flush().context("cannot write the fused tracks")?;
+        if let Some(mut link) = self.link.take() {
+            // Lets the writer send what is pending, then logs the link's counts.
+            link.finish().context("serial link")?;
+        }
+        Ok(())
+    }
+}
+
 pub fn run(args: FuseArgs) -> Result<ExitCode> {
+    if args.serial.is_some() && args.robots > 1 {
+        bail!(
+            "--serial sends one robot's track (its packets carry no robot id yet): use it with \
+             --robots 1"
+        );
+    }
+    let config = FuseConfig {
+        robots: args.robots,
+        picture_px: args.size.map(|s| (s.width() as u32, s.height() as u32)),
+    };
+    let offline = args.subscribe.is_none();
+    // Checked before the serial port opens, so that a bad input is the one error.
+    let inputs = if offline {
+        Some(open_inputs(&args)?)
+    } else {
+        None
+    };
+    let link = match &args.serial {
+        Some(port) => Some(SerialSink::open(port, args.baud)?),
+        None => None,
+    };
+    let mut emitter = Emitter {
+        out: BufWriter::new(io::stdout().lock()),
+        link,
+        first_us: None,
+        steps: 0,
+        error: None,
+        flush_each: !offline,
+    };
+    let (fuser, names, origins, bad_lines, refused) = match inputs {
+        Some((names, paths, feed)) => {
+            let mut fuser = Fuser::new(names.len(), config);
+            let (bad, refused) =
+                fuse_files(&mut fuser, config, feed, &names, &paths, &mut emitter)?;
+            let origins = paths.iter().map(|p| p.display().to_string()).collect();
+            (fuser, names, origins, bad, refused)
+        }
+        None => live(&args, config, &mut emitter)?,
+    };
+    emitter.finish()?;
+    summarise(&fuser, &names, &origins, &bad_lines, &refused);
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `--subscribe`: the fuser, the cameras' names and keys, and their bad and refused lines.
+#[cfg(feature = "net")]
+fn live(args: &FuseArgs, config: FuseConfig, emitter: &mut Emitter) -> Result<Fused> {
+    super::fuse_live::run(args, config, emitter)
+}
+
+#[cfg(not(feature = "net"))]
+fn live(_args: &FuseArgs, _config: FuseConfig, _emitter: &mut Emitter) -> Result<Fused> {
+    bail!("--subscribe needs the network: this glint was built without the `net` feature")
+}
+
+/// What a run fused: the fuser, the cameras' names and where each came from, and per camera
+/// its bad lines and refused reports.
+pub(super) type Fused = (Fuser, Vec<String>, Vec<String>, Vec<u64>, Vec<u64>);
+
+/// The `--input` files: names, paths, and the feed over them.
+fn open_inputs(args: &FuseArgs) -> Result<(Vec<String>, Vec<PathBuf>, FileFeed)> {
     if args.inputs.len() > MAX_CAMERAS {
         bail!(
             "{} --input files, more than the {MAX_CAMERAS} cameras glint fuse takes",
@@ -136,127 +279,92 @@ pub fn run(args: FuseArgs) -> Result<ExitCode> {
             bail!("two cameras are named {name:?}: name them with --input NAME=PATH");
         }
     }
-    if args.serial.is_some() && args.robots > 1 {
-        bail!(
-            "--serial sends one robot's track (its packets carry no robot id yet): use it with \
-             --robots 1"
-        );
-    }
-    let mut feed = FileFeed::open(&paths)?;
-    let mut link = match &args.serial {
-        Some(port) => Some(SerialSink::open(port, args.baud)?),
-        None => None,
-    };
-    let mut first_us: Option<i64> = None;
-    let config = FuseConfig {
-        robots: args.robots,
-        picture_px: args.size.map(|s| (s.width() as u32, s.height() as u32)),
-    };
-    let mut fuser = Fuser::new(names.len(), config);
-    let stdout = io::stdout().lock();
-    let mut out = BufWriter::new(stdout);
-    // Set by the writer closure, read by the loop that feeds it.
-    let write_error: RefCell<Option<io::Error>> = RefCell::new(None);
+    let feed = FileFeed::open(&paths)?;
+    Ok((names, paths, feed))
+}
+
+/// Fuses the files' reports in capture-time order; returns per camera the bad lines and the
+/// refused reports.
+fn fuse_files(
+    fuser: &mut Fuser,
+    config: FuseConfig,
+    mut feed: FileFeed,
+    names: &[String],
+    paths: &[PathBuf],
+    emitter: &mut Emitter,
+) -> Result<(Vec<u64>, Vec<u64>)> {
     let mut bad_lines = vec![0u64; names.len()];
     let mut refused = vec![0u64; names.len()];
     let mut outside = false;
-    let mut fuser_steps = 0u64;
-    {
-        let mut emit = |step: &FusedStep| {
-            if let Some(link) = link.as_mut() {
-                let first = *first_us.get_or_insert(step.t_us);
-                send(link, step, fuser_steps, first);
-            }
-            fuser_steps += 1;
-            let mut failed = write_error.borrow_mut();
-            if failed.is_none() {
-                if let Err(e) = write_step(&mut out, step, &names) {
-                    *failed = Some(e);
-                }
-            }
-        };
-        loop {
-            let next = feed.next(&mut |bad| {
-                if let Some(n) = bad_lines.get_mut(bad.camera) {
-                    *n += 1;
-                    if *n <= BAD_LINES_SHOWN {
-                        log::warn!(
-                            "{}:{}: {}, skipped",
-                            bad.path.display(),
-                            bad.line,
-                            bad.error
-                        );
-                    }
-                }
-            })?;
-            let Some((camera, line, report)) = next else {
-                break;
-            };
-            if let (Some(size), false) = (config.picture_px, outside) {
-                let beyond = report
-                    .sightings
-                    .iter()
-                    .filter_map(|s| s.position_px)
-                    .any(|p| {
-                        !(p.x > -1.0
-                            && p.y > -1.0
-                            && p.x < f64::from(size.0)
-                            && p.y < f64::from(size.1))
-                    });
-                if beyond {
-                    outside = true;
+    loop {
+        let next = feed.next(&mut |bad| {
+            if let Some(n) = bad_lines.get_mut(bad.camera) {
+                *n += 1;
+                if *n <= BAD_LINES_SHOWN {
                     log::warn!(
-                        "{}:{line}: a position outside --size {}x{}: is --size the cameras' \
-                         picture size?",
-                        paths
-                            .get(camera)
-                            .map_or(Path::new("?"), |p| p.as_path())
-                            .display(),
-                        size.0,
-                        size.1
+                        "{}:{}: {}, skipped",
+                        bad.path.display(),
+                        bad.line,
+                        bad.error
                     );
                 }
             }
-            if let Err(e) = fuser.push(camera, &report, &mut emit) {
-                if let Some(n) = refused.get_mut(camera) {
-                    *n += 1;
-                    if *n <= BAD_LINES_SHOWN {
-                        log::warn!(
-                            "{}:{line}: {e}",
-                            paths
-                                .get(camera)
-                                .map_or(Path::new("?"), |p| p.as_path())
-                                .display()
-                        );
-                    }
-                }
-            }
-            if write_error.borrow().is_some() {
-                break;
+        })?;
+        let Some((camera, line, report)) = next else {
+            break;
+        };
+        if let (Some(size), false) = (config.picture_px, outside) {
+            let beyond = report
+                .sightings
+                .iter()
+                .filter_map(|s| s.position_px)
+                .any(|p| {
+                    !(p.x > -1.0
+                        && p.y > -1.0
+                        && p.x < f64::from(size.0)
+                        && p.y < f64::from(size.1))
+                });
+            if beyond {
+                outside = true;
+                log::warn!(
+                    "{}:{line}: a position outside --size {}x{}: is --size the cameras' \
+                     picture size?",
+                    paths
+                        .get(camera)
+                        .map_or(Path::new("?"), |p| p.as_path())
+                        .display(),
+                    size.0,
+                    size.1
+                );
             }
         }
-        fuser.finish(&mut emit);
+        if let Err(e) = fuser.push(camera, &report, &mut |step| emitter.emit(step, names)) {
+            if let Some(n) = refused.get_mut(camera) {
+                *n += 1;
+                if *n <= BAD_LINES_SHOWN {
+                    log::warn!(
+                        "{}:{line}: {e}",
+                        paths
+                            .get(camera)
+                            .map_or(Path::new("?"), |p| p.as_path())
+                            .display()
+                    );
+                }
+            }
+        }
+        if emitter.error.is_some() {
+            break;
+        }
     }
-    if let Some(e) = write_error.into_inner() {
-        return Err(e).context("cannot write the fused tracks");
-    }
-    out.flush().context("cannot write the fused tracks")?;
-    if let Some(mut link) = link {
-        // Lets the writer send what is pending, then logs the link's counts.
-        link.finish().context("serial link")?;
-    }
-    summarise(&fuser, &names, &paths, &bad_lines, &refused);
-    Ok(ExitCode::SUCCESS)
+    fuser.finish(&mut |step| emitter.emit(step, names));
+    Ok((bad_lines, refused))
 }
 
 /// The run's summary on standard error: skipped lines, cameras without floor numbers, and the
 /// clock offsets.
-fn summarise(fuser: &Fuser, names: &[String], paths: &[PathBuf], bad: &[u64], refused: &[u64]) {
+fn summarise(fuser: &Fuser, names: &[String], origins: &[String], bad: &[u64], refused: &[u64]) {
     for (k, name) in names.iter().enumerate() {
-        let path = paths
-            .get(k)
-            .map_or(Path::new("?"), |p| p.as_path())
-            .display();
+        let path = origins.get(k).map_or("?", String::as_str);
         let (b, r) = (
             bad.get(k).copied().unwrap_or(0),
             refused.get(k).copied().unwrap_or(0),

@@ -7,6 +7,8 @@ mod camera;
 #[cfg(feature = "v4l2")]
 mod devices;
 mod fuse;
+#[cfg(feature = "net")]
+mod fuse_live;
 mod input;
 mod latency;
 mod logger;

@@ -103,7 +103,7 @@ fn check_camera_name(camera: &str) -> Result<(), KeyError> {
 
 /// Zenoh's rules for a key one publishes on: chunks separated by `/`, none empty, no wildcard
 /// (`*`, `**`, `$*`), none of `#`, `?`, `$` (reserved), and not the admin space (`@`).
-fn check_key(key: &str) -> Result<(), KeyError> {
+pub(super) fn check_key(key: &str) -> Result<(), KeyError> {
     let bad_chunk =
         |c: &str| c.is_empty() || c.starts_with('@') || c.contains(['*', '$', '#', '?']);
     if key.len() > MAX_KEY_BYTES || key.split('/').any(bad_chunk) {

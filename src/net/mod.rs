@@ -3,7 +3,7 @@
 //!
 //! Every report goes out as glint's JSON line, in a compact binary form ([`wire`]), and, when it
 //! has a floor position, as a ROS 2 `PointStamped` ([`ros`]); [`keys`] lists the key
-//! expressions.
+//! expressions. [`subscriber`] is the other end, for `glint fuse --subscribe`.
 //!
 //! # Threads and memory
 //!
@@ -21,6 +21,7 @@
 pub mod keys;
 mod publisher;
 pub mod ros;
+pub mod subscriber;
 pub mod wire;
 
 use core::fmt;

@@ -48,9 +48,7 @@ pub struct Publishers {
 impl Publishers {
     /// Opens the session (peer mode) and declares the publishers.
     pub fn open(config: &PublishConfig) -> Result<Publishers, PublishError> {
-        let session = zenoh::open(zenoh_config(config)?)
-            .wait()
-            .map_err(|e| PublishError::Open(e.to_string()))?;
+        let session = open_session(&config.connect, &config.listen)?;
         let declare = |key: &str, encoding: Encoding| {
             session
                 .declare_publisher(key.to_owned())
@@ -145,10 +143,18 @@ impl Publishers {
     }
 }
 
+/// A Zenoh session in peer mode (see [`zenoh_config`]); the subscriber opens its own the same
+/// way.
+pub(super) fn open_session(connect: &[String], listen: &[String]) -> Result<Session, PublishError> {
+    zenoh::open(zenoh_config(connect, listen)?)
+        .wait()
+        .map_err(|e| PublishError::Open(e.to_string()))
+}
+
 /// Zenoh's configuration: peer mode, and with endpoints given, exactly those links and no
 /// multicast scouting; without, Zenoh's defaults (scouting, a listener on a free TCP port).
-fn zenoh_config(config: &PublishConfig) -> Result<Config, PublishError> {
-    for endpoint in config.connect.iter().chain(&config.listen) {
+fn zenoh_config(connect: &[String], listen: &[String]) -> Result<Config, PublishError> {
+    for endpoint in connect.iter().chain(listen) {
         check_endpoint(endpoint)?;
     }
     let mut zenoh = Config::default();
@@ -158,10 +164,10 @@ fn zenoh_config(config: &PublishConfig) -> Result<Config, PublishError> {
             .map_err(|e| PublishError::Config(format!("{key} = {value}: {e}")))
     };
     set("mode", "\"peer\"".into())?;
-    if !config.connect.is_empty() || !config.listen.is_empty() {
+    if !connect.is_empty() || !listen.is_empty() {
         set("scouting/multicast/enabled", "false".into())?;
-        set("connect/endpoints", json_list(&config.connect))?;
-        set("listen/endpoints", json_list(&config.listen))?;
+        set("connect/endpoints", json_list(connect))?;
+        set("listen/endpoints", json_list(listen))?;
     }
     Ok(zenoh)
 }
@@ -207,7 +213,7 @@ mod tests {
             connect: vec!["tcp/127.0.0.1:7447".into()],
             listen: Vec::new(),
         };
-        let zenoh = zenoh_config(&config).unwrap();
+        let zenoh = zenoh_config(&config.connect, &config.listen).unwrap();
         assert_eq!(
             zenoh.get_json("scouting/multicast/enabled").unwrap(),
             "false"
@@ -221,7 +227,9 @@ mod tests {
             "tcp/h:99999",
         ] {
             config.connect = vec![bad.into()];
-            let e = zenoh_config(&config).unwrap_err().to_string();
+            let e = zenoh_config(&config.connect, &config.listen)
+                .unwrap_err()
+                .to_string();
             assert!(
                 e.starts_with(&format!("endpoint {bad:?}: write tcp/")),
                 "{e}"
@@ -230,7 +238,10 @@ mod tests {
         for good in ["tcp/[::1]:7447", "tcp/0.0.0.0:0", "tcp/pi.local:7447"] {
             config.listen = vec![good.into()];
             config.connect = Vec::new();
-            assert!(zenoh_config(&config).is_ok(), "{good}");
+            assert!(
+                zenoh_config(&config.connect, &config.listen).is_ok(),
+                "{good}"
+            );
         }
     }
 }

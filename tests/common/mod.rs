@@ -4,6 +4,7 @@
 #![allow(dead_code)] // each test file uses its own subset
 
 pub mod alloc;
+pub mod arena;
 pub mod live;
 
 use std::path::PathBuf;
