@@ -21,6 +21,10 @@ use std::time::Instant;
 use glint_tools::scene::{Scene, Truth};
 use serde_json::Value;
 
+/// Frames a slow LED may stay ambiguous at the start, before it has moved enough to be told
+/// from glare.
+const MAX_ACQUIRE_FRAMES: usize = 3;
+
 const WIDTH_PX: usize = 640;
 const HEIGHT_PX: usize = 480;
 const ROW_BYTES: usize = WIDTH_PX * 2;
@@ -580,12 +584,23 @@ fn glint_track_finds_the_led_of_a_scene_fed_through_the_loop() {
     assert_report_timeline(&reports);
 
     let (_, truths) = scene_feed();
-    let found: Vec<&Value> = reports.iter().filter(|r| r["found"] == true).collect();
+    // A light that has not moved since it appeared is not taken (it could be glare): the first
+    // few frames of a slow LED may be ambiguous. From the first found frame on, it is found.
+    let waited = reports
+        .iter()
+        .take_while(|r| r["found"] != true && r["ambiguous"] == true)
+        .count();
     assert!(
-        found.len() * 10 >= reports.len() * 9,
-        "the LED is found in {} of {} frames",
+        waited <= MAX_ACQUIRE_FRAMES,
+        "ambiguous for {waited} frames"
+    );
+    let counted = &reports[waited..];
+    let found: Vec<&Value> = counted.iter().filter(|r| r["found"] == true).collect();
+    assert!(
+        found.len() * 10 >= counted.len() * 9,
+        "the LED is found in {} of {} frames after {waited} ambiguous ones",
         found.len(),
-        reports.len()
+        counted.len()
     );
     let mut matched = std::collections::HashSet::new();
     for report in found {
@@ -671,6 +686,7 @@ fn glint_record_writes_a_dump_and_sidecar_that_replays_with_the_real_timing() {
     assert_report_timeline(&reports);
     let (_, truths) = scene_feed();
     let mut previous_seq = None;
+    let mut acquired = false;
     for (i, ((report, t), frame)) in reports
         .iter()
         .zip(timing)
@@ -693,11 +709,12 @@ fn glint_record_writes_a_dump_and_sidecar_that_replays_with_the_real_timing() {
         let k = (0..SCENE_FRAMES)
             .position(|k| scene_frame_id(k) == id)
             .unwrap_or_else(|| panic!("recorded frame with unknown id {id:#x}"));
-        // The replay's first frame is the light's first appearance: a round spot that has not
-        // moved yet is not taken (it could be glare), so it may be ambiguous; never after.
-        if i == 0 && report["ambiguous"] == true {
+        // The replay starts at the light's first appearance: a spot that has not moved yet is
+        // not taken (it could be glare), so the first few frames may be ambiguous; never after.
+        if i < MAX_ACQUIRE_FRAMES && !acquired && report["ambiguous"] == true {
             continue;
         }
+        acquired = true;
         assert_eq!(report["found"], true, "{report}");
         let truth = &truths[k];
         let error_px = (report["mid_x"].as_f64().unwrap() - truth.mid_x_px.unwrap())
