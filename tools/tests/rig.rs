@@ -13,6 +13,10 @@ use glint_tools::rig::{run_loop, LoopConfig, LoopReport};
 /// after the start.
 const SECONDS: f64 = 7.0;
 
+/// Frames the creeping robot may take to be acquired at the start: 6 frames at 100 mm/s is
+/// 2 cm, several pixels at the rig's camera.
+const ACQUIRE_FRAMES: usize = 6;
+
 fn repo_root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
         .parent()
@@ -105,11 +109,13 @@ fn the_firmware_in_qemu_steers_the_robot_along_the_figure_eight_from_glints_posi
             return;
         }
     }
-    // Every frame's update came back, the light in view.
+    // Every frame's update came back, the light in view: lost only in the first frames, while
+    // the robot creeps until it has moved enough to be told from glare (a light standing still
+    // since it appeared is never taken), and at most 3 more.
     for r in [&compensated, &raw] {
         let frames = r.frames;
         assert!(r.updates + 3 >= frames, "{} of {frames} updates", r.updates);
-        assert!(r.lost <= 3, "{} frames lost", r.lost);
+        assert!(r.lost <= ACQUIRE_FRAMES + 3, "{} frames lost", r.lost);
     }
     // The robot follows the path: within 10 mm (p95) with compensation. Without it, the
     // firmware steers from positions as they come, as one that ignores the age frame does:
