@@ -10,16 +10,14 @@ mod common;
 
 use std::io::{Read, Write};
 use std::os::unix::io::AsRawFd;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Stdio};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+use common::peers::{calibrate_two_markers, python};
 use common::{glint, parse_jsonl, render};
-use glint::detect::aruco::Dictionary;
-use glint::geometry::Point;
-use glint_tools::markers::{reference_camera, MarkerScene, PlacedMarker};
 use nix::fcntl::{fcntl, FcntlArg, FdFlag};
 use serde_json::Value;
 use serialport::{SerialPort, TTYPort};
@@ -40,64 +38,6 @@ const POSITION_TOLERANCE_M: f64 = 1e-4;
 const VELOCITY_TOLERANCE_M_S: f64 = 1e-3;
 /// The variance of an angle uniform over the circle, π²/3 rad², given to unmeasured angles.
 const UNMEASURED_ANGLE_VARIANCE_RAD2: f64 = std::f64::consts::PI * std::f64::consts::PI / 3.0;
-
-/// The venv's python, or a failure that says how to make it.
-fn python() -> PathBuf {
-    let venv = std::env::var_os("GLINT_PY_VENV")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| {
-            PathBuf::from(std::env::var_os("HOME").expect("HOME")).join(".cache/glint-py")
-        });
-    let python = venv.join("bin/python");
-    assert!(
-        python.exists(),
-        "no pymavlink venv at {}: run tools/setup-python.sh (tools/test.sh does)",
-        venv.display()
-    );
-    python
-}
-
-fn marker(id: u16, x_cm: f64, y_cm: f64) -> PlacedMarker {
-    PlacedMarker {
-        dictionary: Dictionary::Aruco6x6_250,
-        id,
-        size_cm: 20.0,
-        origin_cm: Point::new(x_cm, y_cm),
-        rotation_deg: 0.0,
-    }
-}
-
-/// `glint calibrate` on rendered frames of two markers seen by the reference camera.
-fn calibrate(dir: &Path) -> PathBuf {
-    let scene = MarkerScene::new(
-        reference_camera(),
-        vec![marker(23, 0.0, 0.0), marker(101, 55.0, 45.0)],
-    );
-    let dump = dir.join("markers.yuv");
-    std::fs::write(&dump, scene.render_yuyv()).unwrap();
-    let out = dir.join("calib.toml");
-    let run = glint()
-        .args(["calibrate", "--input"])
-        .arg(&dump)
-        .args(["--size", "640x480", "--out"])
-        .arg(&out)
-        .args([
-            "--marker",
-            "23:20",
-            "--marker",
-            "101:20@55,45",
-            "--lens",
-            "ideal",
-        ])
-        .output()
-        .unwrap();
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
-    );
-    out
-}
 
 /// Decodes `bytes` with pymavlink: the messages, then the summary.
 fn decode(bytes: &[u8]) -> (Vec<Value>, Value) {
@@ -148,7 +88,7 @@ fn pymavlink_decodes_every_message_with_the_reported_positions() {
     let python = python();
     assert!(python.exists());
     let dir = tempfile::tempdir().unwrap();
-    let calib = calibrate(dir.path());
+    let calib = calibrate_two_markers(dir.path());
     let r = render("figure-eight");
 
     let (mut master, slave) = TTYPort::pair().expect("pty pair");
@@ -417,7 +357,7 @@ fn cloexec_pty() -> (TTYPort, TTYPort, String) {
 fn an_unplugged_mavlink_port_is_reopened_and_sends_whole_frames_again() {
     python();
     let dir = tempfile::tempdir().unwrap();
-    let calib = calibrate(dir.path());
+    let calib = calibrate_two_markers(dir.path());
     let r = render("figure-eight");
     let frame_bytes = r.scene.width_px() as usize * r.scene.height_px() as usize * 2;
     let dump = std::fs::read(&r.dump).unwrap();

@@ -13,17 +13,15 @@ mod common;
 use std::collections::BTreeMap;
 use std::io::{BufRead, BufReader, Write};
 use std::net::TcpListener;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Child, ChildStdin, Command, Stdio};
 use std::sync::mpsc::{self, Receiver};
 use std::thread;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use common::live::feed_endlessly;
+use common::peers::{calibrate_two_markers, python};
 use common::{glint, parse_jsonl, quantile, render, score};
-use glint::detect::aruco::Dictionary;
-use glint::geometry::Point;
-use glint_tools::markers::{reference_camera, MarkerScene, PlacedMarker};
 use serde_json::Value;
 
 const KEY: &str = "lab/glint";
@@ -38,22 +36,6 @@ const BINARY_TOLERANCE: f64 = 1e-3;
 const BINARY_VELOCITY_TOLERANCE: f64 = 1e-2;
 /// The JSON's floor centimetres to 3 decimals, as metres.
 const POINT_TOLERANCE_M: f64 = 1e-5;
-
-/// The venv's python, or a failure that says how to make it.
-fn python() -> PathBuf {
-    let venv = std::env::var_os("GLINT_PY_VENV")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| {
-            PathBuf::from(std::env::var_os("HOME").expect("HOME")).join(".cache/glint-py")
-        });
-    let python = venv.join("bin/python");
-    assert!(
-        python.exists(),
-        "no Python venv at {}: run tools/setup-python.sh (tools/test.sh does)",
-        venv.display()
-    );
-    python
-}
 
 /// A free TCP port on the loopback interface.
 fn free_port() -> u16 {
@@ -129,43 +111,6 @@ impl Subscriber {
     }
 }
 
-fn marker(id: u16, x_cm: f64, y_cm: f64) -> PlacedMarker {
-    PlacedMarker {
-        dictionary: Dictionary::Aruco6x6_250,
-        id,
-        size_cm: 20.0,
-        origin_cm: Point::new(x_cm, y_cm),
-        rotation_deg: 0.0,
-    }
-}
-
-/// `glint calibrate` on rendered frames of two markers seen by the reference camera (as in
-/// tests/mavlink.rs), so that reports have floor positions in cm.
-fn calibrate(dir: &Path) -> PathBuf {
-    let scene = MarkerScene::new(
-        reference_camera(),
-        vec![marker(23, 0.0, 0.0), marker(101, 55.0, 45.0)],
-    );
-    let dump = dir.join("markers.yuv");
-    std::fs::write(&dump, scene.render_yuyv()).unwrap();
-    let out = dir.join("calib.toml");
-    let run = glint()
-        .args(["calibrate", "--input"])
-        .arg(&dump)
-        .args(["--size", "640x480", "--out"])
-        .arg(&out)
-        .args(["--marker", "23:20", "--marker", "101:20@55,45"])
-        .args(["--lens", "ideal"])
-        .output()
-        .unwrap();
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
-    );
-    out
-}
-
 fn f(v: &Value) -> f64 {
     v.as_f64().unwrap_or_else(|| panic!("not a number: {v}"))
 }
@@ -180,7 +125,7 @@ fn unix_now_us() -> u64 {
 #[test]
 fn an_independent_peer_receives_every_report_in_every_form() {
     let dir = tempfile::tempdir().unwrap();
-    let calib = calibrate(dir.path());
+    let calib = calibrate_two_markers(dir.path());
     let r = render("figure-eight");
     let frames = std::fs::read(&r.dump).unwrap();
     let frame_bytes = frames.len() / r.truths.len();

@@ -6,6 +6,7 @@
 pub mod alloc;
 pub mod arena;
 pub mod live;
+pub mod peers;
 
 use std::path::PathBuf;
 use std::process::{Command, Output};
