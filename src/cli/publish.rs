@@ -1,6 +1,7 @@
 //! `--publish KEY` and its options: every report over Zenoh (src/net). Without the `net`
 //! feature the options still parse, and asking to publish says the build cannot.
 
+#[cfg(feature = "net")]
 use anyhow::Result;
 use clap::Args;
 
