@@ -4,8 +4,11 @@
 //!
 //! One JSON line per fused time step goes to standard output; bad lines, reports out of
 //! order, cameras without floor numbers and the measured clock offsets go to standard error.
-//! With `--serial`, robot 1's fused track also goes to the robot as glint's position packets,
-//! through the serial sink `glint track` uses.
+//! The fused tracks can also go to the robots, through the sinks `glint track` uses: with
+//! `--serial PORT`, glint's position packets (one robot's plain updates; with `--robots N`, a
+//! robot position per robot, carrying its id), with `--serial ID=PORT` each robot's own line,
+//! with `--mavlink` MAVLink to one autopilot; and with `--publish KEY`, over Zenoh
+//! ([`super::fuse_net`]).
 
 use std::collections::BTreeSet;
 use std::io::{self, BufWriter, Write};
@@ -19,9 +22,10 @@ use glint::frame::FrameSize;
 use glint::fuse::feed::FileFeed;
 use glint::fuse::offset::WARN_OFFSET_US;
 use glint::fuse::output::write_step;
-use glint::fuse::{FuseConfig, FusedStep, FusedTrack, Fuser, MAX_ROBOTS};
+use glint::fuse::{FuseConfig, FusedStep, FusedTrack, Fuser};
 use glint::geometry::FloorUnit;
 use glint::sink::mavlink::estimate::metres_per_unit;
+use glint::sink::mavlink::{self, Axes, Identity, MavlinkLink};
 use glint::sink::serial::{self, Located};
 use glint::sink::{SerialSink, Sink};
 use glint::source::clock::monotonic_now_us;
@@ -29,7 +33,9 @@ use glint::source::FrameMeta;
 use glint::track::TrackState;
 use glint_protocol::Units;
 
-use super::logger;
+use super::serial_ports::{self, SerialArg, SerialPlan};
+use super::track::{parse_robots, parse_yaw_offset_deg};
+use super::{fuse_net, logger};
 
 /// Most cameras fused.
 pub(super) const MAX_CAMERAS: usize = 16;
@@ -37,11 +43,13 @@ pub(super) const MAX_CAMERAS: usize = 16;
 pub(super) const BAD_LINES_SHOWN: u64 = 5;
 
 #[derive(Debug, Args)]
+#[command(group(clap::ArgGroup::new("network").args(["subscribe", "publish"]).multiple(true)))]
 pub struct FuseArgs {
-    /// Robots followed: ids 1 to N (the single-LED line is robot 1).
-    #[arg(long, default_value_t = 1, value_name = "N",
-          value_parser = clap::value_parser!(u32).range(1..=i64::from(MAX_ROBOTS)))]
-    robots: u32,
+    /// Robots followed: ids 1 to N, 1 to 16 as `glint track` follows (the single-LED line is
+    /// robot 1).
+    #[arg(long, default_value_t = 1, value_name = "N", allow_negative_numbers = true,
+          value_parser = parse_robots)]
+    robots: usize,
 
     /// One camera's recorded JSON lines (from `glint run` or `glint track` with --calib
     /// against the shared marker map): PATH, or NAME=PATH to name the camera (default: the
@@ -60,14 +68,21 @@ pub struct FuseArgs {
     #[arg(long, value_name = "KEY")]
     pub(super) subscribe: Option<String>,
 
-    /// With --subscribe: connect to this Zenoh endpoint (`tcp/HOST:PORT`); repeatable. Any
-    /// endpoint turns multicast scouting off.
-    #[arg(long, value_name = "ENDPOINT", requires = "subscribe")]
+    /// Publish the fused steps over Zenoh: each step's JSON line under KEY/fused, its
+    /// compact binary form under KEY/fused/bin (README: "Several cameras, one arena"). A slow
+    /// network drops steps (counted), never the fusing.
+    #[arg(long, value_name = "KEY")]
+    pub(super) publish: Option<String>,
+
+    /// With --subscribe or --publish (one session serves both): connect to this Zenoh
+    /// endpoint (`tcp/HOST:PORT`); repeatable. Any endpoint turns multicast scouting off.
+    #[arg(long, value_name = "ENDPOINT", requires = "network")]
     pub(super) zenoh_connect: Vec<String>,
 
-    /// With --subscribe: listen on this Zenoh endpoint (`tcp/ADDR:PORT`), for the cameras to
-    /// connect to; repeatable. Any endpoint turns multicast scouting off.
-    #[arg(long, value_name = "ENDPOINT", requires = "subscribe")]
+    /// With --subscribe or --publish: listen on this Zenoh endpoint (`tcp/ADDR:PORT`), for the
+    /// cameras (and subscribers) to connect to; repeatable. Any endpoint turns multicast
+    /// scouting off.
+    #[arg(long, value_name = "ENDPOINT", requires = "network")]
     pub(super) zenoh_listen: Vec<String>,
 
     /// With --subscribe: stop after this many seconds.
@@ -80,11 +95,30 @@ pub struct FuseArgs {
     #[arg(long, value_name = "WxH")]
     size: Option<FrameSize>,
 
-    /// Also send the fused track to the robot on this serial port, as glint's position packets
-    /// (board/protocol/SPEC.md), one update per fused step. Robot 1 only, until the packets
-    /// carry robot ids (issue 14): needs --robots 1.
-    #[arg(long, value_name = "PORT")]
-    serial: Option<String>,
+    /// Also send the fused tracks to the robots as glint's position packets
+    /// (board/protocol/SPEC.md), one update per robot and fused step: `PORT`, one line every
+    /// robot listens on (with --robots N, each update a robot position carrying its id), or
+    /// `ID=PORT` for robot ID's own line (repeat it per robot).
+    #[arg(long, value_name = "PORT|ID=PORT", action = clap::ArgAction::Append,
+          value_parser = serial_ports::parse_serial)]
+    serial: Vec<SerialArg>,
+
+    /// Send MAVLink 2 to an autopilot on --serial instead of glint's packets: robot 1's fused
+    /// track as VISION_POSITION_ESTIMATE (covariance from the fused track's uncertainty) and
+    /// VISION_SPEED_ESTIMATE, north = floor +x turned by --mavlink-yaw-offset-deg, and a
+    /// HEARTBEAT every second.
+    #[arg(long, requires = "serial")]
+    mavlink: bool,
+
+    /// With --mavlink: the compass bearing of floor +x, in degrees clockwise from north.
+    #[arg(long, default_value_t = 0.0, value_name = "DEG", allow_negative_numbers = true,
+          value_parser = parse_yaw_offset_deg)]
+    mavlink_yaw_offset_deg: f64,
+
+    /// With --mavlink: the vehicle's MAVLink system id (ArduPilot's SYSID_THISMAV).
+    #[arg(long, default_value_t = mavlink::DEFAULT_SYSTEM_ID, value_name = "ID",
+          value_parser = clap::value_parser!(u8).range(1..))]
+    mavlink_system_id: u8,
 
     /// Line rate of --serial, 8N1: 50 to 4000000 baud.
     #[arg(long, default_value_t = serial::DEFAULT_BAUD, allow_negative_numbers = true,
@@ -92,37 +126,161 @@ pub struct FuseArgs {
     baud: u32,
 }
 
-/// Robot 1's fused track to the serial link: its floor position and velocity in millimetres,
-/// stamped with the step's capture time (µs since the first step).
-fn send(link: &mut SerialSink, step: &FusedStep, index: u64, first_us: i64) {
-    let meta = FrameMeta {
-        index,
-        sequence: index,
-        dropped: 0,
-        timestamp_us: u64::try_from(step.t_us.saturating_sub(first_us)).unwrap_or(0),
-        // The step was read from a file or a network: its age counts from now.
-        monotonic_us: monotonic_now_us(),
-    };
-    // A line without `floor_unit` (glint's always name it) is taken as glint calibrate's cm.
-    let mm = 1000.0 * metres_per_unit(step.unit.unwrap_or(FloorUnit::Cm));
-    let located = step
-        .tracks
-        .first()
-        .and_then(|t| Some((t, t.floor?)))
-        .map(|(t, p)| Located {
-            units: Units::Floor,
-            position: ((p.x * mm) as f32, (p.y * mm) as f32),
-            velocity_per_s: t.velocity.map(|v| ((v.x * mm) as f32, (v.y * mm) as f32)),
-            velocity_method: None,
-            quality: quality(t),
-        });
-    // The heartbeat's tracker state: the fused track is followed while some camera sees it.
-    let state = if located.is_some() {
+/// Where the fused tracks go to the robots.
+enum RobotLink {
+    None,
+    /// One line every robot listens on (boxed: its per-robot tables are the largest variant).
+    Shared(Box<SerialSink>),
+    /// A line per robot, by id.
+    PerRobot(Vec<(u8, SerialSink)>),
+    /// One autopilot, robot 1's track.
+    Mavlink {
+        link: MavlinkLink,
+        yaw_offset_deg: f64,
+    },
+}
+
+impl RobotLink {
+    /// Opens what `--serial` and `--mavlink` ask for, after checking them against `--robots`.
+    fn open(args: &FuseArgs) -> Result<RobotLink> {
+        let plan = serial_ports::plan(&args.serial).map_err(anyhow::Error::msg)?;
+        match plan {
+            SerialPlan::None => Ok(RobotLink::None),
+            SerialPlan::PerRobot(ports) => {
+                if args.mavlink {
+                    bail!("--mavlink talks to one autopilot: give one --serial PORT, not ID=PORT");
+                }
+                if let Some((robot, port)) =
+                    ports.iter().find(|(&k, _)| usize::from(k) > args.robots)
+                {
+                    bail!(
+                        "--serial {robot}={port}: glint fuse follows {} robot(s) (--robots), ids 1 \
+                         to {}",
+                        args.robots,
+                        args.robots
+                    );
+                }
+                let lines = ports
+                    .into_iter()
+                    .map(|(robot, port)| Ok((robot, SerialSink::open(&port, args.baud)?)))
+                    .collect::<Result<_>>()?;
+                Ok(RobotLink::PerRobot(lines))
+            }
+            SerialPlan::Shared(port) if args.mavlink => {
+                if args.robots > 1 {
+                    bail!("--mavlink talks to one autopilot: leave it out with --robots");
+                }
+                let identity = Identity {
+                    system_id: args.mavlink_system_id,
+                    component_id: mavlink::VISION_COMPONENT_ID,
+                };
+                Ok(RobotLink::Mavlink {
+                    link: MavlinkLink::open(&port, args.baud, identity)?,
+                    yaw_offset_deg: args.mavlink_yaw_offset_deg,
+                })
+            }
+            SerialPlan::Shared(port) => Ok(RobotLink::Shared(Box::new(SerialSink::open(
+                &port, args.baud,
+            )?))),
+        }
+    }
+
+    /// Sends one fused step: `index` counts the steps, `first_us` is the first one's time.
+    fn send(&mut self, step: &FusedStep, index: u64, first_us: i64) {
+        let meta = FrameMeta {
+            index,
+            sequence: index,
+            dropped: 0,
+            timestamp_us: u64::try_from(step.t_us.saturating_sub(first_us)).unwrap_or(0),
+            // The step was read from a file or a network: its age counts from now.
+            monotonic_us: monotonic_now_us(),
+        };
+        // A line without `floor_unit` (glint's always name it) is taken as glint calibrate's cm.
+        let unit = step.unit.unwrap_or(FloorUnit::Cm);
+        let mm = 1000.0 * metres_per_unit(unit);
+        match self {
+            RobotLink::None => {}
+            RobotLink::Shared(link) if step.tracks.len() <= 1 => {
+                let track = step.tracks.first();
+                let located = track.and_then(|t| located(t, mm));
+                link.send(&meta, located.as_ref(), state(located.is_some()));
+            }
+            RobotLink::Shared(link) => {
+                let robots: Vec<(u8, Option<Located>)> = step
+                    .tracks
+                    .iter()
+                    .filter_map(|t| Some((u8::try_from(t.id).ok()?, located(t, mm))))
+                    .collect();
+                let any = robots.iter().any(|(_, l)| l.is_some());
+                link.send_robots(&meta, &robots, state(any));
+            }
+            RobotLink::PerRobot(lines) => {
+                for (robot, line) in lines {
+                    let located = step
+                        .tracks
+                        .iter()
+                        .find(|t| t.id == u32::from(*robot))
+                        .and_then(|t| located(t, mm));
+                    line.send(&meta, located.as_ref(), state(located.is_some()));
+                }
+            }
+            RobotLink::Mavlink {
+                link,
+                yaw_offset_deg,
+            } => {
+                let Some((track, floor)) = step.tracks.first().and_then(|t| Some((t, t.floor?)))
+                else {
+                    // The autopilot only takes positions: a step without one sends nothing.
+                    return;
+                };
+                let axes = Axes::new(unit, *yaw_offset_deg);
+                let usec = u64::try_from(step.t_us).unwrap_or(0);
+                let sigma_m = track.sigma.map(|s| s * axes.metres_per_unit());
+                let position = axes.position(usec, floor, sigma_m);
+                let speed = track.velocity.map(|v| axes.speed(usec, v));
+                link.post(position, speed);
+            }
+        }
+    }
+
+    /// Lets the writers send what is pending, then logs the links' counts.
+    fn finish(&mut self) -> Result<()> {
+        match self {
+            RobotLink::None => {}
+            RobotLink::Shared(link) => link.finish().context("serial link")?,
+            RobotLink::PerRobot(lines) => {
+                for (_, line) in lines {
+                    line.finish().context("serial link")?;
+                }
+            }
+            RobotLink::Mavlink { link, .. } => link.finish(),
+        }
+        Ok(())
+    }
+}
+
+/// A fused track as the serial link's position, in millimetres (`mm` per floor unit), when
+/// found on the floor.
+fn located(track: &FusedTrack, mm: f64) -> Option<Located> {
+    let p = track.floor?;
+    Some(Located {
+        units: Units::Floor,
+        position: ((p.x * mm) as f32, (p.y * mm) as f32),
+        velocity_per_s: track
+            .velocity
+            .map(|v| ((v.x * mm) as f32, (v.y * mm) as f32)),
+        velocity_method: None,
+        quality: quality(track),
+    })
+}
+
+/// The heartbeat's tracker state: the fused track is followed while some camera sees it.
+fn state(found: bool) -> TrackState {
+    if found {
         TrackState::Tracking
     } else {
         TrackState::Searching
-    };
-    link.send(&meta, located.as_ref(), state);
+    }
 }
 
 /// The serial link's quality scale (85 found, +85 a head, +85 a velocity), for a fused track.
@@ -156,10 +314,13 @@ fn seconds(text: &str) -> Result<f64, String> {
     }
 }
 
-/// Where the fused steps go: standard output, and robot 1's track to the serial link.
+/// Where the fused steps go: standard output, the robots, the network.
 pub(super) struct Emitter {
     out: BufWriter<io::StdoutLock<'static>>,
-    link: Option<SerialSink>,
+    robots: RobotLink,
+    publish: Option<fuse_net::Publisher>,
+    /// The step's JSON line, written once for standard output and the network.
+    line: Vec<u8>,
     first_us: Option<i64>,
     steps: u64,
     /// The first write error; nothing more is written after it.
@@ -171,13 +332,19 @@ pub(super) struct Emitter {
 impl Emitter {
     /// Writes one step; `names` are the cameras' names, by index.
     pub(super) fn emit(&mut self, step: &FusedStep, names: &[String]) {
-        if let Some(link) = self.link.as_mut() {
-            let first = *self.first_us.get_or_insert(step.t_us);
-            send(link, step, self.steps, first);
-        }
+        let first = *self.first_us.get_or_insert(step.t_us);
+        self.robots.send(step, self.steps, first);
         self.steps += 1;
+        self.line.clear();
+        if let Err(e) = write_step(&mut self.line, step, names) {
+            self.error.get_or_insert(e);
+            return;
+        }
+        if let Some(publisher) = self.publish.as_mut() {
+            fuse_net::publish(publisher, &self.line, step);
+        }
         if self.error.is_none() {
-            let written = write_step(&mut self.out, step, names).and_then(|()| {
+            let written = self.out.write_all(&self.line).and_then(|()| {
                 if self.flush_each {
                     self.out.flush()
                 } else {
@@ -190,29 +357,28 @@ impl Emitter {
         }
     }
 
-    /// Flushes standard output and lets the serial link send what is pending.
-    fn finish(mut self) -> Result<()> {
-        if let Some(e) = self.error.take() {
-            return Err(e).context("cannot write the fused tracks");
+    /// Flushes standard output, lets the links send what is pending, and closes the network.
+    fn finish(mut self, network: Option<fuse_net::Network>) -> Result<()> {
+        let written = match self.error.take() {
+            Some(e) => Err(e),
+            None => self.out.flush(),
+        };
+        let robots = self.robots.finish();
+        if let Some(publisher) = self.publish.as_mut() {
+            fuse_net::finish(publisher);
         }
-        self.out.flush().context("cannot write the fused tracks")?;
-        if let Some(mut link) = self.link.take() {
-            // Lets the writer send what is pending, then logs the link's counts.
-            link.finish().context("serial link")?;
+        drop(self.publish.take());
+        if let Some(network) = network {
+            fuse_net::close(network);
         }
-        Ok(())
+        written.context("cannot write the fused tracks")?;
+        robots
     }
 }
 
 pub fn run(args: FuseArgs) -> Result<ExitCode> {
-    if args.serial.is_some() && args.robots > 1 {
-        bail!(
-            "--serial sends one robot's track (its packets carry no robot id yet): use it with \
-             --robots 1"
-        );
-    }
     let config = FuseConfig {
-        robots: args.robots,
+        robots: u32::try_from(args.robots).unwrap_or(1),
         picture_px: args.size.map(|s| (s.width() as u32, s.height() as u32)),
     };
     let offline = args.subscribe.is_none();
@@ -222,42 +388,58 @@ pub fn run(args: FuseArgs) -> Result<ExitCode> {
     } else {
         None
     };
-    let link = match &args.serial {
-        Some(port) => Some(SerialSink::open(port, args.baud)?),
-        None => None,
-    };
+    let robots = RobotLink::open(&args)?;
+    let network = fuse_net::open(&args)?;
+    let publish = fuse_net::publisher(&args, network.as_ref())?;
     let mut emitter = Emitter {
         out: BufWriter::new(io::stdout().lock()),
-        link,
+        robots,
+        publish,
+        line: Vec::new(),
         first_us: None,
         steps: 0,
         error: None,
         flush_each: !offline,
     };
-    let (fuser, names, origins, bad_lines, refused) = match inputs {
-        Some((names, paths, feed)) => {
+    let fused = match (inputs, network.as_ref()) {
+        (Some((names, paths, feed)), _) => {
             let mut fuser = Fuser::new(names.len(), config);
-            let (bad, refused) =
-                fuse_files(&mut fuser, config, feed, &names, &paths, &mut emitter)?;
-            let origins = paths.iter().map(|p| p.display().to_string()).collect();
-            (fuser, names, origins, bad, refused)
+            fuse_files(&mut fuser, config, feed, &names, &paths, &mut emitter).map(
+                |(bad, refused)| {
+                    let origins = paths.iter().map(|p| p.display().to_string()).collect();
+                    (fuser, names, origins, bad, refused)
+                },
+            )
         }
-        None => live(&args, config, &mut emitter)?,
+        (None, Some(network)) => live(&args, config, network, &mut emitter),
+        (None, None) => Err(anyhow::anyhow!("--subscribe without a network session")),
     };
-    emitter.finish()?;
+    let finished = emitter.finish(network);
+    let (fuser, names, origins, bad_lines, refused) = fused?;
+    finished?;
     summarise(&fuser, &names, &origins, &bad_lines, &refused);
     Ok(ExitCode::SUCCESS)
 }
 
 /// `--subscribe`: the fuser, the cameras' names and keys, and their bad and refused lines.
 #[cfg(feature = "net")]
-fn live(args: &FuseArgs, config: FuseConfig, emitter: &mut Emitter) -> Result<Fused> {
-    super::fuse_live::run(args, config, emitter)
+fn live(
+    args: &FuseArgs,
+    config: FuseConfig,
+    network: &fuse_net::Network,
+    emitter: &mut Emitter,
+) -> Result<Fused> {
+    super::fuse_live::run(args, config, &network.session, emitter)
 }
 
 #[cfg(not(feature = "net"))]
-fn live(_args: &FuseArgs, _config: FuseConfig, _emitter: &mut Emitter) -> Result<Fused> {
-    bail!("--subscribe needs the network: this glint was built without the `net` feature")
+fn live(
+    _args: &FuseArgs,
+    _config: FuseConfig,
+    network: &fuse_net::Network,
+    _emitter: &mut Emitter,
+) -> Result<Fused> {
+    match *network {}
 }
 
 /// What a run fused: the fuser, the cameras' names and where each came from, and per camera

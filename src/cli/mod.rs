@@ -9,6 +9,7 @@ mod devices;
 mod fuse;
 #[cfg(feature = "net")]
 mod fuse_live;
+mod fuse_net;
 mod input;
 mod latency;
 mod logger;

@@ -24,6 +24,10 @@ use super::ros::POINT_STAMPED;
 /// Longest camera name: a host name's limit.
 pub const MAX_CAMERA_NAME_BYTES: usize = 64;
 
+/// The chunk under `KEY` that `glint fuse --publish KEY` publishes its fused steps on
+/// ([`super::fused`]): no camera may take it as its name.
+pub const FUSED_CHUNK: &str = "fused";
+
 /// Longest `--publish` key.
 pub const MAX_KEY_BYTES: usize = 256;
 
@@ -42,7 +46,7 @@ impl fmt::Display for KeyError {
             KeyError::BadCameraName(name) => write!(
                 f,
                 "camera name {name:?} must be 1 to {MAX_CAMERA_NAME_BYTES} letters, digits, \
-                 '_', '-' or '.'"
+                 '_', '-' or '.', and not {FUSED_CHUNK:?} (glint fuse's key)"
             ),
             KeyError::BadKey(key) => write!(
                 f,
@@ -95,7 +99,11 @@ impl Keys {
 
 fn check_camera_name(camera: &str) -> Result<(), KeyError> {
     let allowed = |c: char| c.is_ascii_alphanumeric() || matches!(c, '_' | '-' | '.');
-    if camera.is_empty() || camera.len() > MAX_CAMERA_NAME_BYTES || !camera.chars().all(allowed) {
+    if camera.is_empty()
+        || camera.len() > MAX_CAMERA_NAME_BYTES
+        || !camera.chars().all(allowed)
+        || camera == FUSED_CHUNK
+    {
         return Err(KeyError::BadCameraName(camera.to_owned()));
     }
     Ok(())
@@ -160,7 +168,16 @@ mod tests {
 
     #[test]
     fn bad_names_and_keys_are_refused() {
-        for camera in ["", "a/b", "cam*", "caméra", "a b", "\"", &"x".repeat(65)] {
+        for camera in [
+            "",
+            "a/b",
+            "cam*",
+            "caméra",
+            "a b",
+            "\"",
+            &"x".repeat(65),
+            "fused",
+        ] {
             assert!(
                 matches!(
                     Keys::new("glint", camera, 0),
