@@ -10,7 +10,8 @@
 //! | `D/KEY/CAM/point/geometry_msgs::msg::dds_::PointStamped_/RIHS01_…` | the same, with rmw_zenoh's attachment | `application/cdr` |
 //!
 //! `D` is the ROS domain id. A subscriber on `KEY/*` gets every camera's JSON lines and
-//! nothing else; `KEY/**` gets everything. The ROS topic is `/KEY/CAM/point`, with every
+//! nothing else but `KEY/fused` ([`FUSED_CHUNK`], what `glint fuse --publish KEY` publishes);
+//! `KEY/**` gets everything. The ROS topic is `/KEY/CAM/point`, with every
 //! character a ROS name does not allow turned into `_`.
 //!
 //! A camera name is one chunk of letters, digits, `_`, `-` and `.`: it lands in a key, a JSON

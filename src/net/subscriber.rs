@@ -154,3 +154,26 @@ impl Subscription {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use std::time::Duration;
+
+    use super::*;
+
+    #[test]
+    fn a_fusers_own_steps_are_no_cameras_lines() {
+        // A session that only listens on the loopback (no scouting): its own puts reach its
+        // own subscriber.
+        let session = open_session(&[], &["tcp/127.0.0.1:0".to_owned()]).unwrap();
+        let (subscription, messages) = Subscription::on(&session, "test/skip").unwrap();
+        session.put("test/skip/fused", "{}").wait().unwrap();
+        session.put("test/skip/cam", "{\"t\":1}").wait().unwrap();
+        let first = messages.recv_timeout(Duration::from_secs(10)).unwrap();
+        assert_eq!(first.key_camera, "cam");
+        assert!(messages.recv_timeout(Duration::from_millis(200)).is_err());
+        assert_eq!(subscription.counts(), (1, 0, 0));
+        subscription.close();
+        session.close().wait().unwrap();
+    }
+}
