@@ -4,8 +4,11 @@
 //!
 //! One JSON line per fused time step goes to standard output; bad lines, reports out of
 //! order, cameras without floor numbers and the measured clock offsets go to standard error.
-//! With `--serial`, robot 1's fused track also goes to the robot as glint's position packets,
-//! through the serial sink `glint track` uses.
+//! The fused tracks can also go to the robots, through the sinks `glint track` uses: with
+//! `--serial PORT`, glint's position packets (one robot's plain updates; with `--robots N`, a
+//! robot position per robot, carrying its id), with `--serial ID=PORT` each robot's own line,
+//! with `--mavlink` MAVLink to one autopilot; and with `--publish KEY`, over Zenoh
+//! ([`super::fuse_net`]).
 
 use std::collections::BTreeSet;
 use std::io::{self, BufWriter, Write};
@@ -19,17 +22,14 @@ use glint::frame::FrameSize;
 use glint::fuse::feed::FileFeed;
 use glint::fuse::offset::WARN_OFFSET_US;
 use glint::fuse::output::write_step;
-use glint::fuse::{FuseConfig, FusedStep, FusedTrack, Fuser, MAX_ROBOTS};
-use glint::geometry::FloorUnit;
-use glint::sink::mavlink::estimate::metres_per_unit;
-use glint::sink::serial::{self, Located};
-use glint::sink::{SerialSink, Sink};
-use glint::source::clock::monotonic_now_us;
-use glint::source::FrameMeta;
-use glint::track::TrackState;
-use glint_protocol::Units;
+use glint::fuse::{FuseConfig, FusedStep, Fuser};
+use glint::sink::mavlink;
+use glint::sink::serial;
 
-use super::logger;
+use super::fuse_links::RobotLink;
+use super::serial_ports::{self, SerialArg};
+use super::track::{parse_robots, parse_yaw_offset_deg};
+use super::{fuse_net, logger};
 
 /// Most cameras fused.
 pub(super) const MAX_CAMERAS: usize = 16;
@@ -37,11 +37,13 @@ pub(super) const MAX_CAMERAS: usize = 16;
 pub(super) const BAD_LINES_SHOWN: u64 = 5;
 
 #[derive(Debug, Args)]
+#[command(group(clap::ArgGroup::new("network").args(["subscribe", "publish"]).multiple(true)))]
 pub struct FuseArgs {
-    /// Robots followed: ids 1 to N (the single-LED line is robot 1).
-    #[arg(long, default_value_t = 1, value_name = "N",
-          value_parser = clap::value_parser!(u32).range(1..=i64::from(MAX_ROBOTS)))]
-    robots: u32,
+    /// Robots followed: ids 1 to N, 1 to 16 as `glint track` follows (the single-LED line is
+    /// robot 1).
+    #[arg(long, default_value_t = 1, value_name = "N", allow_negative_numbers = true,
+          value_parser = parse_robots)]
+    pub(super) robots: usize,
 
     /// One camera's recorded JSON lines (from `glint run` or `glint track` with --calib
     /// against the shared marker map): PATH, or NAME=PATH to name the camera (default: the
@@ -60,14 +62,21 @@ pub struct FuseArgs {
     #[arg(long, value_name = "KEY")]
     pub(super) subscribe: Option<String>,
 
-    /// With --subscribe: connect to this Zenoh endpoint (`tcp/HOST:PORT`); repeatable. Any
-    /// endpoint turns multicast scouting off.
-    #[arg(long, value_name = "ENDPOINT", requires = "subscribe")]
+    /// Publish the fused steps over Zenoh: each step's JSON line under KEY/fused, its
+    /// compact binary form under KEY/fused/bin (README: "Several cameras, one arena"). A slow
+    /// network drops steps (counted), never the fusing.
+    #[arg(long, value_name = "KEY")]
+    pub(super) publish: Option<String>,
+
+    /// With --subscribe or --publish (one session serves both): connect to this Zenoh
+    /// endpoint (`tcp/HOST:PORT`); repeatable. Any endpoint turns multicast scouting off.
+    #[arg(long, value_name = "ENDPOINT", requires = "network")]
     pub(super) zenoh_connect: Vec<String>,
 
-    /// With --subscribe: listen on this Zenoh endpoint (`tcp/ADDR:PORT`), for the cameras to
-    /// connect to; repeatable. Any endpoint turns multicast scouting off.
-    #[arg(long, value_name = "ENDPOINT", requires = "subscribe")]
+    /// With --subscribe or --publish: listen on this Zenoh endpoint (`tcp/ADDR:PORT`), for the
+    /// cameras (and subscribers) to connect to; repeatable. Any endpoint turns multicast
+    /// scouting off.
+    #[arg(long, value_name = "ENDPOINT", requires = "network")]
     pub(super) zenoh_listen: Vec<String>,
 
     /// With --subscribe: stop after this many seconds.
@@ -80,56 +89,35 @@ pub struct FuseArgs {
     #[arg(long, value_name = "WxH")]
     size: Option<FrameSize>,
 
-    /// Also send the fused track to the robot on this serial port, as glint's position packets
-    /// (board/protocol/SPEC.md), one update per fused step. Robot 1 only, until the packets
-    /// carry robot ids (issue 14): needs --robots 1.
-    #[arg(long, value_name = "PORT")]
-    serial: Option<String>,
+    /// Also send the fused tracks to the robots as glint's position packets
+    /// (board/protocol/SPEC.md), one update per robot and fused step: `PORT`, one line every
+    /// robot listens on (with --robots N, each update a robot position carrying its id), or
+    /// `ID=PORT` for robot ID's own line (repeat it per robot).
+    #[arg(long, value_name = "PORT|ID=PORT", action = clap::ArgAction::Append,
+          value_parser = serial_ports::parse_serial)]
+    pub(super) serial: Vec<SerialArg>,
+
+    /// Send MAVLink 2 to an autopilot on --serial instead of glint's packets: robot 1's fused
+    /// track as VISION_POSITION_ESTIMATE (covariance from the fused track's uncertainty) and
+    /// VISION_SPEED_ESTIMATE, north = floor +x turned by --mavlink-yaw-offset-deg, and a
+    /// HEARTBEAT every second.
+    #[arg(long, requires = "serial")]
+    pub(super) mavlink: bool,
+
+    /// With --mavlink: the compass bearing of floor +x, in degrees clockwise from north.
+    #[arg(long, default_value_t = 0.0, value_name = "DEG", allow_negative_numbers = true,
+          value_parser = parse_yaw_offset_deg)]
+    pub(super) mavlink_yaw_offset_deg: f64,
+
+    /// With --mavlink: the vehicle's MAVLink system id (ArduPilot's SYSID_THISMAV).
+    #[arg(long, default_value_t = mavlink::DEFAULT_SYSTEM_ID, value_name = "ID",
+          value_parser = clap::value_parser!(u8).range(1..))]
+    pub(super) mavlink_system_id: u8,
 
     /// Line rate of --serial, 8N1: 50 to 4000000 baud.
     #[arg(long, default_value_t = serial::DEFAULT_BAUD, allow_negative_numbers = true,
           value_parser = clap::value_parser!(u32).range(50..=4_000_000))]
-    baud: u32,
-}
-
-/// Robot 1's fused track to the serial link: its floor position and velocity in millimetres,
-/// stamped with the step's capture time (µs since the first step).
-fn send(link: &mut SerialSink, step: &FusedStep, index: u64, first_us: i64) {
-    let meta = FrameMeta {
-        index,
-        sequence: index,
-        dropped: 0,
-        timestamp_us: u64::try_from(step.t_us.saturating_sub(first_us)).unwrap_or(0),
-        // The step was read from a file or a network: its age counts from now.
-        monotonic_us: monotonic_now_us(),
-    };
-    // A line without `floor_unit` (glint's always name it) is taken as glint calibrate's cm.
-    let mm = 1000.0 * metres_per_unit(step.unit.unwrap_or(FloorUnit::Cm));
-    let located = step
-        .tracks
-        .first()
-        .and_then(|t| Some((t, t.floor?)))
-        .map(|(t, p)| Located {
-            units: Units::Floor,
-            position: ((p.x * mm) as f32, (p.y * mm) as f32),
-            velocity_per_s: t.velocity.map(|v| ((v.x * mm) as f32, (v.y * mm) as f32)),
-            velocity_method: None,
-            quality: quality(t),
-        });
-    // The heartbeat's tracker state: the fused track is followed while some camera sees it.
-    let state = if located.is_some() {
-        TrackState::Tracking
-    } else {
-        TrackState::Searching
-    };
-    link.send(&meta, located.as_ref(), state);
-}
-
-/// The serial link's quality scale (85 found, +85 a head, +85 a velocity), for a fused track.
-fn quality(track: &FusedTrack) -> u8 {
-    const QUALITY_STEP: u8 = 85;
-    let steps = 1 + u8::from(track.head) + u8::from(track.velocity.is_some());
-    QUALITY_STEP.saturating_mul(steps)
+    pub(super) baud: u32,
 }
 
 /// A camera's name and file.
@@ -156,10 +144,13 @@ fn seconds(text: &str) -> Result<f64, String> {
     }
 }
 
-/// Where the fused steps go: standard output, and robot 1's track to the serial link.
+/// Where the fused steps go: standard output, the robots, the network.
 pub(super) struct Emitter {
     out: BufWriter<io::StdoutLock<'static>>,
-    link: Option<SerialSink>,
+    robots: RobotLink,
+    publish: Option<fuse_net::Publisher>,
+    /// The step's JSON line, written once for standard output and the network.
+    line: Vec<u8>,
     first_us: Option<i64>,
     steps: u64,
     /// The first write error; nothing more is written after it.
@@ -171,13 +162,19 @@ pub(super) struct Emitter {
 impl Emitter {
     /// Writes one step; `names` are the cameras' names, by index.
     pub(super) fn emit(&mut self, step: &FusedStep, names: &[String]) {
-        if let Some(link) = self.link.as_mut() {
-            let first = *self.first_us.get_or_insert(step.t_us);
-            send(link, step, self.steps, first);
-        }
+        let first = *self.first_us.get_or_insert(step.t_us);
+        self.robots.send(step, self.steps, first);
         self.steps += 1;
+        self.line.clear();
+        if let Err(e) = write_step(&mut self.line, step, names) {
+            self.error.get_or_insert(e);
+            return;
+        }
+        if let Some(publisher) = self.publish.as_mut() {
+            fuse_net::publish(publisher, &self.line, step);
+        }
         if self.error.is_none() {
-            let written = write_step(&mut self.out, step, names).and_then(|()| {
+            let written = self.out.write_all(&self.line).and_then(|()| {
                 if self.flush_each {
                     self.out.flush()
                 } else {
@@ -190,29 +187,28 @@ impl Emitter {
         }
     }
 
-    /// Flushes standard output and lets the serial link send what is pending.
-    fn finish(mut self) -> Result<()> {
-        if let Some(e) = self.error.take() {
-            return Err(e).context("cannot write the fused tracks");
+    /// Flushes standard output, lets the links send what is pending, and closes the network.
+    fn finish(mut self, network: Option<fuse_net::Network>) -> Result<()> {
+        let written = match self.error.take() {
+            Some(e) => Err(e),
+            None => self.out.flush(),
+        };
+        let robots = self.robots.finish();
+        if let Some(publisher) = self.publish.as_mut() {
+            fuse_net::finish(publisher);
         }
-        self.out.flush().context("cannot write the fused tracks")?;
-        if let Some(mut link) = self.link.take() {
-            // Lets the writer send what is pending, then logs the link's counts.
-            link.finish().context("serial link")?;
+        drop(self.publish.take());
+        if let Some(network) = network {
+            fuse_net::close(network);
         }
-        Ok(())
+        written.context("cannot write the fused tracks")?;
+        robots
     }
 }
 
 pub fn run(args: FuseArgs) -> Result<ExitCode> {
-    if args.serial.is_some() && args.robots > 1 {
-        bail!(
-            "--serial sends one robot's track (its packets carry no robot id yet): use it with \
-             --robots 1"
-        );
-    }
     let config = FuseConfig {
-        robots: args.robots,
+        robots: u32::try_from(args.robots).unwrap_or(1),
         picture_px: args.size.map(|s| (s.width() as u32, s.height() as u32)),
     };
     let offline = args.subscribe.is_none();
@@ -222,42 +218,58 @@ pub fn run(args: FuseArgs) -> Result<ExitCode> {
     } else {
         None
     };
-    let link = match &args.serial {
-        Some(port) => Some(SerialSink::open(port, args.baud)?),
-        None => None,
-    };
+    let robots = RobotLink::open(&args)?;
+    let network = fuse_net::open(&args)?;
+    let publish = fuse_net::publisher(&args, network.as_ref())?;
     let mut emitter = Emitter {
         out: BufWriter::new(io::stdout().lock()),
-        link,
+        robots,
+        publish,
+        line: Vec::new(),
         first_us: None,
         steps: 0,
         error: None,
         flush_each: !offline,
     };
-    let (fuser, names, origins, bad_lines, refused) = match inputs {
-        Some((names, paths, feed)) => {
+    let fused = match (inputs, network.as_ref()) {
+        (Some((names, paths, feed)), _) => {
             let mut fuser = Fuser::new(names.len(), config);
-            let (bad, refused) =
-                fuse_files(&mut fuser, config, feed, &names, &paths, &mut emitter)?;
-            let origins = paths.iter().map(|p| p.display().to_string()).collect();
-            (fuser, names, origins, bad, refused)
+            fuse_files(&mut fuser, config, feed, &names, &paths, &mut emitter).map(
+                |(bad, refused)| {
+                    let origins = paths.iter().map(|p| p.display().to_string()).collect();
+                    (fuser, names, origins, bad, refused)
+                },
+            )
         }
-        None => live(&args, config, &mut emitter)?,
+        (None, Some(network)) => live(&args, config, network, &mut emitter),
+        (None, None) => Err(anyhow::anyhow!("--subscribe without a network session")),
     };
-    emitter.finish()?;
+    let finished = emitter.finish(network);
+    let (fuser, names, origins, bad_lines, refused) = fused?;
+    finished?;
     summarise(&fuser, &names, &origins, &bad_lines, &refused);
     Ok(ExitCode::SUCCESS)
 }
 
 /// `--subscribe`: the fuser, the cameras' names and keys, and their bad and refused lines.
 #[cfg(feature = "net")]
-fn live(args: &FuseArgs, config: FuseConfig, emitter: &mut Emitter) -> Result<Fused> {
-    super::fuse_live::run(args, config, emitter)
+fn live(
+    args: &FuseArgs,
+    config: FuseConfig,
+    network: &fuse_net::Network,
+    emitter: &mut Emitter,
+) -> Result<Fused> {
+    super::fuse_live::run(args, config, &network.session, emitter)
 }
 
 #[cfg(not(feature = "net"))]
-fn live(_args: &FuseArgs, _config: FuseConfig, _emitter: &mut Emitter) -> Result<Fused> {
-    bail!("--subscribe needs the network: this glint was built without the `net` feature")
+fn live(
+    _args: &FuseArgs,
+    _config: FuseConfig,
+    network: &fuse_net::Network,
+    _emitter: &mut Emitter,
+) -> Result<Fused> {
+    match *network {}
 }
 
 /// What a run fused: the fuser, the cameras' names and where each came from, and per camera

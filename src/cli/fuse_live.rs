@@ -89,13 +89,18 @@ impl Cameras {
     }
 }
 
-/// Subscribes and fuses until a signal, `--seconds`, or a write error.
-pub fn run(args: &FuseArgs, config: FuseConfig, emitter: &mut Emitter) -> Result<Fused> {
+/// Subscribes on `session` and fuses until a signal, `--seconds`, or a write error.
+pub fn run(
+    args: &FuseArgs,
+    config: FuseConfig,
+    session: &zenoh::Session,
+    emitter: &mut Emitter,
+) -> Result<Fused> {
     let key = args.subscribe.as_deref().unwrap_or_default();
     let stop = Arc::new(AtomicBool::new(false));
     stop_on_signals(&stop)?;
-    let (subscription, messages) = Subscription::open(key, &args.zenoh_connect, &args.zenoh_listen)
-        .with_context(|| format!("--subscribe {key}"))?;
+    let (subscription, messages) =
+        Subscription::on(session, key).with_context(|| format!("--subscribe {key}"))?;
     logger::write_line(format_args!("glint: fuse: subscribed to {key}/*"));
     let deadline = args
         .seconds

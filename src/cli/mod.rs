@@ -7,8 +7,10 @@ mod camera;
 #[cfg(feature = "v4l2")]
 mod devices;
 mod fuse;
+mod fuse_links;
 #[cfg(feature = "net")]
 mod fuse_live;
+mod fuse_net;
 mod input;
 mod latency;
 mod logger;

@@ -162,7 +162,7 @@ const DEFAULT_IDENTIFY_FPS: f64 = 30.0;
 pub type SerialLink = Tee<Tee<Option<SerialSink>, Option<RobotLines>>, Option<MavlinkSink>>;
 
 /// A number of robots the tracker's tables hold.
-fn parse_robots(text: &str) -> Result<usize, String> {
+pub(super) fn parse_robots(text: &str) -> Result<usize, String> {
     let robots = text
         .parse::<usize>()
         .map_err(|_| format!("{text:?} is not a number of robots (1 to {MAX_ROBOTS})"))?;
@@ -173,7 +173,7 @@ fn parse_robots(text: &str) -> Result<usize, String> {
 }
 
 /// A finite bearing within ±360°.
-fn parse_yaw_offset_deg(text: &str) -> Result<f64, String> {
+pub(super) fn parse_yaw_offset_deg(text: &str) -> Result<f64, String> {
     match text.parse::<f64>() {
         Ok(deg) if deg.is_finite() && deg.abs() <= 360.0 => Ok(deg),
         _ => Err(format!(

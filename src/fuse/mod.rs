@@ -62,8 +62,10 @@ use offset::{ClockOffset, OffsetEstimator};
 /// Reports of different cameras closer than this are one time step. Below any camera's
 /// frame period (glint runs cameras at up to 1000 fps), so one camera's frames never share one.
 pub const STEP_TOLERANCE_US: i64 = 1_000;
-/// Most robots followed.
-pub const MAX_ROBOTS: u32 = 64;
+/// Most robots followed: the cameras' own limit (`glint track --robots`), since the ids fused
+/// are the cameras' ids, and the serial link's robot positions carry as many (one constant for
+/// the tracker, the reports, the serial link and the fuser).
+pub use crate::report::MAX_ROBOTS;
 /// A camera's sighting counts until it is this many of its frame intervals old.
 const MAX_AGE_INTERVALS: f64 = 1.5;
 /// Sightings kept per camera and robot for the clock offset.
@@ -93,6 +95,11 @@ pub struct FusedTrack {
     pub floor: Option<Point>,
     /// Floor velocity, units/s, when a contributing camera knew it.
     pub velocity: Option<Point>,
+    /// Standard deviation of the fused floor position, floor units: the sightings' own
+    /// (see [`weight`]) through the weights, `√Σ aᵢ² σᵢ²` for weights `aᵢ` summing to 1 (the
+    /// sightings' errors taken as independent). `None` until every contributing camera has
+    /// measured its floor length of a pixel: a σ in pixels is no floor distance.
+    pub sigma: Option<f64>,
     /// The cameras that contributed and their weights (summing to 1).
     pub cameras: Vec<(usize, f64)>,
     /// Whether every contributing position was a streak's head (not only its middle).
@@ -279,7 +286,7 @@ impl Fuser {
     /// A fuser for `cameras` cameras (at least one) and `config.robots` robots (1 to
     /// [`MAX_ROBOTS`]; clamped).
     pub fn new(cameras: usize, config: FuseConfig) -> Fuser {
-        let robots = config.robots.clamp(1, MAX_ROBOTS) as usize;
+        let robots = (config.robots as usize).clamp(1, MAX_ROBOTS);
         let camera = CameraState {
             last_us: None,
             interval_us: None,
@@ -583,6 +590,7 @@ impl Fuser {
                 found: false,
                 floor: None,
                 velocity: None,
+                sigma: None,
                 cameras: Vec::new(),
                 head: false,
             };
@@ -622,11 +630,20 @@ impl Fuser {
             }
             v
         });
+        let sigma = scaled.then(|| {
+            parts
+                .iter()
+                .zip(&weights)
+                .map(|(p, w)| (w / total).powi(2) * variance(p))
+                .sum::<f64>()
+                .sqrt()
+        });
         FusedTrack {
             id,
             found: true,
             floor: Some(floor),
             velocity,
+            sigma: sigma.filter(|s| s.is_finite()),
             cameras: parts
                 .iter()
                 .zip(&weights)

@@ -2,13 +2,14 @@
 //!
 //! ```json
 //! {"t":10.033333,"tracks":[{"id":1,"found":true,"floor_x":12.345,"floor_y":-70.000,
-//!  "floor_unit":"cm","floor_vx":60.000,"floor_vy":0.000,"cameras":["a","b"],
-//!  "weights":[0.712,0.288]}]}
+//!  "floor_unit":"cm","floor_sigma":0.061,"floor_vx":60.000,"floor_vy":0.000,
+//!  "cameras":["a","b"],"weights":[0.712,0.288]}]}
 //! ```
 //!
 //! `t` is the step's capture time (s, the cameras' shared clock); per robot `id`, `found`, and
 //! when found the floor position and its unit (the cameras' `floor_unit`, cm with glint's
-//! calibrations), the
+//! calibrations), its standard deviation `floor_sigma` (same unit; once every contributing
+//! camera has measured its floor length of a pixel, see [`super::FusedTrack::sigma`]), the
 //! floor velocity when known (units/s), and the cameras that contributed with their weights.
 //! Numbers are written as the cameras' own lines write them (3 decimals, `t` 6), so one camera
 //! fused alone gives back its own numbers.
@@ -29,6 +30,9 @@ pub fn write_step(out: &mut impl Write, step: &FusedStep, names: &[String]) -> i
             write!(out, ",\"floor_x\":{:.3},\"floor_y\":{:.3}", p.x, p.y)?;
             if let Some(unit) = step.unit {
                 write!(out, ",\"floor_unit\":\"{}\"", unit.name())?;
+            }
+            if let Some(sigma) = track.sigma {
+                write!(out, ",\"floor_sigma\":{sigma:.3}")?;
             }
         }
         if let Some(v) = track.velocity {

@@ -194,3 +194,50 @@ fn a_message_is_parsed_with_the_transports_capture_time() {
         "the transport's time, not the line's 99 s"
     );
 }
+
+/// A found line at 1 s seen at `(px, 240)` moving 100 px/s, 50 cm/s on the floor (0.5 cm a
+/// pixel), with a calibration residual of `residual_px`.
+fn moving(px: f64, floor_x: f64, residual_px: f64, with_velocity: bool) -> String {
+    let velocity = if with_velocity {
+        r#","vx":100,"vy":0,"floor_vx":50,"floor_vy":0"#
+    } else {
+        ""
+    };
+    format!(
+        r#"{{"t":1.0,"found":true,"x":{px},"y":240,"mid_x":{px},"mid_y":240,"pos_method":"head","floor_x":{floor_x},"floor_y":5,"floor_unit":"cm","area_px":50,"len_px":0,"calib":{{"residual_px":{residual_px}}}{velocity}}}"#
+    )
+}
+
+#[test]
+fn the_fused_sigma_is_the_inverse_variance_combination() {
+    // a: σ² = (1 + 1/12) px² × 0.25 cm²/px²; b: σ² = 1/12 px² × 0.25. Inverse-variance
+    // weights (both far from the edges) give the fused variance 1 / (1/σa² + 1/σb²).
+    let mut f = fuser(2, 1);
+    let steps = run(
+        &mut f,
+        &[
+            (0, &moving(300.0, 10.0, 1.0, true)),
+            (1, &moving(320.0, 10.2, 0.0, true)),
+        ],
+    );
+    let track = &steps[0].tracks[0];
+    let (va, vb): (f64, f64) = ((1.0 + 1.0 / 12.0) * 0.25, (1.0 / 12.0) * 0.25);
+    let expected = (1.0 / (1.0 / va + 1.0 / vb)).sqrt();
+    let sigma = track.sigma.expect("both cameras know their floor scale");
+    assert!((sigma - expected).abs() < 1e-9, "{sigma} vs {expected}");
+    // One camera alone: its own σ.
+    let mut f = fuser(1, 1);
+    let steps = run(&mut f, &[(0, &moving(300.0, 10.0, 1.0, true))]);
+    let sigma = steps[0].tracks[0].sigma.unwrap();
+    assert!((sigma - va.sqrt()).abs() < 1e-9, "{sigma}");
+    // A camera that has not measured its floor scale: no σ in floor units.
+    let mut f = fuser(2, 1);
+    let steps = run(
+        &mut f,
+        &[
+            (0, &moving(300.0, 10.0, 1.0, true)),
+            (1, &moving(320.0, 10.2, 0.0, false)),
+        ],
+    );
+    assert_eq!(steps[0].tracks[0].sigma, None);
+}

@@ -10,7 +10,8 @@
 //! | `D/KEY/CAM/point/geometry_msgs::msg::dds_::PointStamped_/RIHS01_…` | the same, with rmw_zenoh's attachment | `application/cdr` |
 //!
 //! `D` is the ROS domain id. A subscriber on `KEY/*` gets every camera's JSON lines and
-//! nothing else; `KEY/**` gets everything. The ROS topic is `/KEY/CAM/point`, with every
+//! nothing else but `KEY/fused` ([`FUSED_CHUNK`], what `glint fuse --publish KEY` publishes);
+//! `KEY/**` gets everything. The ROS topic is `/KEY/CAM/point`, with every
 //! character a ROS name does not allow turned into `_`.
 //!
 //! A camera name is one chunk of letters, digits, `_`, `-` and `.`: it lands in a key, a JSON
@@ -23,6 +24,10 @@ use super::ros::POINT_STAMPED;
 
 /// Longest camera name: a host name's limit.
 pub const MAX_CAMERA_NAME_BYTES: usize = 64;
+
+/// The chunk under `KEY` that `glint fuse --publish KEY` publishes its fused steps on
+/// ([`super::fused`]): no camera may take it as its name.
+pub const FUSED_CHUNK: &str = "fused";
 
 /// Longest `--publish` key.
 pub const MAX_KEY_BYTES: usize = 256;
@@ -42,7 +47,7 @@ impl fmt::Display for KeyError {
             KeyError::BadCameraName(name) => write!(
                 f,
                 "camera name {name:?} must be 1 to {MAX_CAMERA_NAME_BYTES} letters, digits, \
-                 '_', '-' or '.'"
+                 '_', '-' or '.', and not {FUSED_CHUNK:?} (glint fuse's key)"
             ),
             KeyError::BadKey(key) => write!(
                 f,
@@ -95,7 +100,11 @@ impl Keys {
 
 fn check_camera_name(camera: &str) -> Result<(), KeyError> {
     let allowed = |c: char| c.is_ascii_alphanumeric() || matches!(c, '_' | '-' | '.');
-    if camera.is_empty() || camera.len() > MAX_CAMERA_NAME_BYTES || !camera.chars().all(allowed) {
+    if camera.is_empty()
+        || camera.len() > MAX_CAMERA_NAME_BYTES
+        || !camera.chars().all(allowed)
+        || camera == FUSED_CHUNK
+    {
         return Err(KeyError::BadCameraName(camera.to_owned()));
     }
     Ok(())
@@ -160,7 +169,16 @@ mod tests {
 
     #[test]
     fn bad_names_and_keys_are_refused() {
-        for camera in ["", "a/b", "cam*", "caméra", "a b", "\"", &"x".repeat(65)] {
+        for camera in [
+            "",
+            "a/b",
+            "cam*",
+            "caméra",
+            "a b",
+            "\"",
+            &"x".repeat(65),
+            "fused",
+        ] {
             assert!(
                 matches!(
                     Keys::new("glint", camera, 0),

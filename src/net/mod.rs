@@ -3,7 +3,8 @@
 //!
 //! Every report goes out as glint's JSON line, in a compact binary form ([`wire`]), and, when it
 //! has a floor position, as a ROS 2 `PointStamped` ([`ros`]); [`keys`] lists the key
-//! expressions. [`subscriber`] is the other end, for `glint fuse --subscribe`.
+//! expressions. [`subscriber`] is the other end, for `glint fuse --subscribe`; [`fused`]
+//! publishes `glint fuse`'s own fused steps.
 //!
 //! # Threads and memory
 //!
@@ -18,6 +19,7 @@
 //! nowhere at once; a stalled link blocks the publisher thread until Zenoh closes it (the queue
 //! meanwhile drops and counts); and Zenoh reconnects to the endpoints it was given on its own.
 
+pub mod fused;
 pub mod keys;
 mod publisher;
 pub mod ros;
@@ -34,6 +36,7 @@ use std::thread::JoinHandle;
 use crate::report::FrameReport;
 use crate::sink::Sink;
 pub use keys::{KeyError, Keys};
+pub use publisher::open_session;
 
 /// Reports the queue holds: a second at 32 fps, so a publisher thread stalled for less than
 /// that loses nothing.

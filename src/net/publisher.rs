@@ -145,7 +145,7 @@ impl Publishers {
 
 /// A Zenoh session in peer mode (see [`zenoh_config`]); the subscriber opens its own the same
 /// way.
-pub(super) fn open_session(connect: &[String], listen: &[String]) -> Result<Session, PublishError> {
+pub fn open_session(connect: &[String], listen: &[String]) -> Result<Session, PublishError> {
     zenoh::open(zenoh_config(connect, listen)?)
         .wait()
         .map_err(|e| PublishError::Open(e.to_string()))

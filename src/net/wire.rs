@@ -111,7 +111,8 @@ impl WireReport {
     }
 }
 
-fn unit_code(unit: FloorUnit) -> u8 {
+/// The unit's code in the binary forms (the table above).
+pub(super) fn unit_code(unit: FloorUnit) -> u8 {
     match unit {
         FloorUnit::Mm => 0,
         FloorUnit::Cm => 1,

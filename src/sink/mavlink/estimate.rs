@@ -12,7 +12,8 @@
 //!
 //! # Uncertainty
 //!
-//! glint has no per-frame fit uncertainty yet; the position's standard deviation is the
+//! `glint fuse` passes the fused track's own standard deviation ([`Axes::position`]). For one
+//! camera, glint has no per-frame fit uncertainty yet; the position's standard deviation is the
 //! calibration's largest corner residual combined with a pixel's quantisation (1/√12 px),
 //! mapped to the floor through the homography at the robot's position (the larger of the two
 //! screen axes' floor lengths). The height is the floor's, as well known as the position: the
@@ -53,27 +54,24 @@ pub fn metres_per_unit(unit: FloorUnit) -> f64 {
     }
 }
 
-/// Turns floor coordinates into the autopilot's local frame; built once at start-up.
+/// The floor's axes and unit to the autopilot's local frame (see the module documentation):
+/// what every source of floor positions shares, a camera's calibration or `glint fuse`.
 #[derive(Debug, Clone, Copy)]
-pub struct ToLocal {
-    floor: FloorStage,
+pub struct Axes {
     metres_per_unit: f64,
     cos_yaw: f64,
     sin_yaw: f64,
-    residual_variance_px2: f64,
 }
 
-impl ToLocal {
-    /// For the calibration's floor stage, the compass bearing of floor +x (`yaw_offset_deg`,
-    /// clockwise from north) and the calibration's largest corner residual.
-    pub fn new(floor: FloorStage, yaw_offset_deg: f64, max_residual_px: f64) -> ToLocal {
+impl Axes {
+    /// For floor numbers in `unit` and the compass bearing of floor +x (`yaw_offset_deg`,
+    /// clockwise from north).
+    pub fn new(unit: FloorUnit, yaw_offset_deg: f64) -> Axes {
         let yaw = yaw_offset_deg.to_radians();
-        ToLocal {
-            metres_per_unit: metres_per_unit(floor.unit()),
-            floor,
+        Axes {
+            metres_per_unit: metres_per_unit(unit),
             cos_yaw: yaw.cos(),
             sin_yaw: yaw.sin(),
-            residual_variance_px2: max_residual_px * max_residual_px,
         }
     }
 
@@ -84,6 +82,75 @@ impl ToLocal {
             x_m * self.cos_yaw - y_m * self.sin_yaw,
             x_m * self.sin_yaw + y_m * self.cos_yaw,
         )
+    }
+
+    /// Metres per floor unit.
+    pub fn metres_per_unit(&self) -> f64 {
+        self.metres_per_unit
+    }
+
+    /// The position message for floor point `floor` (floor units) captured at `usec`, with the
+    /// position's standard deviation `sigma_m` (metres; `None`: unknown, the covariance NaN).
+    pub fn position(
+        &self,
+        usec: u64,
+        floor: Point,
+        sigma_m: Option<f64>,
+    ) -> VISION_POSITION_ESTIMATE_DATA {
+        let (north_m, east_m) = self.north_east_m(floor.x, floor.y);
+        let variance_m2 = sigma_m
+            .filter(|s| s.is_finite() && *s >= 0.0)
+            .map(|s| (s * s) as f32);
+        VISION_POSITION_ESTIMATE_DATA {
+            usec,
+            x: north_m as f32,
+            y: east_m as f32,
+            z: 0.0,
+            roll: 0.0,
+            pitch: 0.0,
+            yaw: 0.0,
+            covariance: pose_covariance(variance_m2),
+            reset_counter: 0,
+        }
+    }
+
+    /// The velocity message for floor velocity `v` (floor units/s); its uncertainty unknown.
+    pub fn speed(&self, usec: u64, v: Point) -> VISION_SPEED_ESTIMATE_DATA {
+        let (north_m_s, east_m_s) = self.north_east_m(v.x, v.y);
+        VISION_SPEED_ESTIMATE_DATA {
+            usec,
+            x: north_m_s as f32,
+            y: east_m_s as f32,
+            z: 0.0,
+            covariance: [f32::NAN; 9],
+            reset_counter: 0,
+        }
+    }
+}
+
+/// Turns one camera's floor positions into the autopilot's local frame, with their uncertainty
+/// from the calibration; built once at start-up.
+#[derive(Debug, Clone, Copy)]
+pub struct ToLocal {
+    floor: FloorStage,
+    axes: Axes,
+    residual_variance_px2: f64,
+}
+
+impl ToLocal {
+    /// For the calibration's floor stage, the compass bearing of floor +x (`yaw_offset_deg`,
+    /// clockwise from north) and the calibration's largest corner residual.
+    pub fn new(floor: FloorStage, yaw_offset_deg: f64, max_residual_px: f64) -> ToLocal {
+        ToLocal {
+            axes: Axes::new(floor.unit(), yaw_offset_deg),
+            floor,
+            residual_variance_px2: max_residual_px * max_residual_px,
+        }
+    }
+
+    /// Floor (x, y) in floor units → (north, east) in metres.
+    pub fn north_east_m(&self, x: f64, y: f64) -> (f64, f64) {
+        self.axes.north_east_m(x, y)
     }
 
     /// Standard deviation of the floor position in metres, for a robot seen at `screen_px`:
@@ -98,7 +165,7 @@ impl ToLocal {
             let p = self.floor.screen_to_floor(&step)?;
             longest = longest.max((p.x - at.position.x).hypot(p.y - at.position.y));
         }
-        let sigma_m = longest * self.metres_per_unit;
+        let sigma_m = longest * self.axes.metres_per_unit();
         sigma_m.is_finite().then_some(sigma_m)
     }
 
@@ -109,33 +176,14 @@ impl ToLocal {
         screen_px: (f32, f32),
         at: &FloorEstimate,
     ) -> VISION_POSITION_ESTIMATE_DATA {
-        let (north_m, east_m) = self.north_east_m(at.position.x, at.position.y);
-        let variance_m2 = self.sigma_m(screen_px, at).map(|s| (s * s) as f32);
-        VISION_POSITION_ESTIMATE_DATA {
-            usec,
-            x: north_m as f32,
-            y: east_m as f32,
-            z: 0.0,
-            roll: 0.0,
-            pitch: 0.0,
-            yaw: 0.0,
-            covariance: pose_covariance(variance_m2),
-            reset_counter: 0,
-        }
+        self.axes
+            .position(usec, at.position, self.sigma_m(screen_px, at))
     }
 
     /// The velocity message, when the frame's floor velocity is known.
     pub fn speed(&self, usec: u64, at: &FloorEstimate) -> Option<VISION_SPEED_ESTIMATE_DATA> {
         let v = at.velocity_per_s?;
-        let (north_m_s, east_m_s) = self.north_east_m(v.x, v.y);
-        Some(VISION_SPEED_ESTIMATE_DATA {
-            usec,
-            x: north_m_s as f32,
-            y: east_m_s as f32,
-            z: 0.0,
-            covariance: [f32::NAN; 9],
-            reset_counter: 0,
-        })
+        Some(self.axes.speed(usec, Point::new(v.x, v.y)))
     }
 }
 

@@ -10,7 +10,7 @@
 //!
 //! # Memory
 //!
-//! The mailbox, the writer's buffer and the thread are set up in [`MavlinkSink::open`]; per
+//! The mailbox, the writer's buffer and the thread are set up in [`MavlinkLink::open`]; per
 //! frame the sink allocates nothing.
 
 pub mod estimate;
@@ -22,11 +22,13 @@ use std::sync::atomic::Ordering;
 use std::sync::Arc;
 use std::thread::JoinHandle;
 
+use mavlink::dialects::common::{VISION_POSITION_ESTIMATE_DATA, VISION_SPEED_ESTIMATE_DATA};
+
 use super::serial::{open_port, SerialError};
 use super::Sink;
 use crate::report::FloorFix;
 use crate::report::FrameReport;
-pub use estimate::ToLocal;
+pub use estimate::{Axes, ToLocal};
 use writer::{Counters, Mailbox, Writer};
 pub use writer::{Identity, HEARTBEAT_INTERVAL};
 
@@ -81,10 +83,11 @@ impl fmt::Display for MavlinkStats {
     }
 }
 
-/// Sends vision position estimates to an autopilot without ever blocking the caller.
-pub struct MavlinkSink {
+/// The link to an autopilot: the port, its writer thread and the mailbox. Its caller builds
+/// the messages ([`MavlinkSink`] from a frame's report, `glint fuse` from a fused track) and
+/// posts them; posting never blocks.
+pub struct MavlinkLink {
     path: String,
-    local: ToLocal,
     mailbox: Arc<Mailbox>,
     counters: Arc<Counters>,
     writer: Option<JoinHandle<()>>,
@@ -92,15 +95,10 @@ pub struct MavlinkSink {
     speeds: u64,
 }
 
-impl MavlinkSink {
+impl MavlinkLink {
     /// Opens `path` at `baud` (8N1, no flow control) and starts the writer thread, which sends
-    /// the first heartbeat at once. Positions are turned to the autopilot's frame by `local`.
-    pub fn open(
-        path: &str,
-        baud: u32,
-        identity: Identity,
-        local: ToLocal,
-    ) -> Result<MavlinkSink, SerialError> {
+    /// the first heartbeat at once.
+    pub fn open(path: &str, baud: u32, identity: Identity) -> Result<MavlinkLink, SerialError> {
         let port = open_port(path, baud).map_err(|source| SerialError::Open {
             path: path.to_owned(),
             source,
@@ -115,9 +113,8 @@ impl MavlinkSink {
                 .spawn(move || writer.run(&mailbox))
                 .map_err(SerialError::Thread)?
         };
-        Ok(MavlinkSink {
+        Ok(MavlinkLink {
             path: path.to_owned(),
-            local,
             mailbox,
             counters,
             writer: Some(writer),
@@ -126,7 +123,19 @@ impl MavlinkSink {
         })
     }
 
-    /// Counts so far; final once [`Sink::finish`] has returned.
+    /// Posts a position (and a speed, when known) for the writer; a newer post replaces one
+    /// not yet written. Returns at once.
+    pub fn post(
+        &mut self,
+        position: VISION_POSITION_ESTIMATE_DATA,
+        speed: Option<VISION_SPEED_ESTIMATE_DATA>,
+    ) {
+        self.positions += 1;
+        self.speeds += u64::from(speed.is_some());
+        self.mailbox.post(position, speed);
+    }
+
+    /// Counts so far; final once [`MavlinkLink::finish`] has returned.
     pub fn stats(&self) -> MavlinkStats {
         let c = &self.counters;
         MavlinkStats {
@@ -142,6 +151,23 @@ impl MavlinkSink {
         }
     }
 
+    /// Lets the writer send what is pending, stops it and logs the counts.
+    pub fn finish(&mut self) {
+        self.close();
+        log::info!("mavlink port {}: {}", self.path, self.stats());
+    }
+
+    /// `, mavlink up|down (sent N, stale M, reopened K)`.
+    pub fn status(&self, out: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let stats = self.stats();
+        let state = crate::sink::serial::link_state(stats.losses, stats.reopens);
+        write!(
+            out,
+            ", mavlink {state} (sent {}, stale {}, reopened {})",
+            stats.sent, stats.superseded, stats.reopens
+        )
+    }
+
     fn close(&mut self) {
         self.mailbox.close();
         if let Some(writer) = self.writer.take() {
@@ -149,6 +175,40 @@ impl MavlinkSink {
                 log::error!("mavlink port {}: the writer thread panicked", self.path);
             }
         }
+    }
+}
+
+impl Drop for MavlinkLink {
+    fn drop(&mut self) {
+        self.close();
+    }
+}
+
+/// Sends one camera's vision position estimates to an autopilot without ever blocking the
+/// caller.
+pub struct MavlinkSink {
+    link: MavlinkLink,
+    local: ToLocal,
+}
+
+impl MavlinkSink {
+    /// Opens the link (see [`MavlinkLink::open`]); positions are turned to the autopilot's
+    /// frame by `local`.
+    pub fn open(
+        path: &str,
+        baud: u32,
+        identity: Identity,
+        local: ToLocal,
+    ) -> Result<MavlinkSink, SerialError> {
+        Ok(MavlinkSink {
+            link: MavlinkLink::open(path, baud, identity)?,
+            local,
+        })
+    }
+
+    /// Counts so far; final once [`Sink::finish`] has returned.
+    pub fn stats(&self) -> MavlinkStats {
+        self.link.stats()
     }
 }
 
@@ -163,32 +223,17 @@ impl Sink for MavlinkSink {
         let usec = report.meta.timestamp_us;
         let position = self.local.position(usec, estimate.position_px, floor);
         let speed = self.local.speed(usec, floor);
-        self.positions += 1;
-        self.speeds += u64::from(speed.is_some());
-        self.mailbox.post(position, speed);
+        self.link.post(position, speed);
         Ok(())
     }
 
     fn finish(&mut self) -> io::Result<()> {
-        self.close();
-        log::info!("mavlink port {}: {}", self.path, self.stats());
+        self.link.finish();
         Ok(())
     }
 
     /// `, mavlink up|down (sent N, stale M, reopened K)`.
     fn status(&self, out: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let stats = self.stats();
-        let state = crate::sink::serial::link_state(stats.losses, stats.reopens);
-        write!(
-            out,
-            ", mavlink {state} (sent {}, stale {}, reopened {})",
-            stats.sent, stats.superseded, stats.reopens
-        )
-    }
-}
-
-impl Drop for MavlinkSink {
-    fn drop(&mut self) {
-        self.close();
+        self.link.status(out)
     }
 }
