@@ -70,18 +70,20 @@ pub struct Measurement {
 
 /// The moment the LED went dark after its request, found from the frames' phases: each answered
 /// request brackets it between the last frame that saw the LED and the first that did not
-/// (their exposures' middles). Requests go out at random moments of the frame clock, so the
-/// brackets fall at every phase, and the moment inside all of them (or, when the robot's
-/// reaction jitters, inside the most of them) is the reaction without the wait for the next
-/// exposure.
+/// (their exposures' middles). Requests ask for the LED to go dark at random moments of the frame
+/// clock, so the brackets fall at every phase, and the moment inside all of them is the reaction
+/// without the wait for the next exposure. A reaction that jitters leaves no moment inside all:
+/// the estimate is then the moment nearest to the brackets in all (the least sum of distances
+/// to them, zero inside one), a median of the reactions that a late answer or two cannot drag.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct PhaseEstimate {
-    /// From the request's last byte leaving the host to the LED going dark, µs: the middle of
-    /// the span that the most brackets share.
+    /// From the moment the robot was asked for to the LED going dark, µs: the middle of the
+    /// moments nearest to the brackets.
     pub reaction_us: i64,
-    /// How wide that span is, µs: the estimate is good to half of it.
+    /// How wide that set of moments is, µs: with a steady reaction, the estimate is good to
+    /// half of it.
     pub span_us: i64,
-    /// Brackets sharing it, of `brackets`.
+    /// Brackets holding the estimate, of `brackets`.
     pub agreeing: usize,
     /// Brackets there were (answered requests with a lit frame before the dark one).
     pub brackets: usize,
@@ -91,46 +93,37 @@ pub struct PhaseEstimate {
 /// (`exposure_us` before their ends; 0 takes the ends). `None` without a bracket.
 pub fn reaction_from_phases(measured: &[Measurement], exposure_us: u64) -> Option<PhaseEstimate> {
     let half = i64::try_from(exposure_us / 2).unwrap_or(i64::MAX);
-    let bracket = |m: &Measurement| {
-        let dark = i64::try_from(m.to_capture_us).ok()?;
-        Some((m.last_lit_us? - half, dark - half))
-    };
-    let brackets = measured.iter().filter_map(bracket).count();
-    let mut ends: Vec<i64> = measured
+    let brackets: Vec<(i64, i64)> = measured
         .iter()
-        .filter_map(bracket)
-        .flat_map(|(lo, hi)| [lo, hi])
-        .collect();
-    ends.sort_unstable();
-    ends.dedup();
-    // The elementary spans between consecutive ends, and how many brackets hold each whole.
-    let covering = |a: i64, b: i64| {
-        measured
-            .iter()
-            .filter_map(bracket)
-            .filter(|&(lo, hi)| lo <= a && b <= hi)
-            .count()
-    };
-    let spans: Vec<(i64, i64, usize)> = ends
-        .windows(2)
-        .filter_map(|w| match *w {
-            [a, b] => Some((a, b, covering(a, b))),
-            _ => None,
+        .filter_map(|m| {
+            let dark = i64::try_from(m.to_capture_us).ok()?;
+            Some((
+                m.last_lit_us?.saturating_sub(half),
+                dark.saturating_sub(half),
+            ))
         })
         .collect();
-    let most = spans.iter().map(|s| s.2).max().filter(|&n| n > 0)?;
-    // The first run of adjacent spans that the most brackets hold.
-    let first = spans.iter().position(|s| s.2 == most)?;
-    let mut to = first;
-    while spans.get(to + 1).is_some_and(|s| s.2 == most) {
-        to += 1;
-    }
-    let (lo, hi) = (spans.get(first)?.0, spans.get(to)?.1);
+    // The sum of distances is convex and piecewise linear with its corners at the brackets'
+    // ends: its least value is taken at ends, and between the outermost of them.
+    let distance = |t: i64| -> i128 {
+        brackets
+            .iter()
+            .map(|&(lo, hi)| i128::from((lo - t).max(0) + (t - hi).max(0)))
+            .sum()
+    };
+    let ends = brackets.iter().flat_map(|&(lo, hi)| [lo, hi]);
+    let least = ends.clone().map(distance).min()?;
+    let nearest = ends.filter(|&t| distance(t) == least);
+    let (lo, hi) = nearest.fold((i64::MAX, i64::MIN), |(a, b), t| (a.min(t), b.max(t)));
+    let reaction_us = lo + (hi - lo) / 2;
     Some(PhaseEstimate {
-        reaction_us: lo + (hi - lo) / 2,
+        reaction_us,
         span_us: hi - lo,
-        agreeing: most,
-        brackets,
+        agreeing: brackets
+            .iter()
+            .filter(|&&(a, b)| a <= reaction_us && reaction_us <= b)
+            .count(),
+        brackets: brackets.len(),
     })
 }
 

@@ -175,7 +175,7 @@ fn print_summary(args: &LatencyArgs, measured: &[Measurement], requests: u32, un
     match estimate {
         Some(e) => println!(
             "latency: request written to the LED going dark (line time and the robot's \
-             reaction), from the frames' phases: {:.1} ms (within ±{:.1} ms; {} of {} requests \
+             reaction), from the frames' phases: {:.1} ms (±{:.1} ms; {} of {} requests' frames \
              agree)",
             e.reaction_us as f64 * 1e-3 + ms(line_us),
             e.span_us as f64 * 0.5e-3,
