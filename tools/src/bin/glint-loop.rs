@@ -9,8 +9,13 @@
 //! second UART.
 //!
 //! ```sh
-//! cargo run --release -p glint-tools --bin glint-loop -- --seconds 20 [--no-compensation]
+//! cargo run --release -p glint-tools --bin glint-loop -- --seconds 20 [--camera-delay-ms 70] [--no-compensation]
+//! cargo run --release -p glint-tools --bin glint-loop -- --seconds 60 --latency 30
 //! ```
+//!
+//! The frames reach glint `--camera-delay-ms` after their exposure (a USB webcam's 30 to 100 ms),
+//! stamped with the exposure's end. `--latency N` runs `glint latency` in the loop instead and
+//! prints what it found beside the rig's truth.
 //!
 //! Without `--glint` and `--firmware` it builds both first (release; the firmware for
 //! thumbv7em-none-eabihf with the `mps2-an386` feature). The last line on standard output is
