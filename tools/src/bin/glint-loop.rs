@@ -210,6 +210,20 @@ fn print_details(r: &LoopReport) {
     ) {
         println!("loop: the firmware's age minus the truth: p5 {lo:.2} ms p50 {mid:.2} ms p95 {hi:.2} ms");
     }
+    let spread = |v: &[f64]| {
+        let mut v = v.to_vec();
+        v.sort_by(f64::total_cmp);
+        glint_tools::stats::percentile(&v, 50.0).zip(glint_tools::stats::percentile(&v, 95.0))
+    };
+    if let (Some((w50, w95)), Some((q50, q95))) = (
+        spread(&r.short_before_board_ms),
+        spread(&r.short_after_wire_ms),
+    ) {
+        println!(
+            "loop: the firmware's age short of the truth: by the wire's lateness p50 {w50:.2} ms \
+             p95 {w95:.2} ms, after the wire (qemu, the firmware) p50 {q50:.2} ms p95 {q95:.2} ms"
+        );
+    }
     match r.age_disagreement_ms() {
         Some(d) => println!(
             "loop: the firmware's age against the truth since the exposure: |error| p50 \

@@ -17,7 +17,7 @@
 //! exposure ended and when the firmware reckoned each position's age (its clock, qemu's virtual
 //! clock, runs with the host's monotonic clock), so it can check that age against the truth.
 
-use std::collections::VecDeque;
+use std::collections::{HashMap, VecDeque};
 use std::fs::File;
 use std::io::{self, BufRead, BufReader, Read, Write};
 use std::path::{Path, PathBuf};
@@ -111,6 +111,11 @@ pub struct LoopReport {
     /// The firmware's age minus the truth (from the end of the exposure to the moment the
     /// firmware reckoned the age), ms (signed).
     pub age_error_ms: Vec<f64>,
+    /// Of each age's shortfall: the part before the board (the wire handing the last byte on
+    /// later than glint's age said: the wire's thread scheduled late), and the rest (qemu
+    /// delivering it, the firmware reading it), ms, for the updates the wire saw.
+    pub short_before_board_ms: Vec<f64>,
+    pub short_after_wire_ms: Vec<f64>,
     /// From the end of an exposure to the frame handed to glint (the camera's delay, or the
     /// rendering when it takes longer), ms.
     pub delivery_ms: Spread,
@@ -175,6 +180,9 @@ struct World {
     led_dark_us: Vec<u64>,
     /// The firmware's clock on the monotonic clock so far (see [`firmware_clock_offset_us`]).
     clock_offset_us: Option<i64>,
+    /// Per position update, by its frame time: how much later than glint's age said the wire
+    /// handed its age frame's last byte to the board, µs.
+    wire_late_us: HashMap<u32, i64>,
 }
 
 fn lock(world: &Mutex<World>) -> MutexGuard<'_, World> {
@@ -326,24 +334,58 @@ fn start_glint(config: &LoopConfig, calib: &Path, port: &str) -> Result<Child> {
 /// Where glint's standard output goes, in the work directory.
 const GLINT_STDOUT: &str = "glint.out";
 
-/// Notes when glint wrote each LED request, as the wire reads them: the request carries the
-/// frame time its last byte leaves (`at_us`), from which its line time is taken back.
-struct RequestTap {
+/// What glint writes, as the wire reads it: when glint wrote each LED request (it carries the
+/// frame time its last byte leaves, `at_us`, from which its line time is taken back), and how
+/// much later than glint's age said the wire hands each age frame's last byte to the board
+/// (the wire's own schedule, followed byte by byte as [`wire::forward`] keeps it).
+struct WireTap {
     decoder: Decoder,
     /// Frame time 0 on the monotonic clock: the first exposure's end.
     frame_origin_us: u64,
     byte_ns: u64,
+    /// When the wire's line is next free, ns.
+    free_ns: u64,
+    /// The frame time of the last position update.
+    position_us: Option<u32>,
     world: Arc<Mutex<World>>,
 }
 
-impl RequestTap {
-    fn take(&mut self, chunk: &[u8]) {
-        for event in self.decoder.feed(chunk) {
-            let Ok(Received::Message(message @ Message::Led(request))) = event else {
-                continue;
+impl WireTap {
+    fn take(&mut self, chunk: &[u8], read_us: u64) {
+        self.free_ns = self.free_ns.max(read_us * 1_000);
+        for &byte in chunk {
+            self.free_ns += self.byte_ns;
+            let due_us = self.free_ns / 1_000;
+            // Byte by byte, so that each frame ends at its own byte's time.
+            let events: Vec<_> = self.decoder.feed(&[byte]).collect();
+            for event in events {
+                match event {
+                    Ok(Received::Message(Message::Position(p))) => {
+                        self.position_us = Some(p.timestamp_us);
+                    }
+                    Ok(Received::Message(Message::Age(a))) => {
+                        let Some(t) = self.position_us.take() else {
+                            continue;
+                        };
+                        let said_us = self.frame_origin_us + u64::from(t) + u64::from(a.age_us);
+                        lock(&self.world)
+                            .wire_late_us
+                            .insert(t, due_us as i64 - said_us as i64);
+                    }
+                    Ok(Received::Message(message @ Message::Led(_))) => self.request(&message),
+                    _ => {}
+                }
+            }
+        }
+    }
+
+    fn request(&mut self, message: &Message) {
+        {
+            let Message::Led(request) = *message else {
+                return;
             };
             let mut out = [0u8; MAX_LED_WIRE_LEN];
-            let len = encode(&message, &mut out).map_or(MAX_LED_WIRE_LEN, <[u8]>::len);
+            let len = encode(message, &mut out).map_or(MAX_LED_WIRE_LEN, <[u8]>::len);
             let line_us = len as u64 * self.byte_ns / 1_000;
             let leaves_us = self.frame_origin_us + u64::from(request.at_us);
             // The delay glint asks for is no latency: the moment asked for is the request's.
@@ -505,19 +547,22 @@ pub fn run_loop(config: &LoopConfig) -> Result<LoopReport> {
         led_requests_us: Vec::new(),
         led_dark_us: Vec::new(),
         clock_offset_us: None,
+        wire_late_us: HashMap::new(),
     }));
     let uart0 = board.uart0.try_clone_native().context("cloning UART0")?;
     let baud = config.baud;
     let wire_stop = Arc::clone(&stop);
-    let mut tap = RequestTap {
+    let mut tap = WireTap {
         decoder: Decoder::new(),
         frame_origin_us: origin_us + (FIRST_EXPOSURE_S * US_PER_S) as u64,
         byte_ns: wire::byte_time_ns(baud),
+        free_ns: 0,
+        position_us: None,
         world: Arc::clone(&world),
     };
     let wire = thread::spawn(move || {
-        wire::forward(glint_side, uart0, baud, &wire_stop, |chunk, _| {
-            tap.take(chunk)
+        wire::forward(glint_side, uart0, baud, &wire_stop, |chunk, at_us| {
+            tap.take(chunk, at_us)
         })
         .map(|_| ())
     });
@@ -647,6 +692,7 @@ fn firmware_clock_offset_us(replies: &[Reply]) -> Option<i64> {
 fn report(w: &World, handed: &[Handed], camera_delay_us: u64) -> Result<LoopReport> {
     let mut age_on_arrival_ms = Vec::new();
     let mut age_error_ms = Vec::new();
+    let (mut short_before_board_ms, mut short_after_wire_ms) = (Vec::new(), Vec::new());
     let mut found_frames = vec![false; handed.len()];
     let offset_us = firmware_clock_offset_us(&w.replies).unwrap_or(0);
     for r in &w.replies {
@@ -662,7 +708,12 @@ fn report(w: &World, handed: &[Handed], camera_delay_us: u64) -> Result<LoopRepo
         if let Some(age_us) = r.command.age_us {
             let reckoned_us = i64::from(r.command.clock_us) + offset_us;
             let truth_us = reckoned_us - h.exposure_end_us as i64;
-            age_error_ms.push((i64::from(age_us) - truth_us) as f64 * 1e-3);
+            let error_us = i64::from(age_us) - truth_us;
+            age_error_ms.push(error_us as f64 * 1e-3);
+            if let Some(&late_us) = w.wire_late_us.get(&r.command.timestamp_us) {
+                short_before_board_ms.push(late_us as f64 * 1e-3);
+                short_after_wire_ms.push((-error_us - late_us) as f64 * 1e-3);
+            }
         }
     }
     let delivery: Vec<f64> = handed
@@ -688,6 +739,8 @@ fn report(w: &World, handed: &[Handed], camera_delay_us: u64) -> Result<LoopRepo
         age_on_arrival_ms: Spread::of(&age_on_arrival_ms)
             .context("no wheel command answered a frame")?,
         age_error_ms,
+        short_before_board_ms,
+        short_after_wire_ms,
         delivery_ms: Spread::of(&delivery).context("no frame was rendered")?,
         late_ms: Spread::of(&late).context("no frame was rendered")?,
         camera_delay_ms: camera_delay_us as f64 * 1e-3,
