@@ -7,10 +7,17 @@
 //!
 //! Times are on the frame clock (the positions' timestamps: the driver's clock for a camera):
 //! the request's moment is the frame time at which its last byte left the host (the LED
-//! request's `at_us`), the dark frame's is the end of its exposure; the processing of that frame
-//! is measured on the monotonic clock from its capture (a camera) or arrival (a pipe) until the
-//! report is out. Each wait is bounded in frame time, so a robot that does not answer is
+//! request's `at_us`) plus the delay it asks the robot to wait, the dark frame's is the end of
+//! its exposure; the delivery and processing of that frame are measured on the monotonic clock
+//! from its capture (a camera, a stamped pipe) or arrival (a pipe) until it is read and until
+//! the report is out. Each wait is bounded in frame time, so a robot that does not answer is
 //! reported, never waited for.
+//!
+//! The first dark frame comes up to a frame period after the LED went dark: the wait for the
+//! next exposure. Each request asks for a random delay within a frame period, so the moments
+//! the LED goes dark fall at every phase of the frame clock, and the frames before and after
+//! each bracket that moment; [`reaction_from_phases`] finds the moment the brackets share, the
+//! latency without the wait.
 //!
 //! The state machine here sees one frame at a time and says when to send a request; the command
 //! (`src/cli/latency.rs`) owns the source, the pipeline and the serial link.
@@ -46,11 +53,78 @@ pub struct LatencyConfig {
 /// One answered request.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Measurement {
-    /// From the request's last byte leaving the host to the end of the first dark frame's
+    /// From the moment the robot was asked to switch its LED off (the request's last byte
+    /// leaving the host, and the delay asked for) to the end of the first dark frame's
     /// exposure (frame clock), µs.
     pub to_capture_us: u64,
+    /// From that moment to the end of the exposure of the last frame that still saw the LED,
+    /// µs (negative when that exposure ended before): with `to_capture_us`, it brackets the
+    /// moment the LED went dark.
+    pub last_lit_us: Option<i64>,
+    /// From that frame's capture to its delivery to glint (a camera's readout, transfer and
+    /// driver; nil for a pipe without capture times), µs.
+    pub delivery_us: u64,
     /// From that frame's capture (or arrival) to its report (monotonic clock), µs.
     pub processing_us: u64,
+}
+
+/// The moment the LED went dark after its request, found from the frames' phases: each answered
+/// request brackets it between the last frame that saw the LED and the first that did not
+/// (their exposures' middles). Requests ask for the LED to go dark at random moments of the frame
+/// clock, so the brackets fall at every phase, and the moment inside all of them is the reaction
+/// without the wait for the next exposure. A reaction that jitters leaves no moment inside all:
+/// the estimate is then the moment nearest to the brackets in all (the least sum of distances
+/// to them, zero inside one), a median of the reactions that a late answer or two cannot drag.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct PhaseEstimate {
+    /// From the moment the robot was asked for to the LED going dark, µs: the middle of the
+    /// moments nearest to the brackets.
+    pub reaction_us: i64,
+    /// How wide that set of moments is, µs: with a steady reaction, the estimate is good to
+    /// half of it.
+    pub span_us: i64,
+    /// Brackets holding the estimate, of `brackets`.
+    pub agreeing: usize,
+    /// Brackets there were (answered requests with a lit frame before the dark one).
+    pub brackets: usize,
+}
+
+/// The [`PhaseEstimate`] of `measured`, with the frames' moments at their exposures' middles
+/// (`exposure_us` before their ends; 0 takes the ends). `None` without a bracket.
+pub fn reaction_from_phases(measured: &[Measurement], exposure_us: u64) -> Option<PhaseEstimate> {
+    let half = i64::try_from(exposure_us / 2).unwrap_or(i64::MAX);
+    let brackets: Vec<(i64, i64)> = measured
+        .iter()
+        .filter_map(|m| {
+            let dark = i64::try_from(m.to_capture_us).ok()?;
+            Some((
+                m.last_lit_us?.saturating_sub(half),
+                dark.saturating_sub(half),
+            ))
+        })
+        .collect();
+    // The sum of distances is convex and piecewise linear with its corners at the brackets'
+    // ends: its least value is taken at ends, and between the outermost of them.
+    let distance = |t: i64| -> i128 {
+        brackets
+            .iter()
+            .map(|&(lo, hi)| i128::from((lo - t).max(0) + (t - hi).max(0)))
+            .sum()
+    };
+    let ends = brackets.iter().flat_map(|&(lo, hi)| [lo, hi]);
+    let least = ends.clone().map(distance).min()?;
+    let nearest = ends.filter(|&t| distance(t) == least);
+    let (lo, hi) = nearest.fold((i64::MAX, i64::MIN), |(a, b), t| (a.min(t), b.max(t)));
+    let reaction_us = lo + (hi - lo) / 2;
+    Some(PhaseEstimate {
+        reaction_us,
+        span_us: hi - lo,
+        agreeing: brackets
+            .iter()
+            .filter(|&&(a, b)| a <= reaction_us && reaction_us <= b)
+            .count(),
+        brackets: brackets.len(),
+    })
 }
 
 /// Why the test could not finish.
@@ -104,6 +178,15 @@ impl fmt::Display for LatencyError {
 
 impl std::error::Error for LatencyError {}
 
+/// How long a frame took to reach glint and to be processed, monotonic clock.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct FrameTimes {
+    /// From its capture to its delivery, µs.
+    pub delivery_us: u64,
+    /// From its capture to its report, µs.
+    pub processing_us: u64,
+}
+
 /// What the command does after a frame.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Step {
@@ -124,9 +207,13 @@ enum Phase {
         request_at_us: Option<u64>,
     },
     /// A request was posted; waiting for the writer to send it.
-    Posted { request: u8, posted_at_us: u64 },
-    /// Sent: waiting for the first dark frame after it.
-    Sent { sent: SentLed },
+    Posted {
+        request: u8,
+        posted_at_us: u64,
+        delay_us: u32,
+    },
+    /// Sent: waiting for the first dark frame after the moment asked for (frame time).
+    Sent { asked_us: u64 },
     /// Answered: waiting for the LED to come back.
     Dark { since_us: u64 },
 }
@@ -141,6 +228,11 @@ pub struct LatencyTest {
     first_us: Option<u64>,
     /// Whether the LED has been seen at all.
     seen_led: bool,
+    /// Frame time of the last frame that saw the LED.
+    last_lit_at_us: Option<u64>,
+    /// Frame time of the last frame, and the period before it.
+    last_frame_us: Option<u64>,
+    frame_period_us: Option<u64>,
     requests: u32,
     unanswered: u32,
     unanswered_in_a_row: u32,
@@ -159,6 +251,9 @@ impl LatencyTest {
             rng: config.seed | 1,
             first_us: None,
             seen_led: false,
+            last_lit_at_us: None,
+            last_frame_us: None,
+            frame_period_us: None,
             requests: 0,
             unanswered: 0,
             unanswered_in_a_row: 0,
@@ -176,16 +271,31 @@ impl LatencyTest {
         (self.requests, self.unanswered)
     }
 
-    /// A random wait before the next request: between one and three off periods, so that
-    /// requests fall at every phase of the frame clock.
-    fn random_gap_us(&mut self) -> u64 {
-        // xorshift64*
+    /// The next random number (xorshift64*).
+    fn random(&mut self) -> u64 {
         self.rng ^= self.rng >> 12;
         self.rng ^= self.rng << 25;
         self.rng ^= self.rng >> 27;
-        let r = self.rng.wrapping_mul(0x2545_F491_4F6C_DD1D);
+        self.rng.wrapping_mul(0x2545_F491_4F6C_DD1D)
+    }
+
+    /// A random wait before the next request: between one and three off periods.
+    fn random_gap_us(&mut self) -> u64 {
         let off = u64::from(self.config.off_us.max(1));
-        off + r % (2 * off)
+        off + self.random() % (2 * off)
+    }
+
+    /// The delay to ask the robot for, before it switches its LED off: random within a frame
+    /// period. Requests go out just after a frame is processed, always at about the same phase
+    /// of the frame clock (the camera's delay and the processing fix it); the delay spreads the
+    /// moments the LED goes dark over every phase, so that the frames' phases can tell the
+    /// reaction from the wait for the next exposure ([`reaction_from_phases`]).
+    pub fn request_delay_us(&mut self) -> u32 {
+        let period_us = self.frame_period_us.unwrap_or(0);
+        if period_us == 0 {
+            return 0;
+        }
+        u32::try_from(self.random() % period_us).unwrap_or(0)
     }
 
     /// Takes one processed frame: its time `t_us`, whether the LED was found, how long it took
@@ -195,7 +305,24 @@ impl LatencyTest {
         &mut self,
         t_us: u64,
         found: bool,
-        processing_us: u64,
+        times: FrameTimes,
+        sent: Option<SentLed>,
+    ) -> Result<Step, LatencyError> {
+        let step = self.step(t_us, found, times, sent);
+        if found {
+            self.last_lit_at_us = Some(t_us);
+        }
+        if let Some(before) = self.last_frame_us.replace(t_us) {
+            self.frame_period_us = Some(t_us.saturating_sub(before)).filter(|&p| p > 0);
+        }
+        step
+    }
+
+    fn step(
+        &mut self,
+        t_us: u64,
+        found: bool,
+        times: FrameTimes,
         sent: Option<SentLed>,
     ) -> Result<Step, LatencyError> {
         let first_us = *self.first_us.get_or_insert(t_us);
@@ -230,12 +357,14 @@ impl LatencyTest {
             Phase::Posted {
                 request,
                 posted_at_us,
+                delay_us,
             } => {
                 match sent.filter(|s| s.request == request) {
                     Some(sent) => {
-                        self.phase = Phase::Sent { sent };
+                        let asked_us = sent.at_frame_us + u64::from(delay_us);
+                        self.phase = Phase::Sent { asked_us };
                         // This very frame may already be the dark one.
-                        return self.on_frame(t_us, found, processing_us, Some(sent));
+                        return self.step(t_us, found, times, Some(sent));
                     }
                     // Never sent (the port is down, the line is stuck): unanswered.
                     None if t_us.saturating_sub(posted_at_us) > self.config.answer_us => {
@@ -245,15 +374,19 @@ impl LatencyTest {
                 }
                 Ok(Step::Continue)
             }
-            Phase::Sent { sent } => {
-                if t_us >= sent.at_frame_us && !found {
+            Phase::Sent { asked_us } => {
+                if t_us >= asked_us && !found {
+                    let since_request =
+                        |at: u64| i64::try_from(i128::from(at) - i128::from(asked_us)).ok();
                     self.measurements.push(Measurement {
-                        to_capture_us: t_us - sent.at_frame_us,
-                        processing_us,
+                        to_capture_us: t_us - asked_us,
+                        last_lit_us: self.last_lit_at_us.and_then(since_request),
+                        delivery_us: times.delivery_us,
+                        processing_us: times.processing_us,
                     });
                     self.unanswered_in_a_row = 0;
                     self.phase = Phase::Dark { since_us: t_us };
-                } else if t_us.saturating_sub(sent.at_frame_us) > self.config.answer_us {
+                } else if t_us.saturating_sub(asked_us) > self.config.answer_us {
                     return self.give_up();
                 }
                 Ok(Step::Continue)
@@ -276,12 +409,14 @@ impl LatencyTest {
         }
     }
 
-    /// Records that request number `request` was posted at frame time `t_us`.
-    pub fn posted(&mut self, request: u8, t_us: u64) {
+    /// Records that request number `request` was posted at frame time `t_us`, asking the robot
+    /// to switch its LED off `delay_us` after it arrives.
+    pub fn posted(&mut self, request: u8, t_us: u64, delay_us: u32) {
         self.requests += 1;
         self.phase = Phase::Posted {
             request,
             posted_at_us: t_us,
+            delay_us,
         };
     }
 
@@ -338,10 +473,14 @@ mod tests {
         for i in 0..frames {
             let t = i * FRAME_US;
             let found = !(t >= dark_from && t < dark_from + 50_000);
-            last = test.on_frame(t, found, 1_000, sent);
+            let times = FrameTimes {
+                delivery_us: 700,
+                processing_us: 1_000,
+            };
+            last = test.on_frame(t, found, times, sent);
             match last {
                 Ok(Step::Request) => {
-                    test.posted(request, t);
+                    test.posted(request, t, 0);
                     // Sent 2 ms into the next frame interval.
                     let at = t + 2_000;
                     sent = Some(SentLed {
@@ -372,6 +511,8 @@ mod tests {
                 *m,
                 Measurement {
                     to_capture_us: 28_000,
+                    last_lit_us: Some(18_000),
+                    delivery_us: 700,
                     processing_us: 1_000
                 }
             );
@@ -401,12 +542,89 @@ mod tests {
         let mut test = LatencyTest::new(config());
         let mut last = Ok(Step::Continue);
         for i in 0..1_000 {
-            last = test.on_frame(i * FRAME_US, false, 0, None);
+            last = test.on_frame(i * FRAME_US, false, FrameTimes::default(), None);
             if last.is_err() {
                 break;
             }
         }
         assert!(matches!(last, Err(LatencyError::NoLed { .. })));
+    }
+
+    /// The brackets of a robot going dark `reaction_us` after each request, seen by frames every
+    /// `FRAME_US` sampled at their exposure's middle, requests at phases spread over a frame.
+    fn brackets(reaction_us: &[i64], exposure_us: i64) -> Vec<Measurement> {
+        let frame = FRAME_US as i64;
+        reaction_us
+            .iter()
+            .enumerate()
+            .map(|(i, &r)| {
+                // The request at phase p of the frame clock; frames end at multiples of FRAME_US.
+                let p = (i as i64 * 3_700) % frame;
+                let off = p + r;
+                // The first frame whose exposure's middle is at or after the LED went dark.
+                let dark_end = ((off + exposure_us / 2 + frame - 1) / frame) * frame;
+                Measurement {
+                    to_capture_us: (dark_end - p) as u64,
+                    last_lit_us: Some(dark_end - frame - p),
+                    delivery_us: 0,
+                    processing_us: 0,
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_frames_phases_give_the_reaction_without_the_wait_for_the_next_exposure() {
+        let exposure_us = 4_000;
+        let constant = brackets(&[12_345; 30], exposure_us);
+        let e = reaction_from_phases(&constant, exposure_us as u64).unwrap();
+        assert_eq!((e.agreeing, e.brackets), (30, 30));
+        assert!((e.reaction_us - 12_345).abs() <= e.span_us / 2 + 1, "{e:?}");
+        assert!(e.span_us <= 1_000, "{e:?}");
+        // The first dark frame alone is late by up to a frame (and by half the exposure).
+        let mean_to_capture = constant.iter().map(|m| m.to_capture_us).sum::<u64>() / 30;
+        assert!(mean_to_capture > 12_345 + 2_000, "{mean_to_capture}");
+
+        // A reaction that jitters by ±1 ms, and two requests answered late: the most
+        // brackets still share the moment.
+        let mut jittery: Vec<i64> = (0..30)
+            .map(|i| 20_000 + (i * 677) % 2_000 - 1_000)
+            .collect();
+        jittery[3] = 60_000;
+        jittery[17] = 45_000;
+        let e = reaction_from_phases(&brackets(&jittery, exposure_us), exposure_us as u64).unwrap();
+        assert!((e.reaction_us - 20_000).abs() <= 1_000, "{e:?}");
+        assert!(e.agreeing < 30 && e.agreeing >= 20, "{e:?}");
+
+        // Without a lit frame before the dark one there is no bracket.
+        let none = [Measurement {
+            to_capture_us: 5_000,
+            last_lit_us: None,
+            delivery_us: 0,
+            processing_us: 0,
+        }];
+        assert_eq!(reaction_from_phases(&none, 0), None);
+    }
+
+    #[test]
+    fn the_delays_asked_for_spread_over_the_measured_frame_period() {
+        let mut test = LatencyTest::new(config());
+        assert_eq!(test.request_delay_us(), 0, "no frame period known yet");
+        for i in 0..3 {
+            let _ = test.on_frame(i * FRAME_US, true, FrameTimes::default(), None);
+        }
+        let delays: Vec<u32> = (0..200).map(|_| test.request_delay_us()).collect();
+        assert!(
+            delays.iter().all(|&d| u64::from(d) < FRAME_US),
+            "{delays:?}"
+        );
+        let quarters = |q: u32| {
+            delays
+                .iter()
+                .filter(|&&d| d * 4 / FRAME_US as u32 == q)
+                .count()
+        };
+        assert!((0..4).all(|q| quarters(q) > 20), "{delays:?}");
     }
 
     #[test]

@@ -80,7 +80,9 @@ fn replay_allocates_nothing_per_frame() {
     };
     let mut source = DumpSource::new(Cursor::new(&bytes), size, 30.0);
     let mut pipeline = Pipeline::new(size, config).unwrap();
-    let mut sink = CsvSink::new(BufWriter::with_capacity(64 * 1024, io::sink()), false);
+    // With `--predict arrival`, so the predicted columns are counted too.
+    let mut sink =
+        CsvSink::new(BufWriter::with_capacity(64 * 1024, io::sink()), false).predicting();
     let allocations = allocations_during(|| {
         let (s, result) = pipeline::run(&mut source, &mut pipeline, &mut sink);
         result.unwrap();

@@ -210,6 +210,19 @@ fn captured_p50_ms(stdout: &str) -> f64 {
         .unwrap_or_else(|| panic!("bad line {line}"))
 }
 
+/// The figure after `label` on the line of `stdout` that contains `line_has`, in ms.
+fn figure_after(stdout: &str, line_has: &str, label: &str) -> f64 {
+    let line = stdout
+        .lines()
+        .find(|l| l.contains(line_has))
+        .unwrap_or_else(|| panic!("no line with {line_has:?} in:\n{stdout}"));
+    line.split(label)
+        .nth(1)
+        .and_then(|rest| rest.trim().split(" ms").next())
+        .and_then(|v| v.trim().parse().ok())
+        .unwrap_or_else(|| panic!("no figure after {label:?} in {line}"))
+}
+
 #[test]
 fn the_measured_latency_is_the_robots_configured_delay() {
     let trials = 8;
@@ -241,6 +254,15 @@ fn the_measured_latency_is_the_robots_configured_delay() {
         "measured {p50} ms, the robot's delay is {expected} ms:\n{stdout}"
     );
     assert!(stdout.contains("parts of the p50: line time"), "{stdout}");
+    // From the frames' phases: the line time and the robot's reaction, without the wait for
+    // the next frame.
+    let phases = figure_after(&stdout, "from the frames' phases", "phases:");
+    let line = figure_after(&stdout, "parts of the p50", "line time");
+    assert!(
+        (phases - line - expected).abs() <= AGREEMENT_MS,
+        "from the phases {phases} ms less the line time {line} ms, the robot's delay is \
+         {expected} ms:\n{stdout}"
+    );
     eprintln!("{stdout}");
 }
 

@@ -209,3 +209,68 @@ fn csv_carries_the_same_columns() {
         }
     }
 }
+
+#[test]
+fn csv_with_predict_arrival_carries_the_predicted_columns() {
+    let r = render("slow-line");
+    let out = track(&r, &["--format", "csv", "--predict", "arrival"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8(out.stdout).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    assert!(
+        header.ends_with(&["predicted_x", "predicted_y", "predicted_ahead_ms"]),
+        "{header:?}"
+    );
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let cell = |row: &[&str], name: &str| row[col(name)].parse::<f64>().ok();
+    let mut predicted = 0;
+    let mut rows = 0;
+    for line in lines {
+        let row: Vec<&str> = line.split(',').collect();
+        assert_eq!(row.len(), header.len(), "a cell for every column: {row:?}");
+        rows += 1;
+        let (Some(x), Some(y), Some(vx), Some(vy)) = (
+            cell(&row, "x"),
+            cell(&row, "y"),
+            cell(&row, "vx"),
+            cell(&row, "vy"),
+        ) else {
+            // Nothing to predict from: the cells are empty, not zero.
+            for name in ["predicted_x", "predicted_y", "predicted_ahead_ms"] {
+                assert_eq!(row[col(name)], "", "{row:?}");
+            }
+            continue;
+        };
+        let (Some(px), Some(py), Some(ahead_ms)) = (
+            cell(&row, "predicted_x"),
+            cell(&row, "predicted_y"),
+            cell(&row, "predicted_ahead_ms"),
+        ) else {
+            panic!("a found, moving light is predicted: {row:?}");
+        };
+        predicted += 1;
+        // Along the velocity the light moves on by its speed over the look-ahead; the bend
+        // term is across the velocity only (on this line, the measured velocities' noise).
+        let ahead_s = ahead_ms * 1e-3;
+        assert!((0.0..1.0).contains(&ahead_s), "{row:?}");
+        let speed = vx.hypot(vy);
+        let (dx, dy) = (px - x, py - y);
+        let along = (dx * vx + dy * vy) / speed;
+        let across = (dy * vx - dx * vy) / speed;
+        assert!(
+            (along - speed * ahead_s).abs() < 0.02,
+            "{along} px along the velocity, {} px expected: {row:?}",
+            speed * ahead_s
+        );
+        assert!(
+            across.abs() < 2.0,
+            "{across} px across the velocity: {row:?}"
+        );
+    }
+    assert!(predicted * 2 > rows, "{predicted} of {rows} rows predicted");
+}

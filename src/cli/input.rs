@@ -20,6 +20,7 @@ use glint::monitor::{Counts, Monitor, MonitorConfig};
 use glint::source::dump::{DumpError, DumpSource};
 use glint::source::interruptible::Interruptible;
 use glint::source::sidecar::{ReplayError, ReplaySource, Sidecar, SidecarError};
+use glint::source::stamped::{StampedError, StampedSource};
 #[cfg(feature = "v4l2")]
 use glint::source::v4l2::{ReopeningSource, V4l2Error};
 use glint::source::{FrameMeta, FrameSource};
@@ -56,6 +57,21 @@ pub struct InputArgs {
     #[arg(long, requires = "input")]
     no_sidecar: bool,
 
+    /// Each frame of the input is preceded by its capture time: the end of its exposure on
+    /// this host's monotonic clock (CLOCK_MONOTONIC), in µs, 8 bytes little-endian, as a camera
+    /// driver stamps its buffers. Positions' ages then count from the exposure, not from the
+    /// moment the frame was read (a grabber that knows when its frames were exposed; the
+    /// robot-in-the-loop rig).
+    #[arg(long, requires = "input", conflicts_with = "no_sidecar")]
+    stamped: bool,
+
+    /// The exposure time the frames were made with, µs (a build without camera support takes
+    /// it here; with one, the camera's `--exposure-us` says it). 1 to 10000000.
+    #[cfg(not(feature = "v4l2"))]
+    #[arg(long, value_name = "MICROSECONDS", allow_negative_numbers = true,
+          value_parser = clap::value_parser!(u32).range(1..=10_000_000))]
+    exposure_us: Option<u32>,
+
     /// Pixel format of the frames: yuyv, uyvy or grey (8-bit luma, as mono cameras such as
     /// the OV9281 send). Default: the sidecar's format for a recorded dump, else yuyv.
     #[arg(long, value_name = "yuyv|uyvy|grey")]
@@ -84,7 +100,7 @@ impl InputArgs {
         #[cfg(feature = "v4l2")]
         return self.camera.exposure_us();
         #[cfg(not(feature = "v4l2"))]
-        return None;
+        return self.exposure_us;
     }
 
     /// The mmap buffers a camera will fill, when the input is a camera.
@@ -134,6 +150,8 @@ pub enum InputSource {
     Dump(DumpSource<Box<dyn Read>>),
     /// A dump with its recording's timing.
     Replay(ReplaySource<Box<dyn Read>>),
+    /// Frames each after its capture time.
+    Stamped(StampedSource<Box<dyn Read>>),
     /// A camera (boxed: its state is several times the size of a dump's).
     #[cfg(feature = "v4l2")]
     Camera(Box<ReopeningSource>),
@@ -144,6 +162,7 @@ pub enum InputSource {
 pub enum InputError {
     Dump(DumpError),
     Replay(ReplayError),
+    Stamped(StampedError),
     #[cfg(feature = "v4l2")]
     Camera(V4l2Error),
 }
@@ -153,6 +172,7 @@ impl std::fmt::Display for InputError {
         match self {
             InputError::Dump(e) => write!(f, "{e}"),
             InputError::Replay(e) => write!(f, "{e}"),
+            InputError::Stamped(e) => write!(f, "{e}"),
             #[cfg(feature = "v4l2")]
             InputError::Camera(e) => write!(f, "{e}"),
         }
@@ -168,6 +188,7 @@ impl FrameSource for InputSource {
         match self {
             InputSource::Dump(s) => s.next_frame().map_err(InputError::Dump),
             InputSource::Replay(s) => s.next_frame().map_err(InputError::Replay),
+            InputSource::Stamped(s) => s.next_frame().map_err(InputError::Stamped),
             #[cfg(feature = "v4l2")]
             InputSource::Camera(s) => s.next_frame().map_err(InputError::Camera),
         }
@@ -214,13 +235,9 @@ pub fn open(
     let fps_or_default = fps.unwrap_or(DEFAULT_DUMP_FPS);
     if input == "-" {
         let stdin: Box<dyn Read> = Box::new(Interruptible::new(io::stdin(), Arc::clone(stop)));
+        let dump = DumpSource::try_with_format(stdin, size, fps_or_default, args.pixel_format())?;
         return Ok(Input {
-            source: InputSource::Dump(DumpSource::try_with_format(
-                stdin,
-                size,
-                fps_or_default,
-                args.pixel_format(),
-            )?),
+            source: stamped_or_not(args, dump),
             live: true,
             monitor,
         });
@@ -233,7 +250,7 @@ pub fn open(
         bail!("{input} is a directory, not a dump");
     }
     let reader: Box<dyn Read> = Box::new(Interruptible::new(file, Arc::clone(stop)));
-    let sidecar = if args.no_sidecar {
+    let sidecar = if args.no_sidecar || args.stamped {
         None
     } else {
         find_sidecar(Path::new(input), size, metadata.len())?
@@ -253,18 +270,25 @@ pub fn open(
             let dump = DumpSource::try_with_format(reader, size, fps_or_default, recorded)?;
             InputSource::Replay(ReplaySource::from_dump(dump, sidecar))
         }
-        None => InputSource::Dump(DumpSource::try_with_format(
-            reader,
-            size,
-            fps_or_default,
-            args.pixel_format(),
-        )?),
+        None => stamped_or_not(
+            args,
+            DumpSource::try_with_format(reader, size, fps_or_default, args.pixel_format())?,
+        ),
     };
     Ok(Input {
         source,
         live: false,
         monitor,
     })
+}
+
+/// `dump` as it is, or read as stamped frames with `--stamped`.
+fn stamped_or_not(args: &InputArgs, dump: DumpSource<Box<dyn Read>>) -> InputSource {
+    if args.stamped {
+        InputSource::Stamped(StampedSource::new(dump))
+    } else {
+        InputSource::Dump(dump)
+    }
 }
 
 /// Opens a dump for reading without waiting: a FIFO opens at once instead of blocking until a

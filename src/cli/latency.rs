@@ -9,7 +9,9 @@ use clap::Args;
 use super::serial_ports::SerialPlan;
 use super::track::{self, Opened, TrackSettings};
 
-use glint::latency::{quantile_us, LatencyConfig, LatencyTest, Measurement, Step};
+use glint::latency::{
+    quantile_us, reaction_from_phases, FrameTimes, LatencyConfig, LatencyTest, Measurement, Step,
+};
 use glint::sink::serial::line_time;
 use glint::sink::Sink;
 use glint::source::clock::monotonic_now_us;
@@ -92,23 +94,24 @@ pub fn run(args: LatencyArgs) -> Result<ExitCode> {
             }
             Err(e) => break Err(anyhow::Error::new(e).context("reading frames")),
         };
+        // Delivered now: a camera's driver stamps the exposure, a stamped pipe carries it.
+        let delivered_us = monotonic_now_us();
         let report = pipeline.process(&frame, meta);
         serial.write(&report)?;
-        let processing_us = monotonic_now_us().saturating_sub(meta.monotonic_us);
+        let times = FrameTimes {
+            delivery_us: delivered_us.saturating_sub(meta.monotonic_us),
+            processing_us: monotonic_now_us().saturating_sub(meta.monotonic_us),
+        };
         // The robot stands still while it is measured: its LED lit is reported as found when
         // it comes on (it appeared), then as a candidate not yet told from glare (it stands
         // still). Either is "lit".
         let found = report.position.is_some() || report.ambiguous;
-        match test.on_frame(
-            meta.timestamp_us,
-            found,
-            processing_us,
-            serial.last_led_sent(),
-        ) {
+        match test.on_frame(meta.timestamp_us, found, times, serial.last_led_sent()) {
             Ok(Step::Continue) => {}
             Ok(Step::Request) => {
-                let request = serial.request_led(args.robot, 0, off_us);
-                test.posted(request, meta.timestamp_us);
+                let delay_us = test.request_delay_us();
+                let request = serial.request_led(args.robot, delay_us, off_us);
+                test.posted(request, meta.timestamp_us, delay_us);
             }
             Ok(Step::Done) => break Ok(()),
             Err(e) => break Err(e.into()),
@@ -133,7 +136,11 @@ fn print_summary(args: &LatencyArgs, measured: &[Measurement], requests: u32, un
         .map(|m| line_us + m.to_capture_us + m.processing_us)
         .collect();
     let mut to_capture: Vec<u64> = measured.iter().map(|m| m.to_capture_us).collect();
-    let mut processing: Vec<u64> = measured.iter().map(|m| m.processing_us).collect();
+    let mut delivery: Vec<u64> = measured.iter().map(|m| m.delivery_us).collect();
+    let mut processing: Vec<u64> = measured
+        .iter()
+        .map(|m| m.processing_us.saturating_sub(m.delivery_us))
+        .collect();
     println!(
         "latency: {} of {requests} requests answered ({unanswered} unanswered)",
         measured.len()
@@ -160,28 +167,75 @@ fn print_summary(args: &LatencyArgs, measured: &[Measurement], requests: u32, un
         ms(c95),
         ms(cmax)
     );
-    let processing_p50 = quantile_us(&mut processing, 0.5);
     let exposure_us = args.settings.input.exposure_us().map(u64::from);
-    let share = |us: u64| us as f64 * PERCENT / (p50.max(1) as f64);
-    let exposure = match exposure_us {
-        Some(e) => format!("exposure {:.1} ms ({:.0} %)", ms(e), share(e)),
-        None => "exposure unknown (give --exposure-us)".to_string(),
-    };
-    let rest_us = p50
-        .saturating_sub(line_us)
-        .saturating_sub(processing_p50)
-        .saturating_sub(exposure_us.unwrap_or(0));
+    let half_exposure_us = exposure_us.unwrap_or(0) / 2;
+    let estimate = reaction_from_phases(measured, exposure_us.unwrap_or(0));
+    // From the request written to the LED dark: the line time, then the robot's reaction.
+    let dark_after_write_us = estimate.map(|e| e.reaction_us + line_us as i64);
+    match estimate {
+        Some(e) => println!(
+            "latency: request written to the LED going dark (line time and the robot's \
+             reaction), from the frames' phases: {:.1} ms (±{:.1} ms; {} of {} requests' frames \
+             agree)",
+            e.reaction_us as f64 * 1e-3 + ms(line_us),
+            e.span_us as f64 * 0.5e-3,
+            e.agreeing,
+            e.brackets
+        ),
+        None => println!(
+            "latency: request written to the LED going dark: no request had a lit frame before \
+             its dark one"
+        ),
+    }
+    let (d50, d95, _) = stats(&mut delivery);
+    let (e50, e95, _) = stats(&mut processing);
     println!(
-        "latency: parts of the p50: line time {:.2} ms ({:.0} %), {exposure}, capture to \
-         processed {:.1} ms ({:.0} %), the robot's reaction and the wait for the next exposure \
-         {:.1} ms ({:.0} %)",
-        ms(line_us),
-        share(line_us),
-        ms(processing_p50),
-        share(processing_p50),
-        ms(rest_us),
-        share(rest_us)
+        "latency: capture to delivered (the camera's readout, transfer and driver): p50 {:.1} ms, \
+         p95 {:.1} ms; delivered to processed: p50 {:.1} ms, p95 {:.1} ms",
+        ms(d50),
+        ms(d95),
+        ms(e50),
+        ms(e95)
     );
+    // The wait for the next exposure to see the LED dark: what is left of each request's
+    // time to the dark frame once the robot's reaction and half the exposure are taken out.
+    let mut phase: Vec<u64> = match estimate {
+        Some(e) => measured
+            .iter()
+            .map(|m| {
+                (m.to_capture_us as i64 - e.reaction_us - half_exposure_us as i64).max(0) as u64
+            })
+            .collect(),
+        None => Vec::new(),
+    };
+    let phase_p50 = quantile_us(&mut phase, 0.5);
+    let share = |us: u64| us as f64 * PERCENT / (p50.max(1) as f64);
+    let part = |name: &str, us: u64| format!("{name} {:.1} ms ({:.0} %)", ms(us), share(us));
+    let exposure = match exposure_us {
+        Some(_) => part("half the exposure", half_exposure_us),
+        None => "exposure unknown (give --exposure-us; the frames' moments are then their \
+                 exposures' ends)"
+            .to_string(),
+    };
+    let reaction = match estimate {
+        Some(e) => part("the robot's reaction", e.reaction_us.max(0) as u64),
+        None => "the robot's reaction unknown".to_string(),
+    };
+    println!(
+        "latency: parts of the p50: {}, {reaction}, {}, {exposure}, {}, {}",
+        part("line time", line_us),
+        part("the wait for the next exposure", phase_p50),
+        part("capture to delivered", d50),
+        part("delivered to processed", e50),
+    );
+    if let Some(dark_us) = dark_after_write_us {
+        let loop_us = dark_us.max(0) as u64 + half_exposure_us + d50 + e50;
+        println!(
+            "latency: without the wait for the next exposure: {:.1} ms (request written to the \
+             LED dark, half the exposure, capture to processed)",
+            ms(loop_us)
+        );
+    }
 }
 
 /// Line time of one LED request at the link's baud.

@@ -432,7 +432,7 @@ pub fn run(args: TrackArgs) -> Result<ExitCode> {
         Format::Csv => monitor::run(
             &mut source,
             &mut pipeline,
-            &mut Tee::new(CsvSink::new(stdout, live), links),
+            &mut Tee::new(csv_sink(stdout, live, &args.settings), links),
             &mut monitor,
         ),
     };
@@ -443,6 +443,15 @@ pub fn run(args: TrackArgs) -> Result<ExitCode> {
 /// The JSON lines sink, predicting when `--predict arrival` asks.
 pub fn jsonl_sink<W: io::Write>(out: W, live: bool, settings: &TrackSettings) -> JsonLinesSink<W> {
     let sink = JsonLinesSink::new(out, live);
+    match settings.predict {
+        Predict::Arrival => sink.predicting(),
+        Predict::None => sink,
+    }
+}
+
+/// The CSV sink, with the predicted columns when `--predict arrival` asks.
+fn csv_sink<W: io::Write>(out: W, live: bool, settings: &TrackSettings) -> CsvSink<W> {
+    let sink = CsvSink::new(out, live);
     match settings.predict {
         Predict::Arrival => sink.predicting(),
         Predict::None => sink,

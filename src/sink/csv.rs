@@ -4,11 +4,18 @@
 //! columns at its end: `id`, `provisional`, `id_source`, `state` and `merged` ([`CSV_TRACK_COLUMNS`]);
 //! each row's position, velocity, blob and floor columns are that robot's, `found` whether it
 //! was found.
+//!
+//! With `--predict arrival` (one robot), three more columns at the end, as the JSON lines'
+//! `predicted`: `predicted_x`, `predicted_y` (px), the position extrapolated to the moment the row
+//! is written, and `predicted_ahead_ms`, how far ahead of the exposure's end that is
+//! ([`CSV_PREDICTED_COLUMNS`]); empty when the frame has no position or no velocity yet.
 
 use std::io::{self, Write};
 
+use super::predict::{Predictor, Reference};
 use super::Sink;
 use crate::report::{Blob, Estimate, FloorFix, FrameReport, Streak};
+use crate::source::clock::monotonic_now_us;
 
 /// The header line.
 pub const CSV_HEADER: &str = "frame,t,found,x,y,mid_x,mid_y,pos_method,vx,vy,v_method,area_px,\
@@ -18,11 +25,16 @@ floor_vx,floor_vy,floor_speed,floor_heading_deg,floor_unit,beyond_horizon,fit_px
 /// The columns added after [`CSV_HEADER`] when several robots are followed.
 pub const CSV_TRACK_COLUMNS: &str = "id,provisional,id_source,state,merged";
 
+/// The columns added after [`CSV_HEADER`] with `--predict arrival`.
+pub const CSV_PREDICTED_COLUMNS: &str = "predicted_x,predicted_y,predicted_ahead_ms";
+
 /// Writes reports as CSV rows under a header line naming the columns.
 pub struct CsvSink<W: Write> {
     out: W,
     live: bool,
     header_written: bool,
+    /// With `--predict arrival`.
+    predictor: Option<Predictor>,
 }
 
 impl<W: Write> CsvSink<W> {
@@ -32,7 +44,14 @@ impl<W: Write> CsvSink<W> {
             out,
             live,
             header_written: false,
+            predictor: None,
         }
+    }
+
+    /// Adds the position extrapolated to the moment each row is written (`--predict arrival`).
+    pub fn predicting(mut self) -> Self {
+        self.predictor = Some(Predictor::new());
+        self
     }
 }
 
@@ -42,6 +61,8 @@ impl<W: Write> Sink for CsvSink<W> {
         if !self.header_written {
             if r.several() {
                 writeln!(out, "{CSV_HEADER},{CSV_TRACK_COLUMNS}")?;
+            } else if self.predictor.is_some() {
+                writeln!(out, "{CSV_HEADER},{CSV_PREDICTED_COLUMNS}")?;
             } else {
                 writeln!(out, "{CSV_HEADER}")?;
             }
@@ -62,6 +83,9 @@ impl<W: Write> Sink for CsvSink<W> {
             }
         } else {
             write_row(out, r, r.position, r.floor, r.detection.best)?;
+            if let Some(predictor) = self.predictor.as_mut() {
+                write_predicted(out, predictor, r)?;
+            }
             writeln!(out)?;
         }
         if self.live {
@@ -72,10 +96,33 @@ impl<W: Write> Sink for CsvSink<W> {
 
     fn finish(&mut self) -> io::Result<()> {
         if !self.header_written {
-            writeln!(self.out, "{CSV_HEADER}")?;
+            if self.predictor.is_some() {
+                writeln!(self.out, "{CSV_HEADER},{CSV_PREDICTED_COLUMNS}")?;
+            } else {
+                writeln!(self.out, "{CSV_HEADER}")?;
+            }
             self.header_written = true;
         }
         self.out.flush()
+    }
+}
+
+/// The cells of [`CSV_PREDICTED_COLUMNS`]: the position extrapolated to now, as the JSON lines'
+/// `predicted`.
+fn write_predicted(
+    out: &mut impl Write,
+    predictor: &mut Predictor,
+    r: &FrameReport,
+) -> io::Result<()> {
+    let velocity = r.position.and_then(|p| p.velocity_px_s);
+    let motion = predictor.observe(r.meta.timestamp_us, Reference::Pixels, velocity);
+    match (motion, r.position) {
+        (Some(motion), Some(p)) => {
+            let ahead_us = monotonic_now_us().saturating_sub(r.meta.monotonic_us);
+            let (x, y) = motion.extrapolate(p.position_px, ahead_us as f32 * 1e-6);
+            write!(out, ",{x:.3},{y:.3},{:.3}", ahead_us as f64 * 1e-3)
+        }
+        _ => write!(out, ",,,"),
     }
 }
 

@@ -126,6 +126,12 @@ impl<R: Read> DumpSource<R> {
         }
     }
 
+    /// The reader, for what a stream carries between its frames (the stamps of
+    /// [`StampedSource`](super::stamped::StampedSource)).
+    pub fn reader_mut(&mut self) -> &mut R {
+        &mut self.reader
+    }
+
     /// Reads until the buffer is full or the stream ends; returns the bytes read.
     fn fill(&mut self) -> io::Result<usize> {
         let mut filled = 0;

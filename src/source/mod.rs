@@ -8,6 +8,7 @@ pub mod dump;
 pub mod interruptible;
 pub mod record;
 pub mod sidecar;
+pub mod stamped;
 pub mod stoppable;
 
 use crate::frame::Frame;

@@ -15,6 +15,7 @@ pub mod demo;
 pub mod led;
 pub mod link;
 pub mod pursuit;
+pub mod reckon;
 
 pub use clock::Clock;
 pub use control::{ArrivedAge, ControlLoop, HoldPosition};

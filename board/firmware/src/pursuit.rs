@@ -4,10 +4,11 @@
 //!
 //! Glint's position is where the light was at the end of an exposure some tens of
 //! milliseconds ago. Steering from it as if it were now makes the robot react late on every
-//! bend. With compensation on, the controller moves the position (and the heading, the
-//! direction of glint's velocity) on by its age along the arc the robot was last told to drive,
-//! then steers from there. With compensation off it steers from the position as it came, which
-//! is also what a firmware that does not know the age frame does.
+//! bend. With compensation on, the controller drives the position (and the heading, the
+//! direction of glint's velocity) on over its age by the commands it gave since that exposure,
+//! through the motors' lag ([`crate::reckon`]), then steers from there. With compensation off
+//! it steers from the position as it came, which is also what a firmware that does not know the
+//! age frame does.
 //!
 //! One wheel command per position update: when its age arrives (once ages are seen on the
 //! link), at once otherwise.
@@ -16,6 +17,7 @@ use glint_protocol::{Position, Status, Units};
 use libm::{atan2f, cosf, fmodf, hypotf, sinf};
 
 use crate::control::{ArrivedAge, ControlLoop};
+use crate::reckon::{self, CommandHistory};
 
 /// Microseconds per second.
 const US_PER_S: f32 = 1e6;
@@ -105,6 +107,9 @@ pub struct PursuitParams {
     pub wheel_base_mm: f32,
     /// Pure pursuit's lookahead along the path, mm.
     pub lookahead_mm: f32,
+    /// The wheels follow a command with this first-order lag (the motors and their drivers),
+    /// µs.
+    pub motor_lag_us: u32,
     /// Move positions on by their age (see the module's doc).
     pub compensate: bool,
 }
@@ -146,8 +151,11 @@ pub struct PurePursuit {
     pending: Option<Position>,
     /// Ages have been seen on the link: positions wait for theirs.
     ages_seen: bool,
-    /// The last command's turn rate, rad/s: the arc along which positions are moved on.
+    /// The last command's turn rate, rad/s: the arc along which positions are moved on before
+    /// any command's moment is known.
     turn_rad_s: f32,
+    /// The commands given, with their moments, since ages arrive.
+    given: CommandHistory,
     /// glint has found the robot at least once.
     seen: bool,
     ready: Option<WheelCommand>,
@@ -169,6 +177,7 @@ impl PurePursuit {
             ages_seen: false,
             seen: false,
             turn_rad_s: 0.0,
+            given: CommandHistory::new(),
             ready: None,
         }
     }
@@ -253,16 +262,42 @@ impl PurePursuit {
         (v - half_diff, v + half_diff)
     }
 
+    /// `pose`, measured `age_us` before `now_us`, driven on to now by the commands given since
+    /// (along the last commanded arc before any command's moment is known).
+    fn compensated(&self, pose: Pose, speed_mm_s: f32, age_us: u32, now_us: u32) -> Pose {
+        let Some(heading_rad) = pose.heading_rad else {
+            return pose;
+        };
+        let measured = reckon::Pose {
+            x_mm: pose.x_mm,
+            y_mm: pose.y_mm,
+            heading_rad,
+        };
+        let since_us = now_us.wrapping_sub(age_us);
+        match self
+            .given
+            .drive_on(measured, since_us, now_us, self.params.motor_lag_us)
+        {
+            Some(p) => Pose {
+                x_mm: p.x_mm,
+                y_mm: p.y_mm,
+                heading_rad: Some(p.heading_rad),
+            },
+            None => self.moved_on(pose, speed_mm_s, age_us as f32 / US_PER_S),
+        }
+    }
+
     /// Computes the command for `p`, `age` old (zero when not compensating or unknown).
     fn command_for(&mut self, p: &Position, age: Option<ArrivedAge>, now_us: Option<u32>) {
         let measured = Self::measured_pose(p);
         let (left, right) = match measured {
             Some((pose, speed)) => {
-                let age_s = match (self.params.compensate, age, now_us) {
-                    (true, Some(a), Some(now)) => a.age_at_us(now) as f32 / US_PER_S,
-                    _ => 0.0,
+                let pose = match (self.params.compensate, age, now_us) {
+                    (true, Some(a), Some(now)) => {
+                        self.compensated(pose, speed, a.age_at_us(now), now)
+                    }
+                    _ => pose,
                 };
-                let pose = self.moved_on(pose, speed, age_s);
                 self.steer(pose)
             }
             None => {
@@ -272,6 +307,10 @@ impl PurePursuit {
             }
         };
         self.seen |= measured.is_some();
+        if let Some(now) = now_us {
+            let turn_rad_s = (right - left) / self.params.wheel_base_mm;
+            self.given.push(now, 0.5 * (left + right), turn_rad_s);
+        }
         self.ready = Some(WheelCommand {
             seq: p.seq,
             timestamp_us: p.timestamp_us,
@@ -310,6 +349,7 @@ mod tests {
         speed_mm_s: 500.0,
         wheel_base_mm: 120.0,
         lookahead_mm: 100.0,
+        motor_lag_us: 30_000,
         compensate: true,
     };
 

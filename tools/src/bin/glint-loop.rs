@@ -9,8 +9,13 @@
 //! second UART.
 //!
 //! ```sh
-//! cargo run --release -p glint-tools --bin glint-loop -- --seconds 20 [--no-compensation]
+//! cargo run --release -p glint-tools --bin glint-loop -- --seconds 20 [--camera-delay-ms 70] [--no-compensation]
+//! cargo run --release -p glint-tools --bin glint-loop -- --seconds 60 --latency 30
 //! ```
+//!
+//! The frames reach glint `--camera-delay-ms` after their exposure (a USB webcam's 30 to 100 ms),
+//! stamped with the exposure's end. `--latency N` runs `glint latency` in the loop instead and
+//! prints what it found beside the rig's truth.
 //!
 //! Without `--glint` and `--firmware` it builds both first (release; the firmware for
 //! thumbv7em-none-eabihf with the `mps2-an386` feature). The last line on standard output is
@@ -23,7 +28,7 @@ use anyhow::{bail, Context, Result};
 use clap::Parser;
 use glint_tools::overlay::Canvas;
 use glint_tools::rig::path::FigureEight;
-use glint_tools::rig::run::tail;
+use glint_tools::rig::run::{tail, DEFAULT_CAMERA_DELAY_MS};
 use glint_tools::rig::{run_loop, LoopConfig, LoopReport};
 
 /// Run the robot-in-the-loop rig: renderer → glint run → firmware in qemu → robot.
@@ -39,6 +44,16 @@ pub(crate) struct Args {
     /// Baud rate of the serial line between glint and the board.
     #[arg(long, default_value_t = 115_200, value_parser = clap::value_parser!(u32).range(9_600..=4_000_000))]
     baud: u32,
+    /// From the end of each exposure to the frame in glint's hands, ms: a USB webcam's sensor
+    /// readout, USB transfer and driver buffering take 30 to 100 ms (the default is a typical
+    /// one). The frames carry their exposure's end as their capture time, as V4L2 stamps them.
+    #[arg(long, default_value_t = DEFAULT_CAMERA_DELAY_MS,
+          value_parser = clap::value_parser!(u32).range(0..=250))]
+    camera_delay_ms: u32,
+    /// Run `glint latency --trials N` in the loop instead of `glint run`, and print what it
+    /// measured beside the rig's truth (the robot drives until its LED first goes dark).
+    #[arg(long, value_name = "TRIALS", value_parser = clap::value_parser!(u32).range(1..=200))]
+    latency: Option<u32>,
     /// Seed of the sensor noise.
     #[arg(long, default_value_t = 1)]
     seed: u64,
@@ -132,8 +147,10 @@ fn run(args: Args) -> Result<()> {
         firmware,
         qemu: args.qemu,
         baud: args.baud,
+        camera_delay_us: u64::from(args.camera_delay_ms) * 1_000,
         seed: args.seed,
         work_dir: work.path().to_path_buf(),
+        latency_trials: args.latency,
     };
     let report = match run_loop(&config) {
         Ok(r) => r,
@@ -143,6 +160,9 @@ fn run(args: Args) -> Result<()> {
         }
     };
     print_details(&report);
+    if args.latency.is_some() {
+        print_latency(&report);
+    }
     if let Some(out) = &args.plot {
         plot(&report)
             .save_png(out)
@@ -152,11 +172,34 @@ fn run(args: Args) -> Result<()> {
     Ok(())
 }
 
+/// What `glint latency` printed, and the truth beside it.
+fn print_latency(r: &LoopReport) {
+    print!("{}", r.glint_stdout);
+    let mut truth = r.led_dark_after_request_ms.clone();
+    truth.sort_by(f64::total_cmp);
+    let at = |q: f64| glint_tools::stats::percentile(&truth, q);
+    match (at(5.0), at(50.0), at(95.0)) {
+        (Some(lo), Some(median), Some(hi)) => println!(
+            "loop: truth: request written to the simulator's LED dark p5 {lo:.2} ms p50 \
+             {median:.2} ms p95 {hi:.2} ms over {} requests; the camera's delay {:.0} ms",
+            truth.len(),
+            r.camera_delay_ms
+        ),
+        _ => println!("loop: truth: no LED request went out"),
+    }
+}
+
 fn print_details(r: &LoopReport) {
     println!(
-        "loop: {} frames; end of exposure to glint p50 {:.1} ms p95 {:.1} ms (rendering p50 \
-         {:.1} ms p95 {:.1} ms)",
-        r.frames, r.delivery_ms.median, r.delivery_ms.p95, r.render_ms.median, r.render_ms.p95
+        "loop: {} frames; end of exposure to glint p50 {:.1} ms p95 {:.1} ms (camera delay {:.0} \
+         ms; handed late p95 {:.1} ms; rendering p50 {:.1} ms p95 {:.1} ms)",
+        r.frames,
+        r.delivery_ms.median,
+        r.delivery_ms.p95,
+        r.camera_delay_ms,
+        r.late_ms.p95,
+        r.render_ms.median,
+        r.render_ms.p95
     );
     let mut signed = r.age_error_ms.clone();
     signed.sort_by(f64::total_cmp);
@@ -167,9 +210,23 @@ fn print_details(r: &LoopReport) {
     ) {
         println!("loop: the firmware's age minus the truth: p5 {lo:.2} ms p50 {mid:.2} ms p95 {hi:.2} ms");
     }
+    let spread = |v: &[f64]| {
+        let mut v = v.to_vec();
+        v.sort_by(f64::total_cmp);
+        glint_tools::stats::percentile(&v, 50.0).zip(glint_tools::stats::percentile(&v, 95.0))
+    };
+    if let (Some((w50, w95)), Some((q50, q95))) = (
+        spread(&r.short_before_board_ms),
+        spread(&r.short_after_wire_ms),
+    ) {
+        println!(
+            "loop: the firmware's age short of the truth: by the wire's lateness p50 {w50:.2} ms \
+             p95 {w95:.2} ms, after the wire (qemu, the firmware) p50 {q50:.2} ms p95 {q95:.2} ms"
+        );
+    }
     match r.age_disagreement_ms() {
         Some(d) => println!(
-            "loop: the firmware's age against the truth since glint's capture: |error| p50 \
+            "loop: the firmware's age against the truth since the exposure: |error| p50 \
              {:.2} ms p95 {:.2} ms max {:.2} ms over {} updates",
             d.median, d.p95, d.max, d.count
         ),

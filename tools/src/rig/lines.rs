@@ -15,15 +15,18 @@ pub struct Command {
     pub right_mm_s: i32,
     /// The position's age as the firmware reckoned it when writing the line, µs.
     pub age_us: Option<u32>,
+    /// The firmware's clock when it reckoned the age (qemu's virtual clock, which runs with the
+    /// host's monotonic clock), µs, wrapping at 2³².
+    pub clock_us: u32,
 }
 
 /// A line from the firmware.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Line {
-    /// `W seq timestamp_us steering left right age|-`
+    /// `W seq timestamp_us steering left right age|- clock_us`
     Wheels(Command),
-    /// `L 0|1`: the LED switched.
-    Led(bool),
+    /// `L 0|1 clock_us`: the LED switched, at that moment of the firmware's clock.
+    Led { on: bool, clock_us: u32 },
     /// `ready compensate=…` (also at start) or anything else the rig does not act on.
     Other,
 }
@@ -47,6 +50,7 @@ pub fn parse(line: &str) -> Option<Line> {
                 "-" => None,
                 age => Some(age.parse().ok()?),
             };
+            let clock_us = next()?.parse().ok()?;
             if next().is_some() {
                 return None;
             }
@@ -57,13 +61,18 @@ pub fn parse(line: &str) -> Option<Line> {
                 left_mm_s,
                 right_mm_s,
                 age_us,
+                clock_us,
             }))
         }
-        "L" => match (words.next()?, words.next()) {
-            ("0", None) => Some(Line::Led(false)),
-            ("1", None) => Some(Line::Led(true)),
-            _ => None,
-        },
+        "L" => {
+            let on = match words.next()? {
+                "0" => false,
+                "1" => true,
+                _ => return None,
+            };
+            let clock_us = words.next()?.parse().ok()?;
+            words.next().is_none().then_some(Line::Led { on, clock_us })
+        }
         "ready" => Some(Line::Other),
         _ => None,
     }
@@ -76,7 +85,7 @@ mod tests {
     #[test]
     fn the_firmwares_lines_parse_and_garbage_does_not() {
         assert_eq!(
-            parse("W 7 233333 1 512 -488 5775"),
+            parse("W 7 233333 1 512 -488 5775 4000000000"),
             Some(Line::Wheels(Command {
                 seq: 7,
                 timestamp_us: 233_333,
@@ -84,23 +93,33 @@ mod tests {
                 left_mm_s: 512,
                 right_mm_s: -488,
                 age_us: Some(5_775),
+                clock_us: 4_000_000_000,
             }))
         );
         assert!(matches!(
-            parse("W 7 0 0 0 0 -"),
+            parse("W 7 0 0 0 0 - 12"),
             Some(Line::Wheels(Command { age_us: None, .. }))
         ));
-        assert_eq!(parse("L 0"), Some(Line::Led(false)));
+        assert_eq!(
+            parse("L 0 17"),
+            Some(Line::Led {
+                on: false,
+                clock_us: 17
+            })
+        );
         assert_eq!(parse("ready compensate=1"), Some(Line::Other));
         for bad in [
             "",
             "W",
-            "W 7 0 2 0 0 -",
-            "W 300 0 1 0 0 -",
-            "W 7 0 1 0 0 5 extra",
-            "W 7 0 1 x 0 -",
-            "L 2",
-            "L 1 1",
+            "W 7 0 2 0 0 - 1",
+            "W 300 0 1 0 0 - 1",
+            "W 7 0 1 0 0 5",
+            "W 7 0 1 0 0 5 1 extra",
+            "W 7 0 1 x 0 - 1",
+            "W 7 0 1 0 0 - 4294967296",
+            "L 2 1",
+            "L 1",
+            "L 1 1 1",
             "Q",
         ] {
             assert_eq!(parse(bad), None, "{bad:?}");

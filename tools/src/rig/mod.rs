@@ -1,7 +1,9 @@
 //! The robot-in-the-loop rig (`glint-loop`, issue 15): a simulated differential-drive robot
-//! whose LED glint's own renderer films in real time, `glint run` tracking those frames and
-//! sending positions over a pseudo-terminal, at the line's baud, to the example firmware running
-//! in qemu-system-arm, whose wheel commands drive the robot. See [`run::run_loop`].
+//! whose LED glint's own renderer films in real time, the frames delivered a camera's delay after
+//! their exposure and stamped with it, `glint run --stamped` (or `glint latency`) tracking them
+//! and sending positions over a pseudo-terminal, at the line's baud, to the example firmware
+//! running in qemu-system-arm, whose wheel commands (and LED) drive the robot. See
+//! [`run::run_loop`].
 //!
 //! - [`drive`]: the robot, 1 kHz physics, wheel limits and motor lag.
 //! - [`path`]: the planned figure-eight and the path error.

@@ -41,13 +41,14 @@ fn wait_until_us(t_us: u64) {
     }
 }
 
-/// Forwards `from` to `to` at `baud` until `stop` is set or `from` ends. Returns the bytes
-/// forwarded.
+/// Forwards `from` to `to` at `baud` until `stop` is set or `from` ends, showing `tap` each
+/// chunk read and the moment it was read (monotonic µs). Returns the bytes forwarded.
 pub fn forward(
     mut from: impl Read,
     mut to: impl Write,
     baud: u32,
     stop: &Arc<AtomicBool>,
+    mut tap: impl FnMut(&[u8], u64),
 ) -> io::Result<u64> {
     let byte_ns = byte_time_ns(baud);
     let mut buf = [0u8; 256];
@@ -68,9 +69,11 @@ pub fn forward(
             }
             Err(e) => return Err(e),
         };
-        let written_ns = monotonic_now_us() * 1_000;
-        free_ns = free_ns.max(written_ns);
-        for &byte in buf.get(..n).unwrap_or(&[]) {
+        let read_us = monotonic_now_us();
+        let chunk = buf.get(..n).unwrap_or(&[]);
+        tap(chunk, read_us);
+        free_ns = free_ns.max(read_us * 1_000);
+        for &byte in chunk {
             free_ns += byte_ns;
             wait_until_us(free_ns / 1_000);
             to.write_all(&[byte])?;
@@ -97,7 +100,9 @@ mod tests {
         let stop = Arc::new(AtomicBool::new(false));
         let mut out = Vec::new();
         let start = monotonic_now_us();
-        let n = forward(&data[..], &mut out, 9_600, &stop).unwrap();
+        let mut tapped = 0;
+        let n = forward(&data[..], &mut out, 9_600, &stop, |c, _| tapped += c.len()).unwrap();
+        assert_eq!(tapped, 100);
         let took_us = monotonic_now_us() - start;
         assert_eq!(n, 100);
         assert_eq!(out, data);

@@ -5,15 +5,19 @@
 //!   ([`PurePursuit`]), with a LED that answers glint's requests.
 //! - UART1 (`-serial` 2) carries text lines to and from the rig's simulated robot. In, once at
 //!   start: `compensate on` or `compensate off`; the firmware answers `ready compensate=1|0`.
-//!   Out: `W seq timestamp_us steering left_mm_s right_mm_s age_us` per position update
-//!   (`steering` 1 when the light was in view; `age_us` is `-` without an age frame, otherwise
-//!   the position's age as this firmware reckons it when it writes the line), and `L 0|1` when
-//!   the LED switches.
+//!   Out: `W seq timestamp_us steering left_mm_s right_mm_s age_us clock_us` per position
+//!   update (`steering` 1 when the light was in view; `age_us` is `-` without an age frame,
+//!   otherwise the position's age as this firmware reckons it when it writes the line;
+//!   `clock_us` is this firmware's clock at that moment, so the rig can take the truth at the
+//!   moment the age was reckoned rather than when it read the line), and `L 0|1 clock_us` when
+//!   the LED switches (at that moment of this firmware's clock).
 //! - The clock is TIMER0, a 32-bit down counter at the board's 25 MHz, extended to 64 bits in
 //!   software at every reading (readings come at least once per update; the counter wraps
 //!   every 172 s).
 //!
 //! The UARTs' receive interrupts only wake the core from `wfi`; bytes are read in the main loop.
+//! SysTick wakes it every 250 µs too, so that a LED switch glint asked for at a later moment
+//! happens within 250 µs of it, whether or not bytes come.
 //! qemu's CMSDK UART model has no FIFO and no line timing: a byte is there as soon as qemu has
 //! it, and the next comes when the last is read.
 #![cfg_attr(target_os = "none", no_std)]
@@ -62,12 +66,15 @@ mod target {
     const TIMER_RELOAD: usize = 0x08;
     const TIMER_ENABLE: u32 = 1 << 0;
 
-    /// The robot this firmware drives: the rig's figure-eight at 0.5 m/s on a 120 mm axle.
+    /// The robot this firmware drives: the rig's figure-eight at 0.5 m/s on a 120 mm axle, its
+    /// motors following commands with a 30 ms lag.
     const PARAMS: PursuitParams = PursuitParams {
         path: FigureEight::RIG,
         speed_mm_s: 500.0,
         wheel_base_mm: 120.0,
         lookahead_mm: 100.0,
+        // The rig's robot's motors (tools/src/rig/run.rs, RIG_DRIVE).
+        motor_lag_us: 30_000,
         compensate: true,
     };
     /// This robot's id for LED requests.
@@ -95,8 +102,12 @@ mod target {
             write_reg(self.0 + CTRL, CTRL_TX_EN | CTRL_RX_EN | CTRL_RX_INTEN);
         }
 
+        fn rx_ready(self) -> bool {
+            read_reg(self.0 + STATE) & STATE_RX_FULL != 0
+        }
+
         fn try_read(self) -> Option<u8> {
-            (read_reg(self.0 + STATE) & STATE_RX_FULL != 0).then(|| read_reg(self.0 + DATA) as u8)
+            self.rx_ready().then(|| read_reg(self.0 + DATA) as u8)
         }
 
         /// Waits (asleep) for a byte.
@@ -105,7 +116,7 @@ mod target {
                 if let Some(b) = self.try_read() {
                     return b;
                 }
-                sleep_unless(|| read_reg(self.0 + STATE) & STATE_RX_FULL != 0);
+                sleep_unless(|| self.rx_ready());
             }
         }
 
@@ -184,7 +195,7 @@ mod target {
 
     impl LedPin for RigLed {
         fn set_led(&mut self, on: bool) {
-            let _ = writeln!(Uart(UART1), "L {}", u8::from(on));
+            let _ = writeln!(Uart(UART1), "L {} {}", u8::from(on), now_us());
         }
     }
 
@@ -214,7 +225,10 @@ mod target {
         }
     }
 
-    /// Interrupts only wake the core: clear the UARTs' so they do not fire again.
+    /// SysTick's reload for a tick every 250 µs at the core's clock.
+    const SYSTICK_RELOAD: u32 = CLOCK_HZ / 4_000 - 1;
+
+    /// Interrupts (and SysTick) only wake the core: clear the UARTs' so they do not fire again.
     #[exception]
     unsafe fn DefaultHandler(_irqn: i16) {
         write_reg(UART0 + INTCLEAR, 0xf);
@@ -231,13 +245,24 @@ mod target {
             (*cortex_m::peripheral::NVIC::PTR).iser[0]
                 .write((1 << UART0_RX_IRQ) | (1 << UART1_RX_IRQ));
         }
+        if let Some(mut core) = cortex_m::Peripherals::take() {
+            core.SYST
+                .set_clock_source(cortex_m::peripheral::syst::SystClkSource::Core);
+            core.SYST.set_reload(SYSTICK_RELOAD);
+            core.SYST.clear_current();
+            core.SYST.enable_interrupt();
+            core.SYST.enable_counter();
+        }
         let compensate = read_mode();
         let mut control = PurePursuit::new(PARAMS);
         control.set_compensation(compensate);
         let mut robot = WithLed::new(control, RigLed, ROBOT_ID);
         let mut link = Link::new(Uart0Rx, now_us);
         loop {
-            let Ok(_) = link.poll(&mut robot);
+            // Only when a byte is there: the link's read waits for one, and the LED must not.
+            if Uart(UART0).rx_ready() {
+                let Ok(_) = link.poll(&mut robot);
+            }
             robot.tick(now_us());
             if let Some(cmd) = robot.control.take_command() {
                 let mut out = Uart(UART1);
@@ -251,11 +276,14 @@ mod target {
                     cmd.right_mm_s
                 );
                 // The age last, read as late as possible: the line's first bytes are out.
+                let now = now_us();
                 let _ = match cmd.age {
-                    Some(age) => writeln!(out, "{}", age.age_at_us(now_us())),
-                    None => writeln!(out, "-"),
+                    Some(age) => writeln!(out, "{} {now}", age.age_at_us(now)),
+                    None => writeln!(out, "- {now}"),
                 };
             }
+            // Until a byte comes or the next tick.
+            sleep_unless(|| Uart(UART0).rx_ready());
         }
     }
 }
