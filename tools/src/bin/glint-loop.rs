@@ -210,6 +210,18 @@ fn print_details(r: &LoopReport) {
     ) {
         println!("loop: the firmware's age minus the truth: p5 {lo:.2} ms p50 {mid:.2} ms p95 {hi:.2} ms");
     }
+    let mut own = r.age_error_from_receipt_ms.clone();
+    own.sort_by(f64::total_cmp);
+    if let (Some(lo), Some(mid), Some(hi)) = (
+        glint_tools::stats::percentile(&own, 5.0),
+        glint_tools::stats::percentile(&own, 50.0),
+        glint_tools::stats::percentile(&own, 95.0),
+    ) {
+        println!(
+            "loop: the same from the firmware's read of the bytes on (qemu's lateness taken \
+             out): p5 {lo:.2} ms p50 {mid:.2} ms p95 {hi:.2} ms"
+        );
+    }
     let spread = |v: &[f64]| {
         let mut v = v.to_vec();
         v.sort_by(f64::total_cmp);

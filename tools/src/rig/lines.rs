@@ -18,12 +18,14 @@ pub struct Command {
     /// The firmware's clock when it reckoned the age (qemu's virtual clock, which runs with the
     /// host's monotonic clock), µs, wrapping at 2³².
     pub clock_us: u32,
+    /// The firmware's clock when its link read the age frame (with an age), µs.
+    pub received_us: Option<u32>,
 }
 
 /// A line from the firmware.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Line {
-    /// `W seq timestamp_us steering left right age|- clock_us`
+    /// `W seq timestamp_us steering left right age|- clock_us received_us|-`
     Wheels(Command),
     /// `L 0|1 clock_us`: the LED switched, at that moment of the firmware's clock.
     Led { on: bool, clock_us: u32 },
@@ -51,7 +53,11 @@ pub fn parse(line: &str) -> Option<Line> {
                 age => Some(age.parse().ok()?),
             };
             let clock_us = next()?.parse().ok()?;
-            if next().is_some() {
+            let received_us = match next()? {
+                "-" => None,
+                at => Some(at.parse().ok()?),
+            };
+            if next().is_some() || age_us.is_some() != received_us.is_some() {
                 return None;
             }
             Some(Line::Wheels(Command {
@@ -62,6 +68,7 @@ pub fn parse(line: &str) -> Option<Line> {
                 right_mm_s,
                 age_us,
                 clock_us,
+                received_us,
             }))
         }
         "L" => {
@@ -85,7 +92,7 @@ mod tests {
     #[test]
     fn the_firmwares_lines_parse_and_garbage_does_not() {
         assert_eq!(
-            parse("W 7 233333 1 512 -488 5775 4000000000"),
+            parse("W 7 233333 1 512 -488 5775 4000000000 3999999100"),
             Some(Line::Wheels(Command {
                 seq: 7,
                 timestamp_us: 233_333,
@@ -94,10 +101,11 @@ mod tests {
                 right_mm_s: -488,
                 age_us: Some(5_775),
                 clock_us: 4_000_000_000,
+                received_us: Some(3_999_999_100),
             }))
         );
         assert!(matches!(
-            parse("W 7 0 0 0 0 - 12"),
+            parse("W 7 0 0 0 0 - 12 -"),
             Some(Line::Wheels(Command { age_us: None, .. }))
         ));
         assert_eq!(
@@ -111,12 +119,14 @@ mod tests {
         for bad in [
             "",
             "W",
-            "W 7 0 2 0 0 - 1",
-            "W 300 0 1 0 0 - 1",
-            "W 7 0 1 0 0 5",
-            "W 7 0 1 0 0 5 1 extra",
-            "W 7 0 1 x 0 - 1",
-            "W 7 0 1 0 0 - 4294967296",
+            "W 7 0 2 0 0 - 1 -",
+            "W 300 0 1 0 0 - 1 -",
+            "W 7 0 1 0 0 5 1",
+            "W 7 0 1 0 0 5 1 1 extra",
+            "W 7 0 1 0 0 5 1 -",
+            "W 7 0 1 0 0 - 1 1",
+            "W 7 0 1 x 0 - 1 -",
+            "W 7 0 1 0 0 - 4294967296 -",
             "L 2 1",
             "L 1",
             "L 1 1 1",

@@ -116,6 +116,13 @@ pub struct LoopReport {
     /// delivering it, the firmware reading it), ms, for the updates the wire saw.
     pub short_before_board_ms: Vec<f64>,
     pub short_after_wire_ms: Vec<f64>,
+    /// How late the firmware read each age frame after the wire handed its last byte on
+    /// (qemu delivering it, the emulated core scheduled late), ms, for the updates the wire saw.
+    pub board_read_late_ms: Vec<f64>,
+    /// The firmware's age minus the truth, from the moment its link read the age frame on
+    /// (`age_error_ms` with `board_read_late_ms` taken out): what the firmware itself
+    /// reckons, without an emulator's lateness that no real UART has, ms (signed).
+    pub age_error_from_receipt_ms: Vec<f64>,
     /// From the end of an exposure to the frame handed to glint (the camera's delay, or the
     /// rendering when it takes longer), ms.
     pub delivery_ms: Spread,
@@ -182,7 +189,16 @@ struct World {
     clock_offset_us: Option<i64>,
     /// Per position update, by its frame time: how much later than glint's age said the wire
     /// handed its age frame's last byte to the board, µs.
-    wire_late_us: HashMap<u32, i64>,
+    wire_late_us: HashMap<u32, WireSeen>,
+}
+
+/// When the wire handed an age frame's last byte on, by the frame time of its position.
+#[derive(Debug, Clone, Copy)]
+struct WireSeen {
+    /// Against the moment glint's age said, µs (positive: later).
+    late_us: i64,
+    /// On the monotonic clock, µs.
+    due_us: u64,
 }
 
 fn lock(world: &Mutex<World>) -> MutexGuard<'_, World> {
@@ -368,9 +384,13 @@ impl WireTap {
                             continue;
                         };
                         let said_us = self.frame_origin_us + u64::from(t) + u64::from(a.age_us);
-                        lock(&self.world)
-                            .wire_late_us
-                            .insert(t, due_us as i64 - said_us as i64);
+                        lock(&self.world).wire_late_us.insert(
+                            t,
+                            WireSeen {
+                                late_us: due_us as i64 - said_us as i64,
+                                due_us,
+                            },
+                        );
                     }
                     Ok(Received::Message(message @ Message::Led(_))) => self.request(&message),
                     _ => {}
@@ -693,6 +713,7 @@ fn report(w: &World, handed: &[Handed], camera_delay_us: u64) -> Result<LoopRepo
     let mut age_on_arrival_ms = Vec::new();
     let mut age_error_ms = Vec::new();
     let (mut short_before_board_ms, mut short_after_wire_ms) = (Vec::new(), Vec::new());
+    let (mut board_read_late_ms, mut age_error_from_receipt_ms) = (Vec::new(), Vec::new());
     let mut found_frames = vec![false; handed.len()];
     let offset_us = firmware_clock_offset_us(&w.replies).unwrap_or(0);
     for r in &w.replies {
@@ -710,9 +731,16 @@ fn report(w: &World, handed: &[Handed], camera_delay_us: u64) -> Result<LoopRepo
             let truth_us = reckoned_us - h.exposure_end_us as i64;
             let error_us = i64::from(age_us) - truth_us;
             age_error_ms.push(error_us as f64 * 1e-3);
-            if let Some(&late_us) = w.wire_late_us.get(&r.command.timestamp_us) {
-                short_before_board_ms.push(late_us as f64 * 1e-3);
-                short_after_wire_ms.push((-error_us - late_us) as f64 * 1e-3);
+            if let Some(seen) = w.wire_late_us.get(&r.command.timestamp_us) {
+                short_before_board_ms.push(seen.late_us as f64 * 1e-3);
+                short_after_wire_ms.push((-error_us - seen.late_us) as f64 * 1e-3);
+                if let Some(received_us) = r.command.received_us {
+                    let read_us =
+                        reckoned_us - i64::from(r.command.clock_us.wrapping_sub(received_us));
+                    let read_late_us = read_us - seen.due_us as i64;
+                    board_read_late_ms.push(read_late_us as f64 * 1e-3);
+                    age_error_from_receipt_ms.push((error_us + read_late_us) as f64 * 1e-3);
+                }
             }
         }
     }
@@ -741,6 +769,8 @@ fn report(w: &World, handed: &[Handed], camera_delay_us: u64) -> Result<LoopRepo
         age_error_ms,
         short_before_board_ms,
         short_after_wire_ms,
+        board_read_late_ms,
+        age_error_from_receipt_ms,
         delivery_ms: Spread::of(&delivery).context("no frame was rendered")?,
         late_ms: Spread::of(&late).context("no frame was rendered")?,
         camera_delay_ms: camera_delay_us as f64 * 1e-3,

@@ -5,11 +5,13 @@
 //!   ([`PurePursuit`]), with a LED that answers glint's requests.
 //! - UART1 (`-serial` 2) carries text lines to and from the rig's simulated robot. In, once at
 //!   start: `compensate on` or `compensate off`; the firmware answers `ready compensate=1|0`.
-//!   Out: `W seq timestamp_us steering left_mm_s right_mm_s age_us clock_us` per position
-//!   update (`steering` 1 when the light was in view; `age_us` is `-` without an age frame,
-//!   otherwise the position's age as this firmware reckons it when it writes the line;
+//!   Out: `W seq timestamp_us steering left_mm_s right_mm_s age_us clock_us received_us` per
+//!   position update (`steering` 1 when the light was in view; `age_us` is `-` without an age
+//!   frame, otherwise the position's age as this firmware reckons it when it writes the line;
 //!   `clock_us` is this firmware's clock at that moment, so the rig can take the truth at the
-//!   moment the age was reckoned rather than when it read the line), and `L 0|1 clock_us` when
+//!   moment the age was reckoned rather than when it read the line; `received_us` is its clock
+//!   when the link read the age frame, `-` without one, so the rig can tell how late the
+//!   emulator handed the bytes on), and `L 0|1 clock_us` when
 //!   the LED switches (at that moment of this firmware's clock).
 //! - The clock is TIMER0, a 32-bit down counter at the board's 25 MHz, extended to 64 bits in
 //!   software at every reading (readings come at least once per update; the counter wraps
@@ -278,8 +280,13 @@ mod target {
                 // The age last, read as late as possible: the line's first bytes are out.
                 let now = now_us();
                 let _ = match cmd.age {
-                    Some(age) => writeln!(out, "{} {now}", age.age_at_us(now)),
-                    None => writeln!(out, "- {now}"),
+                    Some(age) => writeln!(
+                        out,
+                        "{} {now} {}",
+                        age.age_at_us(now),
+                        age.received_at_us
+                    ),
+                    None => writeln!(out, "- {now} -"),
                 };
             }
             // Until a byte comes or the next tick.
