@@ -15,8 +15,11 @@
 //! never comes back: nothing is reported while the track coasts, the track is dropped after
 //! [`MAX_MISSED_FRAMES`] frames, and then another light that moves may be taken.
 //!
-//! The default run checks a seeded subset of the sweep; `GLINT_HIDDEN_SWEEP=all cargo test
-//! --test hidden_led` runs every point.
+//! The default run checks a seeded subset of the sweep (always with the closest, fastest,
+//! longest-hidden point on a circle, companions flickering); `GLINT_HIDDEN_SWEEP=all cargo test --test hidden_led` runs every point (about 5 min),
+//! and fails today at 4 of its 216: LEDs 20 px apart moving 14 px a frame on a circle of 120 px
+//! or a figure-eight, where the LED's straight prediction and its neighbours' carried places
+//! are both off by about the spacing (see the README's "Status").
 
 use glint::frame::{Frame, FrameSize};
 use glint::pipeline::{Pipeline, PipelineConfig};
@@ -339,8 +342,8 @@ fn one_led(case: Case, frames: usize) {
 #[test]
 fn with_three_robots_each_track_keeps_its_own_led_while_one_is_hidden() {
     let frames = HIDE_AT + MAX_MISSED_FRAMES as usize + AFTER;
-    // The multi-robot tracker over a few points of the sweep: the closest spacing at which the
-    // three are separate blobs (at 20 px two streaks may touch) and the widest.
+    // The multi-robot tracker over the first points of the default run (the closest, fastest,
+    // longest-hidden point on a circle first).
     for case in chosen(sweep()).into_iter().take(4) {
         let label = format!("robots 3, {case:?}");
         let runs = run(scene(case, frames), 3);
