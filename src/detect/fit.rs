@@ -24,6 +24,7 @@
 
 use nalgebra::{SMatrix, SVector};
 
+use super::floor_bg::FloorBackground;
 use crate::frame::Frame;
 
 /// Pixels the fit uses at most: both end caps and a subsample of the body.
@@ -41,6 +42,10 @@ const PIECES: usize = 4;
 const REACH_PX: f32 = 3.0;
 /// End-cap pixels: within this distance of a rough end, beyond half the thickness.
 const CAP_PX: f32 = 5.0;
+/// The fit reads no pixel farther than this beyond its blob's bounding box (the end caps'
+/// reach past the skeleton's ends, and a pixel of rounding): the floor's background must not
+/// learn these from the frame being fitted.
+pub const SAMPLE_MARGIN_PX: usize = CAP_PX as usize + 2;
 /// The fitted ends may move at most this far from the rough ones.
 const MAX_END_SHIFT_PX: f32 = 6.0;
 /// Bounds of the fitted spot σ and tone exponent.
@@ -57,6 +62,8 @@ const TONE0: f32 = 0.45;
 
 /// The glow ratio's index in the parameters.
 const GLOW_RATIO: usize = 8;
+/// The flat floor's index in the parameters.
+const FLAT_FLOOR: usize = 10;
 
 type Params = SVector<f32, PARAMS>;
 type Normal = SMatrix<f32, PARAMS, PARAMS>;
@@ -86,21 +93,32 @@ pub struct PathFit {
     /// One standard deviation of the ends' positions (the larger of the two), from the fit's
     /// residual and its curvature: a frame whose model does not match its pixels shows here.
     pub uncertainty_px: f32,
+    /// The fraction of the fitted pixels whose floor was measured (seen without the light in
+    /// earlier frames); the others shared one fitted flat floor.
+    pub floor_measured: f32,
 }
 
-/// The pixels the fit uses: position and luma.
+/// The pixels the fit uses: position, luma, and where known the floor's luma there as
+/// `ln(floor / clip)` (the floor in the model's linear light is then `exp(that / k)`).
 struct Samples {
     xy: [(f32, f32); MAX_FIT_PX],
     luma: [f32; MAX_FIT_PX],
+    floor_ln: [Option<f32>; MAX_FIT_PX],
     len: usize,
 }
 
-/// Fits the streak model around `rough` on `frame`, whose clipped pixels read `clip_luma`.
+/// Fits the streak model around `rough` on `frame`, whose clipped pixels read `clip_luma`,
+/// on the floor `background` where it has been measured (a flat fitted floor elsewhere).
 /// `None` when the fit fails (too few pixels, no convergence, a result the pixels do not
 /// support).
-pub fn fit(frame: &Frame<'_>, rough: &Rough, clip_luma: u8) -> Option<PathFit> {
+pub fn fit(
+    frame: &Frame<'_>,
+    rough: &Rough,
+    clip_luma: u8,
+    background: Option<&FloorBackground>,
+) -> Option<PathFit> {
     let clip = f32::from(clip_luma);
-    let samples = collect(frame, rough)?;
+    let samples = collect(frame, rough, background, clip)?;
     let floor0 = low_percentile(&samples);
     let sigma0 = (0.3 * rough.thickness_px).clamp(0.7, 6.0);
     let [a, b] = rough.ends_px;
@@ -120,15 +138,25 @@ pub fn fit(frame: &Frame<'_>, rough: &Rough, clip_luma: u8) -> Option<PathFit> {
     // First the core alone (no glow), which has one clear minimum near the start; then
     // everything, from there. Started together, a wide core and a glow can settle into a
     // wrong minimum that stretches the path.
-    let mut core_only = [true; PARAMS];
+    // The flat floor is fitted only when some pixel's floor was not measured.
+    let mut all = [true; PARAMS];
+    all[FLAT_FLOOR] = samples
+        .floor_ln
+        .iter()
+        .take(samples.len)
+        .any(Option::is_none);
+    let mut core_only = all;
     core_only[6] = false;
     core_only[8] = false;
     p[8] = 0.0;
     let (p, _) = levenberg_marquardt(&samples, p, clip, &core_only)?;
     let mut p = p;
     p[8] = GLOW_RATIO0;
-    let (p, cost) = levenberg_marquardt(&samples, p, clip, &[true; PARAMS])?;
-    let normal = normal_equations(&samples, &p, clip, &[true; PARAMS])?.0;
+    let (p, cost) = levenberg_marquardt(&samples, p, clip, &all)?;
+    let mut normal = normal_equations(&samples, &p, clip, &all)?.0;
+    if !all[FLAT_FLOOR] {
+        normal[(FLAT_FLOOR, FLAT_FLOOR)] = 1.0;
+    }
     let sigma = p[5].exp();
     let ends_px = [(p[0], p[1]), (p[2], p[3])];
     // The skeleton's ends of a fat blob lie up to half its width from the path's.
@@ -149,12 +177,14 @@ pub fn fit(frame: &Frame<'_>, rough: &Rough, clip_luma: u8) -> Option<PathFit> {
         .max(covariance[(2, 2)] + covariance[(3, 3)])
         .max(0.0);
     let path = Path::new(&p, true);
+    let measured = samples.floor_ln.iter().take(samples.len).flatten().count();
     Some(PathFit {
         ends_px,
         mid_px: path.mid,
         path_length_px: path.length(),
         spot_sigma_px: sigma,
         uncertainty_px: (end_var * residual_var).sqrt(),
+        floor_measured: measured as f32 / samples.len.max(1) as f32,
     })
 }
 
@@ -371,13 +401,29 @@ fn normal_cdf(z: f32) -> f32 {
     }
 }
 
+/// The floor in the model's linear light: the measured one seen through the fitted tone
+/// curve where known, else the fitted flat floor.
+#[inline]
+fn floor_of(p: &Params, floor_ln: Option<f32>) -> f32 {
+    match floor_ln {
+        Some(l) => (l / p[9]).exp(),
+        None => p[10],
+    }
+}
+
 /// The model's luma at a pixel, `clip · (floor + A (core + r glow))^k`, with the light `Q =
 /// core + r glow` and the glow's light there.
 #[inline]
-fn model(path: &Path, p: &Params, x: f32, y: f32, clip: f32) -> (f32, (f32, f32)) {
+fn model(
+    path: &Path,
+    p: &Params,
+    (x, y): (f32, f32),
+    floor_ln: Option<f32>,
+    clip: f32,
+) -> (f32, (f32, f32)) {
     let (core, glow) = path.light2(x, y);
     let q = core + p[8].max(0.0) * glow;
-    let v = (p[10] + p[7] * q).max(1e-6);
+    let v = (floor_of(p, floor_ln) + p[7] * q).max(1e-6);
     (clip * (p[9] * v.ln()).exp(), (q, glow))
 }
 
@@ -396,8 +442,8 @@ fn residual(luma: f32, model: f32, clip: f32) -> f32 {
 fn cost_of(s: &Samples, p: &Params, clip: f32, active: &[bool; PARAMS]) -> Option<f32> {
     let path = Path::new(p, active[GLOW_RATIO]);
     let mut cost = 0.0;
-    for (&(x, y), &luma) in s.xy.iter().zip(&s.luma).take(s.len) {
-        let r = residual(luma, model(&path, p, x, y, clip).0, clip);
+    for ((&xy, &luma), &floor_ln) in s.xy.iter().zip(&s.luma).zip(&s.floor_ln).take(s.len) {
+        let r = residual(luma, model(&path, p, xy, floor_ln, clip).0, clip);
         cost += r * r;
     }
     cost.is_finite().then_some(cost)
@@ -422,8 +468,8 @@ fn normal_equations(
     });
     let mut jtj = Normal::zeros();
     let mut jtr = Params::zeros();
-    for (&(x, y), &luma) in s.xy.iter().zip(&s.luma).take(s.len) {
-        let (m, (q, glow)) = model(&base, p, x, y, clip);
+    for ((&xy, &luma), &floor_ln) in s.xy.iter().zip(&s.luma).zip(&s.floor_ln).take(s.len) {
+        let (m, (q, glow)) = model(&base, p, xy, floor_ln, clip);
         let r = residual(luma, m, clip);
         // A clipped pixel the model already reaches carries no gradient.
         if luma >= clip && m >= clip {
@@ -436,14 +482,19 @@ fn normal_equations(
             .enumerate()
             .filter(|(_, (_, &on))| on)
         {
-            row[i] = (model(path, shifted_p, x, y, clip).0 - m) / STEP[i];
+            row[i] = (model(path, shifted_p, xy, floor_ln, clip).0 - m) / STEP[i];
         }
-        let v = (p[10] + p[7] * q).max(1e-6);
+        let floor = floor_of(p, floor_ln);
+        let v = (floor + p[7] * q).max(1e-6);
         let slope = p[9] * m / v;
         row[7] = slope * q;
         row[8] = slope * p[7] * glow;
         row[9] = m * v.ln();
-        row[10] = slope;
+        match floor_ln {
+            // A measured floor moves with the tone curve: d floor / dk = -floor · l / k².
+            Some(l) => row[9] -= slope * floor * l / (p[9] * p[9]),
+            None => row[10] = slope,
+        }
         jtj += row * row.transpose();
         jtr += row * r;
     }
@@ -469,7 +520,12 @@ fn segment_distance(a: (f32, f32), b: (f32, f32), x: f32, y: f32) -> f32 {
 
 /// The pixels around the rough streak: every pixel of both end caps, and an even subsample
 /// of the body, [`MAX_FIT_PX`] at most.
-fn collect(frame: &Frame<'_>, rough: &Rough) -> Option<Samples> {
+fn collect(
+    frame: &Frame<'_>,
+    rough: &Rough,
+    background: Option<&FloorBackground>,
+    clip: f32,
+) -> Option<Samples> {
     let half = 0.5 * rough.thickness_px;
     let reach = half + REACH_PX;
     let cap = half + CAP_PX;
@@ -507,6 +563,7 @@ fn collect(frame: &Frame<'_>, rough: &Rough) -> Option<Samples> {
     let mut s = Samples {
         xy: [(0.0, 0.0); MAX_FIT_PX],
         luma: [0.0; MAX_FIT_PX],
+        floor_ln: [None; MAX_FIT_PX],
         len: 0,
     };
     let (mut caps_seen, mut body_seen) = (0usize, 0usize);
@@ -528,11 +585,20 @@ fn collect(frame: &Frame<'_>, rough: &Rough) -> Option<Samples> {
             let Some(luma) = frame.luma(x, y) else {
                 continue;
             };
-            let (Some(xy), Some(l)) = (s.xy.get_mut(s.len), s.luma.get_mut(s.len)) else {
+            let (Some(xy), Some(l), Some(f)) = (
+                s.xy.get_mut(s.len),
+                s.luma.get_mut(s.len),
+                s.floor_ln.get_mut(s.len),
+            ) else {
                 continue;
             };
             *xy = (fx, fy);
             *l = f32::from(luma);
+            // A floor at or above the clip level says nothing the clip does not.
+            *f = background
+                .and_then(|b| b.luma(x, y))
+                .filter(|&floor| floor < clip - 0.5)
+                .map(|floor| (floor.max(0.5) / clip).ln());
             s.len += 1;
         }
     }
