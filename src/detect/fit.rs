@@ -42,10 +42,7 @@ const PIECES: usize = 4;
 const REACH_PX: f32 = 3.0;
 /// End-cap pixels: within this distance of a rough end, beyond half the thickness.
 const CAP_PX: f32 = 5.0;
-/// The fit reads no pixel farther than this beyond its blob's bounding box (the end caps'
-/// reach past the skeleton's ends, and a pixel of rounding): the floor's background must not
-/// learn these from the frame being fitted.
-pub const SAMPLE_MARGIN_PX: usize = CAP_PX as usize + 2;
+
 /// The fitted ends may move at most this far from the rough ones.
 const MAX_END_SHIFT_PX: f32 = 6.0;
 /// Bounds of the fitted spot σ and tone exponent.
@@ -159,8 +156,9 @@ pub fn fit(
     }
     let sigma = p[5].exp();
     let ends_px = [(p[0], p[1]), (p[2], p[3])];
-    // The skeleton's ends of a fat blob lie up to half its width from the path's.
-    let max_shift_px = MAX_END_SHIFT_PX.max(0.5 * rough.thickness_px);
+    // The skeleton's ends of a fat blob (a glow that saturates) lie up to its width from the
+    // path's: the thinning stops half a width short of each end and may curl sideways.
+    let max_shift_px = MAX_END_SHIFT_PX.max(rough.thickness_px);
     let sane = p.iter().all(|v| v.is_finite())
         && dist(ends_px[0], a).min(dist(ends_px[0], b)) <= max_shift_px
         && dist(ends_px[1], b).min(dist(ends_px[1], a)) <= max_shift_px;
@@ -603,6 +601,14 @@ fn collect(
         }
     }
     (s.len > 2 * PARAMS).then_some(s)
+}
+
+/// How far beyond a blob's bounding box the fit may read pixels, for a blob whose shorter
+/// side is `min_side_px`: the floor must not learn them from the frame being fitted. The
+/// fit's thickness is at most the blob's shorter side, and it reads up to half a thickness
+/// and the caps' reach beyond the path, which lies inside the box; a pixel more for rounding.
+pub fn sample_margin_px(min_side_px: usize) -> usize {
+    CAP_PX as usize + 2 + min_side_px
 }
 
 /// The 20th percentile of the samples' luma: the floor around the streak.

@@ -81,13 +81,13 @@ impl FloorBackground {
         self.count.fill(0);
     }
 
-    /// Learns `frame` everywhere except within `margin_px` of any of `blobs` (the light in
-    /// it). A frame of another size is ignored.
+    /// Learns `frame` everywhere except within `margin_px(shorter side)` of each of `blobs`
+    /// (the light in it). A frame of another size is ignored.
     pub fn update<'b>(
         &mut self,
         frame: &Frame<'_>,
         blobs: impl Iterator<Item = &'b Blob>,
-        margin_px: usize,
+        margin_px: impl Fn(usize) -> usize,
     ) {
         if frame.size() != self.size {
             return;
@@ -95,6 +95,10 @@ impl FloorBackground {
         let mut any_lit = false;
         for b in blobs {
             let b = b.bbox;
+            let margin_px = margin_px(
+                (b.x_max_px.saturating_sub(b.x_min_px)).min(b.y_max_px.saturating_sub(b.y_min_px))
+                    + 1,
+            );
             let x0 = b.x_min_px.saturating_sub(margin_px);
             let x1 = b.x_max_px + margin_px;
             let y0 = b.y_min_px.saturating_sub(margin_px);
@@ -205,7 +209,7 @@ mod tests {
             _ => floor(x, y),
         });
         let frame = Frame::new_checked(&first, size, size.row_bytes()).unwrap();
-        bg.update(&frame, [blob(10, 0, 12, 15)].iter(), 2);
+        bg.update(&frame, [blob(10, 0, 12, 15)].iter(), |_| 2);
         assert_eq!(bg.luma(11, 5), None, "under the light");
         assert_eq!(bg.luma(9, 5), None, "within the margin");
         assert_eq!(bg.luma(30, 5), Some(f32::from(floor(30, 5))));
@@ -218,7 +222,7 @@ mod tests {
             _ => floor(x, y),
         });
         let frame = Frame::new_checked(&second, size, size.row_bytes()).unwrap();
-        bg.update(&frame, [blob(40, 0, 42, 15)].iter(), 1);
+        bg.update(&frame, [blob(40, 0, 42, 15)].iter(), |_| 1);
         assert_eq!(bg.luma(11, 5), Some(f32::from(floor(11, 5))));
         assert_eq!(bg.luma(20, 5), Some(f32::from(floor(20, 5))));
         assert_eq!(

@@ -282,7 +282,7 @@ impl Detector {
         } else {
             &[]
         };
-        floor.update(frame, blobs.iter(), fit::SAMPLE_MARGIN_PX);
+        floor.update(frame, blobs.iter(), fit::sample_margin_px);
     }
 
     /// The automatic threshold, blob by blob: a low first cut, its blobs, and each blob cut
