@@ -50,7 +50,7 @@ const SIGMA_RANGE_PX: (f32, f32) = (0.3, 12.0);
 const TONE_RANGE: (f32, f32) = (0.2, 8.0);
 /// Parameters: start x, y; end x, y; sagitta; ln σ of the core; ln σ of the glow; amplitude;
 /// glow ratio; tone exponent; floor.
-const PARAMS: usize = 11;
+const PARAMS: usize = 12;
 /// The glow starts this many times wider than the core, and this bright relative to it.
 const GLOW_WIDTH0: f32 = 3.0;
 const GLOW_RATIO0: f32 = 0.05;
@@ -61,6 +61,9 @@ const TONE0: f32 = 0.45;
 const GLOW_RATIO: usize = 8;
 /// The flat floor's index in the parameters.
 const FLAT_FLOOR: usize = 10;
+/// The pedestal's index: light added evenly to the measured floor over the fitted pixels (a
+/// glow wider than they reach, which the spot model need not draw).
+const PEDESTAL: usize = 11;
 
 type Params = SVector<f32, PARAMS>;
 type Normal = SMatrix<f32, PARAMS, PARAMS>;
@@ -131,17 +134,17 @@ pub fn fit(
         GLOW_RATIO0,
         TONE0,
         (floor0 / clip).clamp(0.01, 0.95).powf(1.0 / TONE0),
+        0.0,
     ]);
     // First the core alone (no glow), which has one clear minimum near the start; then
     // everything, from there. Started together, a wide core and a glow can settle into a
     // wrong minimum that stretches the path.
     // The flat floor is fitted only when some pixel's floor was not measured.
+    // The pedestal, only when some pixel's floor was.
     let mut all = [true; PARAMS];
-    all[FLAT_FLOOR] = samples
-        .floor_ln
-        .iter()
-        .take(samples.len)
-        .any(Option::is_none);
+    let floors = samples.floor_ln.iter().take(samples.len);
+    all[FLAT_FLOOR] = floors.clone().any(Option::is_none);
+    all[PEDESTAL] = floors.clone().any(Option::is_some);
     let mut core_only = all;
     core_only[6] = false;
     core_only[8] = false;
@@ -151,8 +154,10 @@ pub fn fit(
     p[8] = GLOW_RATIO0;
     let (p, cost) = levenberg_marquardt(&samples, p, clip, &all)?;
     let mut normal = normal_equations(&samples, &p, clip, &all)?.0;
-    if !all[FLAT_FLOOR] {
-        normal[(FLAT_FLOOR, FLAT_FLOOR)] = 1.0;
+    for i in [FLAT_FLOOR, PEDESTAL] {
+        if !all[i] {
+            normal[(i, i)] = 1.0;
+        }
     }
     let sigma = p[5].exp();
     let ends_px = [(p[0], p[1]), (p[2], p[3])];
@@ -200,6 +205,7 @@ fn clamp_params(mut p: Params) -> Params {
     p[8] = p[8].clamp(0.0, 1.0);
     p[9] = p[9].clamp(TONE_RANGE.0, TONE_RANGE.1);
     p[10] = p[10].clamp(0.0, 1.0);
+    p[11] = p[11].clamp(0.0, 1.0);
     p
 }
 
@@ -399,12 +405,12 @@ fn normal_cdf(z: f32) -> f32 {
     }
 }
 
-/// The floor in the model's linear light: the measured one seen through the fitted tone
-/// curve where known, else the fitted flat floor.
+/// The floor in the model's linear light: where known, the measured one seen through the
+/// fitted tone curve plus the fitted pedestal, else the fitted flat floor.
 #[inline]
 fn floor_of(p: &Params, floor_ln: Option<f32>) -> f32 {
     match floor_ln {
-        Some(l) => (l / p[9]).exp(),
+        Some(l) => (l / p[9]).exp() + p[PEDESTAL],
         None => p[10],
     }
 }
@@ -490,7 +496,10 @@ fn normal_equations(
         row[9] = m * v.ln();
         match floor_ln {
             // A measured floor moves with the tone curve: d floor / dk = -floor · l / k².
-            Some(l) => row[9] -= slope * floor * l / (p[9] * p[9]),
+            Some(l) => {
+                row[9] -= slope * (floor - p[PEDESTAL]) * l / (p[9] * p[9]);
+                row[PEDESTAL] = slope;
+            }
             None => row[10] = slope,
         }
         jtj += row * row.transpose();

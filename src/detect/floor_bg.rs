@@ -16,7 +16,7 @@
 //! per learning frame), this is updated on every frame from two planes sized at start.
 
 use super::bitimage::BitImage;
-use super::blobs::Blob;
+use super::blobs::{Blob, BoundingBox};
 use crate::frame::{Frame, FrameSize};
 
 /// The mean follows the last this many observations of a pixel (then it is an exponential
@@ -30,6 +30,8 @@ const GATE_DEVIATIONS: f32 = 4.0;
 const MIN_GATE_LUMA: f32 = 3.0;
 /// Mean absolute deviation of a Gaussian over its standard deviation.
 const MAD_PER_SIGMA: f32 = 0.797_884_6;
+/// The farthest a blob's glow is followed from its box.
+const MAX_GLOW_PX: usize = 48;
 /// Fixed-point scale of the stored mean.
 const MEAN_SCALE: f32 = 256.0;
 
@@ -93,12 +95,14 @@ impl FloorBackground {
             return;
         }
         let mut any_lit = false;
+        let gate = (GATE_DEVIATIONS * self.noise_luma).max(MIN_GATE_LUMA);
         for b in blobs {
             let b = b.bbox;
             let margin_px = margin_px(
                 (b.x_max_px.saturating_sub(b.x_min_px)).min(b.y_max_px.saturating_sub(b.y_min_px))
                     + 1,
-            );
+            )
+            .max(self.glow_px(frame, b, gate));
             let x0 = b.x_min_px.saturating_sub(margin_px);
             let x1 = b.x_max_px + margin_px;
             let y0 = b.y_min_px.saturating_sub(margin_px);
@@ -108,7 +112,6 @@ impl FloorBackground {
             }
             any_lit = true;
         }
-        let gate = (GATE_DEVIATIONS * self.noise_luma).max(MIN_GATE_LUMA);
         let (mut deviation_sum, mut deviations) = (0.0f32, 0u32);
         let width = self.size.width();
         let step = frame.luma_step();
@@ -166,10 +169,53 @@ impl FloorBackground {
     }
 }
 
+impl FloorBackground {
+    /// How far the light of the blob in `b` reaches beyond its box, measured on the frame:
+    /// walking out from the box's middle in the four directions, the distance at which the
+    /// luma is back within `gate` of the learned floor (where it is not known yet, of the luma
+    /// [`MAX_GLOW_PX`] out, or at the frame's edge). A glow too faint to be clipped still lights the floor around a
+    /// blob, and learning it as floor would make the fit count it twice.
+    fn glow_px(&self, frame: &Frame<'_>, b: BoundingBox, gate: f32) -> usize {
+        let (cx, cy) = ((b.x_min_px + b.x_max_px) / 2, (b.y_min_px + b.y_max_px) / 2);
+        let (w, h) = (self.size.width(), self.size.height());
+        let walks: [(usize, usize, isize, isize); 4] = [
+            (b.x_min_px, cy, -1, 0),
+            (b.x_max_px, cy, 1, 0),
+            (cx, b.y_min_px, 0, -1),
+            (cx, b.y_max_px, 0, 1),
+        ];
+        let mut reach = 0;
+        for (x0, y0, dx, dy) in walks {
+            let at = |t: usize| {
+                let x = x0.checked_add_signed(dx * t as isize).filter(|&x| x < w)?;
+                let y = y0.checked_add_signed(dy * t as isize).filter(|&y| y < h)?;
+                Some((x, y))
+            };
+            // The last pixel of the walk inside the frame.
+            let far = (1..=MAX_GLOW_PX)
+                .rev()
+                .find_map(at)
+                .and_then(|(x, y)| frame.luma(x, y))
+                .map_or(0.0, f32::from);
+            let mut t = 1;
+            while let Some((x, y)) = at(t).filter(|_| t <= MAX_GLOW_PX) {
+                let Some(luma) = frame.luma(x, y).map(f32::from) else {
+                    break;
+                };
+                if luma <= self.luma(x, y).unwrap_or(far) + gate {
+                    break;
+                }
+                t += 1;
+            }
+            reach = reach.max(t);
+        }
+        reach
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::detect::blobs::BoundingBox;
 
     fn yuyv(width: usize, height: usize, luma: impl Fn(usize, usize) -> u8) -> Vec<u8> {
         let mut bytes = vec![128u8; 2 * width * height];
