@@ -6,18 +6,23 @@
 //!
 //! - the path is a quadratic arc from `start` through `mid` to `end` (a straight line when
 //!   `mid` lies on the chord), swept at constant speed;
-//! - the spot is a Gaussian of standard deviation `σ`, so the swept light at a pixel is the
-//!   Gaussian's line integral along the path, in closed form per straight piece (an
-//!   error-function difference times a Gaussian across);
-//! - the camera maps that light `q` to luma `floor + B · q^k`: the amplitude `B` absorbs the
-//!   LED's brightness, the exponent `k` the tone curve (a Gaussian seen through `v^(1/γ)` is a
-//!   Gaussian `√γ` wider, and `k` lets the flanks and the ends share one `σ`), and `floor` the
-//!   background;
+//! - the spot is a Gaussian core of standard deviation `σ` in a wider, dimmer Gaussian glow,
+//!   so the swept light at a pixel is their line integral along the path, in closed form per
+//!   straight piece (an error-function difference times a Gaussian across);
+//! - the camera maps the floor's light plus that light `q` to luma `clip · (floor + A q)^k`:
+//!   the amplitude `A` absorbs the LED's brightness, the exponent `k` the tone curve (a
+//!   Gaussian seen through `v^(1/γ)` is a Gaussian `√γ` wider, and `k` lets the flanks and the
+//!   ends share one `σ`);
+//! - the floor is measured: where the floor was seen without the light in earlier frames
+//!   ([`FloorBackground`]), its luma seen back through the fitted tone curve, plus one fitted
+//!   pedestal (a glow wider than the fitted pixels); elsewhere (the first frame, an LED still
+//!   since the start) one fitted flat floor. A textured floor under the streak is then not
+//!   read as light;
 //! - a clipped pixel says only "at least the clip level": it costs nothing when the model
 //!   reaches the clip there and is pulled up when it does not (a censored residual).
 //!
 //! So the spot's width, brightness and tone come from the streak's own unclipped flanks, not
-//! from constants tuned on one renderer. The nine parameters are fitted by Levenberg–Marquardt
+//! from constants tuned on one renderer. The twelve parameters are fitted by Levenberg–Marquardt
 //! on a bounded set of pixels (both end caps in full, the body subsampled), with fixed-size
 //! matrices and no allocation. When the fit does not settle, or lands somewhere the pixels do
 //! not support, the caller falls back to the streak's middle.
