@@ -184,6 +184,12 @@ pub fn background_bytes(size: FrameSize, frames: usize) -> u64 {
     (frames as u64 + 1).saturating_mul(size.pixels() as u64)
 }
 
+/// The streak fit's learned floor (`--streak-model fit`): a 16-bit mean and an 8-bit count
+/// per pixel, and a bit image of where the frame's light is.
+pub fn fit_floor_bytes(size: FrameSize) -> u64 {
+    3 * size.pixels() as u64 + bit_image_bytes(size)
+}
+
 /// The marker detector's scratch: the frame's luma plane, loaded once for all its threshold
 /// passes, and a threshold mask of it; a few rows; and the longest border it traces
 /// (`max_perimeter_px`).

@@ -5,7 +5,8 @@
 //! Everything the per-frame path needs is allocated once, at start-up, from the frame size:
 //! the read buffer of a dump source (a camera's mmap buffers belong to the driver), the
 //! bit-packed masks, the static map (six bit planes), the morphology and skeleton scratch, the
-//! bounded run and blob tables, the background model, the marker detector's scratch, the
+//! bounded run and blob tables, the background model, the streak fit's learned floor
+//! (`--streak-model fit`: a running mean and count per pixel), the marker detector's scratch, the
 //! latency histograms, the output writer's buffer, the serial sink's mailbox and writer
 //! thread, and (`--publish`, the `net` feature) the publish queue and its thread. After that,
 //! processing a frame

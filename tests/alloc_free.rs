@@ -65,8 +65,8 @@ fn replay_allocates_nothing_per_frame() {
     );
     assert_eq!(allocations, 0, "allocations during {count} frames");
 
-    // The CSV sink, the seed's morphological skeleton and the fitted streak model keep the
-    // promise too.
+    // The CSV sink, the seed's morphological skeleton and the fitted streak model (with the
+    // floor it learns without the light, frame by frame) keep the promise too.
     let config = PipelineConfig {
         detector: glint::detect::DetectorConfig {
             skeleton: glint::detect::skeleton::SkeletonMethod::Morphological,
@@ -89,6 +89,8 @@ fn replay_allocates_nothing_per_frame() {
         assert!(s.found > s.frames / 2, "{s:?}");
     });
     assert_eq!(allocations, 0);
+    let floor = pipeline.detector().unwrap().floor_background().unwrap();
+    assert!(floor.luma(5, 5).is_some(), "the fit's floor was learned");
 
     // So does the background-difference detector, learning included.
     let config = PipelineConfig {

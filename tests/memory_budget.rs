@@ -8,6 +8,7 @@ use common::alloc::{bytes_allocated_during, Counting};
 
 use glint::budget;
 use glint::detect::aruco::{self, Dictionary};
+use glint::detect::streak::StreakModel;
 use glint::detect::{DetectorConfig, MaskMethod};
 use glint::frame::FrameSize;
 use glint::pipeline::{Pipeline, PipelineConfig};
@@ -34,9 +35,14 @@ fn assert_close(what: &str, size: FrameSize, planned: u64, measured: u64) {
 }
 
 fn led(size: FrameSize, method: MaskMethod) -> u64 {
+    led_with(size, method, StreakModel::Ramps)
+}
+
+fn led_with(size: FrameSize, method: MaskMethod, streak_model: StreakModel) -> u64 {
     let config = PipelineConfig {
         detector: DetectorConfig {
             method,
+            streak_model,
             ..DetectorConfig::default()
         },
         ..PipelineConfig::default()
@@ -67,6 +73,9 @@ fn the_led_pipeline_allocates_what_the_plan_says() {
             let planned = planned + budget::background_bytes(size, frames);
             assert_close("bgdiff", size, planned, led(size, method));
         }
+        let measured = led_with(size, MaskMethod::Saturation, StreakModel::Fit);
+        let fit_planned = planned + budget::fit_floor_bytes(size);
+        assert_close("streak fit", size, fit_planned, measured);
     }
 }
 

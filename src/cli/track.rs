@@ -19,7 +19,7 @@ use glint::frame::FrameSize;
 use glint::geometry::CalibrationFile;
 use glint::identify::IdentifyConfig;
 use glint::monitor::{self, Monitor};
-use glint::options::{parse_fps, LedArgs};
+use glint::options::{parse_fps, LedArgs, StreakModelArg};
 use glint::pipeline::{self, Pipeline, PipelineConfig, RunSummary};
 use glint::sink::mavlink::{self, Identity, ToLocal};
 use glint::sink::serial::RobotLines;
@@ -226,6 +226,13 @@ impl TrackSettings {
                 format!("--size {size}"),
                 budget::led_detector_bytes(size),
             ),
+        }
+        if self.detector != DetectorArg::Aruco && self.led.streak_model == StreakModelArg::Fit {
+            plan.add(
+                "the streak fit's learned floor",
+                format!("--streak-model fit, --size {size}"),
+                budget::fit_floor_bytes(size),
+            );
         }
         // A calibration with a marker map re-detects its markers while tracking; whether the
         // file holds a map is known only once it is read, so the plan assumes it does.

@@ -6,24 +6,30 @@
 //!
 //! - the path is a quadratic arc from `start` through `mid` to `end` (a straight line when
 //!   `mid` lies on the chord), swept at constant speed;
-//! - the spot is a Gaussian of standard deviation `σ`, so the swept light at a pixel is the
-//!   Gaussian's line integral along the path, in closed form per straight piece (an
-//!   error-function difference times a Gaussian across);
-//! - the camera maps that light `q` to luma `floor + B · q^k`: the amplitude `B` absorbs the
-//!   LED's brightness, the exponent `k` the tone curve (a Gaussian seen through `v^(1/γ)` is a
-//!   Gaussian `√γ` wider, and `k` lets the flanks and the ends share one `σ`), and `floor` the
-//!   background;
+//! - the spot is a Gaussian core of standard deviation `σ` in a wider, dimmer Gaussian glow,
+//!   so the swept light at a pixel is their line integral along the path, in closed form per
+//!   straight piece (an error-function difference times a Gaussian across);
+//! - the camera maps the floor's light plus that light `q` to luma `clip · (floor + A q)^k`:
+//!   the amplitude `A` absorbs the LED's brightness, the exponent `k` the tone curve (a
+//!   Gaussian seen through `v^(1/γ)` is a Gaussian `√γ` wider, and `k` lets the flanks and the
+//!   ends share one `σ`);
+//! - the floor is measured: where the floor was seen without the light in earlier frames
+//!   ([`FloorBackground`]), its luma seen back through the fitted tone curve, plus one fitted
+//!   pedestal (a glow wider than the fitted pixels); elsewhere (the first frame, an LED still
+//!   since the start) one fitted flat floor. A textured floor under the streak is then not
+//!   read as light;
 //! - a clipped pixel says only "at least the clip level": it costs nothing when the model
 //!   reaches the clip there and is pulled up when it does not (a censored residual).
 //!
 //! So the spot's width, brightness and tone come from the streak's own unclipped flanks, not
-//! from constants tuned on one renderer. The nine parameters are fitted by Levenberg–Marquardt
+//! from constants tuned on one renderer. The twelve parameters are fitted by Levenberg–Marquardt
 //! on a bounded set of pixels (both end caps in full, the body subsampled), with fixed-size
 //! matrices and no allocation. When the fit does not settle, or lands somewhere the pixels do
 //! not support, the caller falls back to the streak's middle.
 
 use nalgebra::{SMatrix, SVector};
 
+use super::floor_bg::FloorBackground;
 use crate::frame::Frame;
 
 /// Pixels the fit uses at most: both end caps and a subsample of the body.
@@ -41,6 +47,7 @@ const PIECES: usize = 4;
 const REACH_PX: f32 = 3.0;
 /// End-cap pixels: within this distance of a rough end, beyond half the thickness.
 const CAP_PX: f32 = 5.0;
+
 /// The fitted ends may move at most this far from the rough ones.
 const MAX_END_SHIFT_PX: f32 = 6.0;
 /// Bounds of the fitted spot σ and tone exponent.
@@ -48,7 +55,7 @@ const SIGMA_RANGE_PX: (f32, f32) = (0.3, 12.0);
 const TONE_RANGE: (f32, f32) = (0.2, 8.0);
 /// Parameters: start x, y; end x, y; sagitta; ln σ of the core; ln σ of the glow; amplitude;
 /// glow ratio; tone exponent; floor.
-const PARAMS: usize = 11;
+const PARAMS: usize = 12;
 /// The glow starts this many times wider than the core, and this bright relative to it.
 const GLOW_WIDTH0: f32 = 3.0;
 const GLOW_RATIO0: f32 = 0.05;
@@ -57,6 +64,11 @@ const TONE0: f32 = 0.45;
 
 /// The glow ratio's index in the parameters.
 const GLOW_RATIO: usize = 8;
+/// The flat floor's index in the parameters.
+const FLAT_FLOOR: usize = 10;
+/// The pedestal's index: light added evenly to the measured floor over the fitted pixels (a
+/// glow wider than they reach, which the spot model need not draw).
+const PEDESTAL: usize = 11;
 
 type Params = SVector<f32, PARAMS>;
 type Normal = SMatrix<f32, PARAMS, PARAMS>;
@@ -86,21 +98,32 @@ pub struct PathFit {
     /// One standard deviation of the ends' positions (the larger of the two), from the fit's
     /// residual and its curvature: a frame whose model does not match its pixels shows here.
     pub uncertainty_px: f32,
+    /// The fraction of the fitted pixels whose floor was measured (seen without the light in
+    /// earlier frames); the others shared one fitted flat floor.
+    pub floor_measured: f32,
 }
 
-/// The pixels the fit uses: position and luma.
+/// The pixels the fit uses: position, luma, and where known the floor's luma there as
+/// `ln(floor / clip)` (the floor in the model's linear light is then `exp(that / k)`).
 struct Samples {
     xy: [(f32, f32); MAX_FIT_PX],
     luma: [f32; MAX_FIT_PX],
+    floor_ln: [Option<f32>; MAX_FIT_PX],
     len: usize,
 }
 
-/// Fits the streak model around `rough` on `frame`, whose clipped pixels read `clip_luma`.
+/// Fits the streak model around `rough` on `frame`, whose clipped pixels read `clip_luma`,
+/// on the floor `background` where it has been measured (a flat fitted floor elsewhere).
 /// `None` when the fit fails (too few pixels, no convergence, a result the pixels do not
 /// support).
-pub fn fit(frame: &Frame<'_>, rough: &Rough, clip_luma: u8) -> Option<PathFit> {
+pub fn fit(
+    frame: &Frame<'_>,
+    rough: &Rough,
+    clip_luma: u8,
+    background: Option<&FloorBackground>,
+) -> Option<PathFit> {
     let clip = f32::from(clip_luma);
-    let samples = collect(frame, rough)?;
+    let samples = collect(frame, rough, background, clip)?;
     let floor0 = low_percentile(&samples);
     let sigma0 = (0.3 * rough.thickness_px).clamp(0.7, 6.0);
     let [a, b] = rough.ends_px;
@@ -116,23 +139,36 @@ pub fn fit(frame: &Frame<'_>, rough: &Rough, clip_luma: u8) -> Option<PathFit> {
         GLOW_RATIO0,
         TONE0,
         (floor0 / clip).clamp(0.01, 0.95).powf(1.0 / TONE0),
+        0.0,
     ]);
     // First the core alone (no glow), which has one clear minimum near the start; then
     // everything, from there. Started together, a wide core and a glow can settle into a
     // wrong minimum that stretches the path.
-    let mut core_only = [true; PARAMS];
+    // The flat floor is fitted only when some pixel's floor was not measured.
+    // The pedestal, only when some pixel's floor was.
+    let mut all = [true; PARAMS];
+    let floors = samples.floor_ln.iter().take(samples.len);
+    all[FLAT_FLOOR] = floors.clone().any(Option::is_none);
+    all[PEDESTAL] = floors.clone().any(Option::is_some);
+    let mut core_only = all;
     core_only[6] = false;
     core_only[8] = false;
     p[8] = 0.0;
     let (p, _) = levenberg_marquardt(&samples, p, clip, &core_only)?;
     let mut p = p;
     p[8] = GLOW_RATIO0;
-    let (p, cost) = levenberg_marquardt(&samples, p, clip, &[true; PARAMS])?;
-    let normal = normal_equations(&samples, &p, clip, &[true; PARAMS])?.0;
+    let (p, cost) = levenberg_marquardt(&samples, p, clip, &all)?;
+    let mut normal = normal_equations(&samples, &p, clip, &all)?.0;
+    for i in [FLAT_FLOOR, PEDESTAL] {
+        if !all[i] {
+            normal[(i, i)] = 1.0;
+        }
+    }
     let sigma = p[5].exp();
     let ends_px = [(p[0], p[1]), (p[2], p[3])];
-    // The skeleton's ends of a fat blob lie up to half its width from the path's.
-    let max_shift_px = MAX_END_SHIFT_PX.max(0.5 * rough.thickness_px);
+    // The skeleton's ends of a fat blob (a glow that saturates) lie up to its width from the
+    // path's: the thinning stops half a width short of each end and may curl sideways.
+    let max_shift_px = MAX_END_SHIFT_PX.max(rough.thickness_px);
     let sane = p.iter().all(|v| v.is_finite())
         && dist(ends_px[0], a).min(dist(ends_px[0], b)) <= max_shift_px
         && dist(ends_px[1], b).min(dist(ends_px[1], a)) <= max_shift_px;
@@ -149,12 +185,14 @@ pub fn fit(frame: &Frame<'_>, rough: &Rough, clip_luma: u8) -> Option<PathFit> {
         .max(covariance[(2, 2)] + covariance[(3, 3)])
         .max(0.0);
     let path = Path::new(&p, true);
+    let measured = samples.floor_ln.iter().take(samples.len).flatten().count();
     Some(PathFit {
         ends_px,
         mid_px: path.mid,
         path_length_px: path.length(),
         spot_sigma_px: sigma,
         uncertainty_px: (end_var * residual_var).sqrt(),
+        floor_measured: measured as f32 / samples.len.max(1) as f32,
     })
 }
 
@@ -172,6 +210,7 @@ fn clamp_params(mut p: Params) -> Params {
     p[8] = p[8].clamp(0.0, 1.0);
     p[9] = p[9].clamp(TONE_RANGE.0, TONE_RANGE.1);
     p[10] = p[10].clamp(0.0, 1.0);
+    p[11] = p[11].clamp(0.0, 1.0);
     p
 }
 
@@ -371,13 +410,29 @@ fn normal_cdf(z: f32) -> f32 {
     }
 }
 
+/// The floor in the model's linear light: where known, the measured one seen through the
+/// fitted tone curve plus the fitted pedestal, else the fitted flat floor.
+#[inline]
+fn floor_of(p: &Params, floor_ln: Option<f32>) -> f32 {
+    match floor_ln {
+        Some(l) => (l / p[9]).exp() + p[PEDESTAL],
+        None => p[10],
+    }
+}
+
 /// The model's luma at a pixel, `clip · (floor + A (core + r glow))^k`, with the light `Q =
 /// core + r glow` and the glow's light there.
 #[inline]
-fn model(path: &Path, p: &Params, x: f32, y: f32, clip: f32) -> (f32, (f32, f32)) {
+fn model(
+    path: &Path,
+    p: &Params,
+    (x, y): (f32, f32),
+    floor_ln: Option<f32>,
+    clip: f32,
+) -> (f32, (f32, f32)) {
     let (core, glow) = path.light2(x, y);
     let q = core + p[8].max(0.0) * glow;
-    let v = (p[10] + p[7] * q).max(1e-6);
+    let v = (floor_of(p, floor_ln) + p[7] * q).max(1e-6);
     (clip * (p[9] * v.ln()).exp(), (q, glow))
 }
 
@@ -396,8 +451,8 @@ fn residual(luma: f32, model: f32, clip: f32) -> f32 {
 fn cost_of(s: &Samples, p: &Params, clip: f32, active: &[bool; PARAMS]) -> Option<f32> {
     let path = Path::new(p, active[GLOW_RATIO]);
     let mut cost = 0.0;
-    for (&(x, y), &luma) in s.xy.iter().zip(&s.luma).take(s.len) {
-        let r = residual(luma, model(&path, p, x, y, clip).0, clip);
+    for ((&xy, &luma), &floor_ln) in s.xy.iter().zip(&s.luma).zip(&s.floor_ln).take(s.len) {
+        let r = residual(luma, model(&path, p, xy, floor_ln, clip).0, clip);
         cost += r * r;
     }
     cost.is_finite().then_some(cost)
@@ -422,8 +477,8 @@ fn normal_equations(
     });
     let mut jtj = Normal::zeros();
     let mut jtr = Params::zeros();
-    for (&(x, y), &luma) in s.xy.iter().zip(&s.luma).take(s.len) {
-        let (m, (q, glow)) = model(&base, p, x, y, clip);
+    for ((&xy, &luma), &floor_ln) in s.xy.iter().zip(&s.luma).zip(&s.floor_ln).take(s.len) {
+        let (m, (q, glow)) = model(&base, p, xy, floor_ln, clip);
         let r = residual(luma, m, clip);
         // A clipped pixel the model already reaches carries no gradient.
         if luma >= clip && m >= clip {
@@ -436,14 +491,22 @@ fn normal_equations(
             .enumerate()
             .filter(|(_, (_, &on))| on)
         {
-            row[i] = (model(path, shifted_p, x, y, clip).0 - m) / STEP[i];
+            row[i] = (model(path, shifted_p, xy, floor_ln, clip).0 - m) / STEP[i];
         }
-        let v = (p[10] + p[7] * q).max(1e-6);
+        let floor = floor_of(p, floor_ln);
+        let v = (floor + p[7] * q).max(1e-6);
         let slope = p[9] * m / v;
         row[7] = slope * q;
         row[8] = slope * p[7] * glow;
         row[9] = m * v.ln();
-        row[10] = slope;
+        match floor_ln {
+            // A measured floor moves with the tone curve: d floor / dk = -floor · l / k².
+            Some(l) => {
+                row[9] -= slope * (floor - p[PEDESTAL]) * l / (p[9] * p[9]);
+                row[PEDESTAL] = slope;
+            }
+            None => row[10] = slope,
+        }
         jtj += row * row.transpose();
         jtr += row * r;
     }
@@ -469,7 +532,12 @@ fn segment_distance(a: (f32, f32), b: (f32, f32), x: f32, y: f32) -> f32 {
 
 /// The pixels around the rough streak: every pixel of both end caps, and an even subsample
 /// of the body, [`MAX_FIT_PX`] at most.
-fn collect(frame: &Frame<'_>, rough: &Rough) -> Option<Samples> {
+fn collect(
+    frame: &Frame<'_>,
+    rough: &Rough,
+    background: Option<&FloorBackground>,
+    clip: f32,
+) -> Option<Samples> {
     let half = 0.5 * rough.thickness_px;
     let reach = half + REACH_PX;
     let cap = half + CAP_PX;
@@ -507,6 +575,7 @@ fn collect(frame: &Frame<'_>, rough: &Rough) -> Option<Samples> {
     let mut s = Samples {
         xy: [(0.0, 0.0); MAX_FIT_PX],
         luma: [0.0; MAX_FIT_PX],
+        floor_ln: [None; MAX_FIT_PX],
         len: 0,
     };
     let (mut caps_seen, mut body_seen) = (0usize, 0usize);
@@ -528,15 +597,32 @@ fn collect(frame: &Frame<'_>, rough: &Rough) -> Option<Samples> {
             let Some(luma) = frame.luma(x, y) else {
                 continue;
             };
-            let (Some(xy), Some(l)) = (s.xy.get_mut(s.len), s.luma.get_mut(s.len)) else {
+            let (Some(xy), Some(l), Some(f)) = (
+                s.xy.get_mut(s.len),
+                s.luma.get_mut(s.len),
+                s.floor_ln.get_mut(s.len),
+            ) else {
                 continue;
             };
             *xy = (fx, fy);
             *l = f32::from(luma);
+            // A floor at or above the clip level says nothing the clip does not.
+            *f = background
+                .and_then(|b| b.luma(x, y))
+                .filter(|&floor| floor < clip - 0.5)
+                .map(|floor| (floor.max(0.5) / clip).ln());
             s.len += 1;
         }
     }
     (s.len > 2 * PARAMS).then_some(s)
+}
+
+/// How far beyond a blob's bounding box the fit may read pixels, for a blob whose shorter
+/// side is `min_side_px`: the floor must not learn them from the frame being fitted. The
+/// fit's thickness is at most the blob's shorter side, and it reads up to half a thickness
+/// and the caps' reach beyond the path, which lies inside the box; a pixel more for rounding.
+pub fn sample_margin_px(min_side_px: usize) -> usize {
+    CAP_PX as usize + 2 + min_side_px
 }
 
 /// The 20th percentile of the samples' luma: the floor around the streak.

@@ -9,6 +9,7 @@ pub mod bgdiff;
 pub mod bitimage;
 pub mod blobs;
 pub mod fit;
+pub mod floor_bg;
 pub mod morph;
 pub mod skeleton;
 pub mod streak;
@@ -18,6 +19,7 @@ pub mod tips;
 use bgdiff::{Background, BackgroundError};
 use bitimage::{BitImage, Window};
 use blobs::{Blob, Labeler, Overflow};
+use floor_bg::FloorBackground;
 use morph::Kernel;
 use skeleton::SkeletonMethod;
 use streak::{Streak, StreakModel, StreakScratch};
@@ -125,6 +127,8 @@ pub struct Detector {
     labeled: bool,
     /// The background model, for [`MaskMethod::BackgroundDifference`].
     background: Option<Background>,
+    /// The floor without the light, for the streak fit ([`StreakModel::Fit`]).
+    floor: Option<FloorBackground>,
     /// The static bright pixels learned by the automatic threshold.
     statics: StaticMap,
     /// Around the blob analysed in the last frame (the LED): not learned as static.
@@ -152,6 +156,7 @@ impl Detector {
             max_area_px: (size.pixels() as f32 * MAX_BLOB_FRACTION) as u32,
             labeled: false,
             background,
+            floor: (config.streak_model == StreakModel::Fit).then(|| FloorBackground::new(size)),
             statics: StaticMap::new(size.width(), size.height()),
             keep_out: heapless::Vec::new(),
             frames_segmented: 0,
@@ -247,14 +252,37 @@ impl Detector {
             best: None,
         };
         self.labeled = false;
-        if detection.blinded || mask_px == 0 || frame.size() != self.size {
+        if detection.blinded || frame.size() != self.size {
+            return detection;
+        }
+        if mask_px == 0 {
+            if !learning {
+                self.learn_floor(frame);
+            }
             return detection;
         }
         self.labeler.label(&self.mask);
         self.labeled = true;
         detection.blob_count = self.labeler.blobs().len();
         detection.overflow = self.labeler.overflow();
+        if !detection.overflow.any() {
+            self.learn_floor(frame);
+        }
         detection
+    }
+
+    /// Learns the floor (for the streak fit) from `frame` away from the blobs just labelled:
+    /// none of the pixels the fit will read in this frame is learned from it.
+    fn learn_floor(&mut self, frame: &Frame<'_>) {
+        let Some(floor) = &mut self.floor else {
+            return;
+        };
+        let blobs = if self.labeled {
+            self.labeler.blobs()
+        } else {
+            &[]
+        };
+        floor.update(frame, blobs.iter(), fit::sample_margin_px);
     }
 
     /// The automatic threshold, blob by blob: a low first cut, its blobs, and each blob cut
@@ -375,6 +403,7 @@ impl Detector {
             levels,
             self.config.skeleton,
             self.config.streak_model,
+            self.floor.as_ref(),
             &mut self.streak,
         );
         Some((blob, streak))
@@ -393,6 +422,11 @@ impl Detector {
     /// The blobs of the last frame.
     pub fn blobs(&self) -> &[Blob] {
         self.labeler.blobs()
+    }
+
+    /// The floor learned without the light, for the streak fit (`None` with the ramps).
+    pub fn floor_background(&self) -> Option<&FloorBackground> {
+        self.floor.as_ref()
     }
 
     /// The pixels learned as static bright things (automatic threshold only).

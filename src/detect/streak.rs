@@ -13,6 +13,7 @@ use heapless::Deque;
 use super::bitimage::{BitImage, Window, NEIGHBOURS_8};
 use super::blobs::{Blob, Labeler};
 use super::fit::{self, Rough};
+use super::floor_bg::FloorBackground;
 use super::morph::{self, Kernel};
 use super::skeleton::{self, SkeletonMethod, SkeletonScratch, SEED_PRE_DILATIONS};
 use super::threshold::Levels;
@@ -141,6 +142,7 @@ pub fn analyze(
     levels: Levels,
     method: SkeletonMethod,
     model: StreakModel,
+    background: Option<&FloorBackground>,
     scratch: &mut StreakScratch,
 ) -> Streak {
     let threshold_luma = levels.threshold_luma.unwrap_or(levels.top_luma);
@@ -239,7 +241,13 @@ pub fn analyze(
             });
             (mid_px, path)
         }
-        StreakModel::Fit => fitted_path(frame, blob, ends_px, mid_px, thickness_px, levels),
+        StreakModel::Fit => fitted_path(
+            frame,
+            blob,
+            (ends_px, mid_px, thickness_px),
+            levels,
+            background,
+        ),
     };
 
     Streak {
@@ -260,10 +268,9 @@ pub fn analyze(
 fn fitted_path(
     frame: &Frame<'_>,
     blob: &Blob,
-    ends_px: [(f32, f32); 2],
-    mid_px: (f32, f32),
-    thickness_px: f32,
+    (ends_px, mid_px, thickness_px): ([(f32, f32); 2], (f32, f32), f32),
     levels: Levels,
+    background: Option<&FloorBackground>,
 ) -> ((f32, f32), Option<StreakPath>) {
     // A round blob's skeleton is a dot, and area over length is then its area: its width is
     // at most the diameter of a disk of that area.
@@ -273,7 +280,7 @@ fn fitted_path(
         mid_px,
         thickness_px: thickness_px.min(disk_diameter_px),
     };
-    let Some(f) = fit::fit(frame, &rough, levels.top_luma) else {
+    let Some(f) = fit::fit(frame, &rough, levels.top_luma, background) else {
         return (mid_px, None);
     };
     let spot_width_px = FWHM_PER_SIGMA * f.spot_sigma_px;
