@@ -11,6 +11,7 @@ pub mod blobs;
 pub mod fit;
 pub mod morph;
 pub mod skeleton;
+pub mod spot_shape;
 pub mod streak;
 pub mod threshold;
 pub mod tips;
@@ -20,6 +21,7 @@ use bitimage::{BitImage, Window};
 use blobs::{Blob, Labeler, Overflow};
 use morph::Kernel;
 use skeleton::SkeletonMethod;
+use spot_shape::SpotOptics;
 use streak::{Streak, StreakModel, StreakScratch};
 use threshold::static_map::StaticMap;
 use threshold::{blob_level, Levels, Threshold, AUTO_MARGIN_LUMA};
@@ -133,6 +135,8 @@ pub struct Detector {
     frames_segmented: u64,
     /// The time of the frame being segmented.
     t_us: u64,
+    /// The lens, when it squeezes a round spot: streak tips are placed for the spot's shape.
+    optics: Option<Box<dyn SpotOptics>>,
 }
 
 impl Detector {
@@ -156,6 +160,7 @@ impl Detector {
             keep_out: heapless::Vec::new(),
             frames_segmented: 0,
             t_us: 0,
+            optics: None,
         })
     }
 
@@ -375,9 +380,16 @@ impl Detector {
             levels,
             self.config.skeleton,
             self.config.streak_model,
+            self.optics.as_deref(),
             &mut self.streak,
         );
         Some((blob, streak))
+    }
+
+    /// Places streak tips for the spot shape `optics` makes of a round spot (set once, at
+    /// start-up, from the calibration's lens; without it a spot is taken to be round).
+    pub fn set_optics(&mut self, optics: Box<dyn SpotOptics>) {
+        self.optics = Some(optics);
     }
 
     /// The saturation mask of the last frame.
