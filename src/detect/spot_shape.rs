@@ -19,8 +19,12 @@
 //! part of `A n` across `A d` is `|det A| / |A d|`). So the spot's extent along the streak is
 //! the width measured across it times `|det A| / |A d|²`; the tips are placed with that extent,
 //! and the footprint's length less the spot's, in ideal pixels, is the path the still rule
-//! judges (with the caps' measured scatter as its uncertainty, as without a lens). With an ideal
-//! lens the factor is 1 and nothing changes; the pipeline gives the detector no lens then.
+//! judges (with the caps' measured scatter as its uncertainty, as without a lens). A blob the
+//! caps' own rule already calls still stays still: taking a slow LED for a still one costs
+//! little (the tracker carries the middle by the frames' motion, a fraction of a pixel here),
+//! while tips read off a path shorter than a pixel are off by about as much as the path. With
+//! an ideal lens the factor is 1; the pipeline gives the detector no lens then, and nothing
+//! changes.
 
 use super::tips::Tips;
 
@@ -71,7 +75,8 @@ pub trait SpotOptics: Send + Sync {
 }
 
 /// `tips`, measured as for a round spot, placed again for the spot `shape` the lens makes of a
-/// round spot there, and judged still or moving by the path's length in ideal pixels. `None`
+/// round spot there, and judged still by the path's length in ideal pixels (or still as they
+/// were already). `None`
 /// when a tip lands farther from its skeleton end (`ends_px`, in the same order) than the
 /// spot's own extent along the streak: the LED's centre at the end of its path is inside the
 /// saturated blob, whose skeleton ends within that extent of it, so such a tip was read from a
@@ -105,7 +110,7 @@ pub fn through_lens(
     }
     let ideal = shape.ideal_per_image_px(axis);
     let path_ideal_px = (tips.footprint_px - 2.0 * along_px) * ideal;
-    let still = path_ideal_px <= STILL_UNCERTAINTIES * tips.spread_px * ideal;
+    let still = tips.still || path_ideal_px <= STILL_UNCERTAINTIES * tips.spread_px * ideal;
     Some(Tips {
         tips_px,
         path_length_px: dist(tips_px[0], mid_px) + dist(mid_px, tips_px[1]),
