@@ -10,27 +10,30 @@
 //! check that found no marker, the period searches the whole frame in [`SEARCH_BANDS`]
 //! overlapping bands of rows instead, one per frame. The detector allocates nothing after
 //! start-up. Refining every marker's corners to sub-pixel was most of a check's cost, and a
-//! check that confirms the pose does not need it. A marker's corners as the detector traces
-//! them are about 0.8 px rms from where the pose puts them, too far to tell a pose that holds
-//! from one a pixel off; the centre where their diagonals cross is steadier (on the knocked
-//! renders, markers that had not moved: median 0.43 px, at most 1.2 px). So each marker is
-//! first compared by its unrefined centre with where the pose puts it, and only a marker whose
-//! centre is off by more than the calibration's residual plus [`MOVED_RMS_PX`] has its corners
-//! refined, on the frame it was found in (now and then one that has not moved: that costs
-//! only the refinement). After the period's last search, the markers found once each are
-//! compared with where the current pose puts them:
-//! - every centre within [`MOVED_RMS_PX`] of the calibration's own residual: the pose is
-//!   confirmed (its age restarts), no corner refined;
-//! - every marker off (a knock moves them all): their refined corners are compared as a whole;
-//!   within that bound they confirm the pose, farther the pose is refitted to them with the lens
-//!   held, and taken if the refit fits them (one log line says so);
-//! - some off and some not (a knock within the period, or one marker kicked): nothing changes
-//!   yet, and the next period refines every marker's corners and decides as above;
+//! check that confirms the pose does not need it. A marker's corners as the detector traces them
+//! are about 0.8 px rms from where the pose puts them, and the centre where their diagonals cross
+//! up to 1.2 px (on the knocked renders), too far to tell a pose that holds from one a pixel off;
+//! but that offset is the marker's own (the traced outline of a marker the lens bends), the same
+//! from check to check while nothing moves. So when a marker's refined corners confirm the pose,
+//! its unrefined centre's offset is kept, and later checks compare its unrefined centre, less
+//! that offset, with where the pose puts it: a steady marker is not refined. A marker without a
+//! kept offset (the first check, after a refit), or one off by more than the calibration's
+//! residual plus [`MOVED_RMS_PX`], has its corners refined on the frame it was found in. After
+//! the period's last search:
+//! - every marker steady: the pose is confirmed (its age restarts), no corner refined;
+//! - the refined markers' corners within that bound of where the pose puts them (rms): the pose
+//!   is confirmed, and their offsets kept;
+//! - farther, and every marker refined (a knock moves them all): the pose is refitted to them with
+//!   the lens held, and taken if the refit fits them (one log line says so);
+//! - farther, but some markers steady (a knock within the period, or one marker kicked): nothing
+//!   changes yet, and the next period refines every marker and decides as above;
 //! - none seen: nothing changes (the robot may be standing on them); after
 //!   [`STALE_AFTER_CHECKS`] such checks in a row, once markers had been seen in this run, the
 //!   floor numbers are marked stale: the camera may have moved where no marker shows.
 //!
 //! A marker partly covered by the robot is not decoded at all, so occlusion changes nothing.
+
+use nalgebra::Vector2;
 
 use super::calibration::MarkerPlacement;
 use super::camera::CameraModel;
@@ -63,7 +66,7 @@ pub struct CalibStatus {
     /// Seconds since the pose was last confirmed by markers (or since the start of the run).
     pub age_s: f64,
     /// The markers' corners' rms residual when they last confirmed or refitted the pose refined
-    /// (at the start: the file's); a confirmation by the markers' unrefined centres keeps it.
+    /// (at the start: the file's); a confirmation by steady markers alone keeps it.
     pub residual_px: f64,
     /// No marker has been seen for a while after markers were seen: the camera may have moved.
     pub stale: bool,
@@ -100,8 +103,12 @@ pub struct MarkerRecheck {
     /// This period refines every marker's corners (the last check saw some markers move, or
     /// found none).
     refine_all: bool,
-    /// Markers found this period whose corners were refined.
-    refined: usize,
+    /// Per marker of the map, where its unrefined centre sits from where the pose puts it, as
+    /// learned when its refined corners confirmed the pose (cleared by a refit).
+    centre_bias_px: [Option<Vector2<f64>>; MAX_MARKERS],
+    /// This period's refined markers: their map index and unrefined centre's offset, learned as
+    /// their bias if they confirm the pose.
+    pending: heapless::Vec<(usize, Vector2<f64>), MAX_MARKERS>,
     /// Checks made, to turn which markers a period searches when there are more than frames.
     checks: u64,
 }
@@ -146,7 +153,8 @@ impl MarkerRecheck {
             found_ids: heapless::Vec::new(),
             search_bands: false,
             refine_all: false,
-            refined: 0,
+            centre_bias_px: [None; MAX_MARKERS],
+            pending: heapless::Vec::new(),
             checks: 0,
         }
     }
@@ -179,7 +187,7 @@ impl MarkerRecheck {
                 self.floor_pts.clear();
                 self.screen_pts.clear();
                 self.found_ids.clear();
-                self.refined = 0;
+                self.pending.clear();
             }
             self.search(frame, step, floor);
             if step + 1 == searches {
@@ -224,7 +232,7 @@ impl MarkerRecheck {
             return;
         }
         let moved_px = self.calibration_px + MOVED_RMS_PX;
-        for p in &self.map {
+        for (index, p) in self.map.iter().enumerate() {
             if only.is_some_and(|id| id != p.id) || self.found_ids.contains(&p.id) {
                 continue;
             }
@@ -236,18 +244,23 @@ impl MarkerRecheck {
             if room < 4 || self.found_ids.push(p.id).is_err() {
                 break;
             }
+            // Steady: its unrefined centre where it sat when refined corners last confirmed the
+            // pose. Anything else gets sub-pixel corners, for the pose to be judged on them.
+            let offset = marker_centre_px(&camera, p).map(|c| m.centre() - c);
+            let bias = self.centre_bias_px.get(index).copied().flatten();
+            let steady = match (offset, bias) {
+                (Some(o), Some(b)) => (o - b).norm() <= moved_px,
+                _ => false,
+            };
+            if steady && !self.refine_all && !self.search_bands {
+                continue;
+            }
+            if let Some(o) = offset {
+                // Capacity MAX_MARKERS, one entry per marker of the map.
+                let _ = self.pending.push((index, o));
+            }
+            let corners = self.detector.refine(frame, &m).unwrap_or(m.corners);
             let floor_corners = p.corners();
-            let centre_px = match marker_centre_px(&camera, p) {
-                Some(c) => (c - m.centre()).norm(),
-                None => f64::INFINITY,
-            };
-            // Sub-pixel corners only where the pose may be refitted to them.
-            let corners = if self.refine_all || self.search_bands || centre_px > moved_px {
-                self.refined += 1;
-                self.detector.refine(frame, &m).unwrap_or(m.corners)
-            } else {
-                m.corners
-            };
             for (f, s) in floor_corners.iter().zip(&corners) {
                 // Room for four was checked above.
                 let _ = self.floor_pts.push(*f);
@@ -284,30 +297,36 @@ impl MarkerRecheck {
         let Some(camera) = floor.camera().copied() else {
             return Outcome::Nothing;
         };
-        let (floor_pts, screen_pts) = (&self.floor_pts, &self.screen_pts);
-        self.search_bands = floor_pts.is_empty();
-        if floor_pts.is_empty() {
+        let found = self.found_ids.len();
+        self.search_bands = found == 0;
+        if found == 0 {
             self.misses = self.misses.saturating_add(1);
             return Outcome::Nothing;
         }
         self.misses = 0;
         self.seen_any = true;
-        let moved_px = self.calibration_px + MOVED_RMS_PX;
-        let found = self.found_ids.len();
         self.refine_all = false;
-        if self.refined == 0 {
-            // Every centre where the pose puts it (each was checked against the bound).
+        let (floor_pts, screen_pts) = (&self.floor_pts, &self.screen_pts);
+        if floor_pts.is_empty() {
+            // Every marker steady by its centre.
             return Outcome::Confirmed;
         }
-        if self.refined < found {
-            // Some markers moved and some did not: settle it on refined corners next period.
-            self.refine_all = true;
-            return Outcome::Nothing;
-        }
+        let moved_px = self.calibration_px + MOVED_RMS_PX;
         let current = rms_px(&camera, floor_pts, screen_pts);
         if current <= moved_px {
             self.residual_px = current;
+            for &(index, offset) in &self.pending {
+                if let Some(bias) = self.centre_bias_px.get_mut(index) {
+                    *bias = Some(offset);
+                }
+            }
             return Outcome::Confirmed;
+        }
+        if floor_pts.len() < 4 * found {
+            // The refined markers moved and the steady ones did not: settle it next period, on
+            // every marker's refined corners.
+            self.refine_all = true;
+            return Outcome::Nothing;
         }
         let Ok(fit) = fit_camera(
             floor_pts,
@@ -344,6 +363,8 @@ impl MarkerRecheck {
             );
             *floor = stage;
             self.residual_px = fit.rms_residual_px;
+            // Where each marker's unrefined centre sits is learned again under the new pose.
+            self.centre_bias_px = [None; MAX_MARKERS];
             return Outcome::Refit;
         }
         Outcome::Nothing
