@@ -1,9 +1,10 @@
 //! The re-check of the calibration's markers while tracking (`glint::geometry::recheck`), on
 //! 640×480 frames of the six-marker map seen through the mild lens: a frame between checks, one
-//! frame's search (the region around one marker; or one band of rows of the whole-frame search
-//! made after a check that found no marker), and a whole check (the six searches in a row,
-//! which in use fall on six frames) that confirms the pose or, after a 0.8° knock, refits it
-//! (plus the pose-only bundle adjustment). The whole-frame detection each check made before the
+//! frame's search (the region around one marker, steady or with its corners refined; or one band
+//! of rows of the whole-frame search made after a check that found no marker), and a whole check
+//! (the six searches in a row, which in use fall on six frames) that confirms the pose (after
+//! the first, with no corner refined) or, after a 0.8° knock, refits it (plus the pose-only
+//! bundle adjustment). The whole-frame detection each check made before the
 //! work was spread is measured for comparison.
 
 use std::hint::black_box;
@@ -53,11 +54,30 @@ fn bench(c: &mut Criterion) {
     c.bench_function("recheck: frame between checks", |b| {
         b.iter(|| black_box(recheck.check(black_box(&frame), period - 1, 33_333, &mut floor_stage)))
     });
+    // A steady marker's search: a whole check first, whose refined corners confirm the pose and
+    // leave each marker's unrefined centre known; then one marker's region, again and again.
     let mut recheck = new();
-    c.bench_function("recheck: one marker's region (one of six frames)", |b| {
+    let mut s = stage;
+    for i in 0..map.len() as u64 {
+        recheck.check(&frame, i, 0, &mut s);
+    }
+    // Frame `period` is the first of a period, whose searches start afresh: each call searches
+    // the marker again.
+    c.bench_function(
+        "recheck: one steady marker's region (one of six frames)",
+        |b| {
+            b.iter(|| {
+                let mut s = stage;
+                black_box(recheck.check(black_box(&frame), period, 0, &mut s))
+            })
+        },
+    );
+    // A marker whose corners are refined (the first check, or one that looks moved).
+    let mut recheck = new();
+    c.bench_function("recheck: one marker's region, corners refined", |b| {
         b.iter(|| {
             let mut s = stage;
-            black_box(recheck.check(black_box(&frame), 1, 0, &mut s))
+            black_box(recheck.check(black_box(&frame), period, 0, &mut s))
         })
     });
     // After a check that found no marker (a black picture), the whole frame band by band.

@@ -112,8 +112,16 @@ impl Pipeline {
         Ok(self)
     }
 
-    /// Adds the floor stage: every found frame also gets floor coordinates.
+    /// Adds the floor stage: every found frame also gets floor coordinates. A lens that
+    /// distorts is also given to the LED detector, which places a streak's tips for the shape
+    /// the lens gives a round spot there.
     pub fn with_floor(mut self, floor: FloorStage) -> Self {
+        let lens = floor.camera().map(|c| c.lens).filter(|l| !l.is_ideal());
+        if let (Some(lens), Front::Led { detector, .. } | Front::Leds { detector, .. }) =
+            (lens, &mut self.front)
+        {
+            detector.set_optics(Box::new(lens));
+        }
         self.floor = Some(floor);
         self
     }

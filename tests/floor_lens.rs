@@ -81,12 +81,10 @@ struct Errors {
 /// velocity of the middles between the frame before (`previous`) and this one.
 ///
 /// On these tours the LED moves under a pixel per exposure, and the lens squeezes its round spot
-/// into an ellipse (radially, up to 30 % near the corners of the wide lens). The detector's tips
-/// (`src/detect/tips.rs`) now read such a blob as still when it is no longer than the spot's own
-/// extent measured at its two caps, and the tracker then carries the middle as here; but some
-/// squeezed spots are still read as 1–2 px streaks along their long axis (their caps are read
-/// to a few tenths of a pixel), so glint's own output does not reach the goal in every case yet.
-/// This position measures what the calibration and mapping deliver without that.
+/// into an ellipse (radially, up to 30 % near the corners of the wide lens). The detector places
+/// the streak's tips and judges it still for the spot's shape through the calibrated lens
+/// (`src/detect/spot_shape.rs`), so glint's output is held to the goal too; this position
+/// measures what the calibration and mapping deliver from the middle alone.
 fn carried_middle_px(
     rep: &Value,
     previous: &Value,
@@ -193,20 +191,10 @@ fn report(label: &str, e: &Errors) -> Figures {
     }
 }
 
-/// What glint's own output is held to, besides the assertions every case makes.
-#[derive(Clone, Copy, PartialEq)]
-enum Output {
-    /// The goal, p95 ≤ 0.5 cm, on what glint reports (its head).
-    Goal,
-    /// Reported, not asserted: through a lens that squeezes the spot, some still or slow
-    /// spots are still read as short streaks (see `carried_middle_px`).
-    Reported,
-}
-
 /// The assertions every case makes: the mapping's share, the whole error's median, and the
-/// issue's goal for what the calibration and mapping deliver from the tracker's middle; and
-/// with [`Output::Goal`], the goal on glint's output too.
-fn assert_figures(label: &str, f: &Figures, output: Output) {
+/// issue's goal, p95 ≤ 0.5 cm, both on glint's output (its head, what it reports) and on what
+/// the calibration and mapping deliver from the tracker's middle.
+fn assert_figures(label: &str, f: &Figures) {
     assert!(
         f.mapping_p95 <= MAPPING_P95_MAX_CM,
         "{label}: mapping p95 {:.3} cm",
@@ -222,18 +210,16 @@ fn assert_figures(label: &str, f: &Figures, output: Output) {
         "{label}: floor p95 from the carried middle {:.3} cm",
         f.carried_p95
     );
-    if output == Output::Goal {
-        assert!(
-            f.floor_p95 <= GOAL_P95_CM,
-            "{label}: floor p95 of glint's output {:.3} cm",
-            f.floor_p95
-        );
-    }
+    assert!(
+        f.floor_p95 <= GOAL_P95_CM,
+        "{label}: floor p95 of glint's output {:.3} cm",
+        f.floor_p95
+    );
 }
 
 /// Calibrates with a fitted lens and tracks. With `GLINT_FLOOR_BEFORE=1`, also reports the
 /// ideal-lens calibration without the LED's height (what glint did before), for the README.
-fn check(config: SceneConfig, label: &str, extra: &[&str], output: Output) {
+fn check(config: SceneConfig, label: &str, extra: &[&str]) {
     let r = render(config);
     let dir = tempfile::tempdir().unwrap();
     let fitted = calibrate(&r, dir.path(), "fit");
@@ -244,11 +230,7 @@ fn check(config: SceneConfig, label: &str, extra: &[&str], output: Output) {
             &floor_errors(&r, &ideal, &["--no-recheck"]),
         );
     }
-    assert_figures(
-        label,
-        &report(label, &floor_errors(&r, &fitted, extra)),
-        output,
-    );
+    assert_figures(label, &report(label, &floor_errors(&r, &fitted, extra)));
 }
 
 fn preset(name: &str, seed: u64) -> SceneConfig {
@@ -264,12 +246,7 @@ fn a_wide_angle_lens_is_calibrated_from_six_markers() {
         let mut config = preset("lens-wide", seed);
         let v = config.view.as_mut().unwrap();
         v.lens = v.lens.with_distortion(k1, k2, 0.0, 0.0, 0.0);
-        check(
-            config,
-            &format!("lens k1 {k1} k2 {k2}"),
-            &[],
-            Output::Reported,
-        );
+        check(config, &format!("lens k1 {k1} k2 {k2}"), &[]);
     }
 }
 
@@ -279,12 +256,7 @@ fn a_milder_decentred_lens_is_calibrated() {
         let mut config = preset("lens-mild", seed);
         let v = config.view.as_mut().unwrap();
         v.lens = v.lens.with_distortion(-0.12, 0.0, 0.0, p1, p2);
-        check(
-            config,
-            &format!("mild lens p1 {p1} p2 {p2}"),
-            &[],
-            Output::Reported,
-        );
+        check(config, &format!("mild lens p1 {p1} p2 {p2}"), &[]);
     }
 }
 
@@ -298,7 +270,6 @@ fn an_led_on_a_mast_is_mapped_to_the_floor_under_it() {
             config,
             &format!("LED {height_cm} cm up"),
             &["--led-height-cm", &h],
-            Output::Goal,
         );
     }
 }
@@ -336,7 +307,7 @@ fn a_knocked_camera_is_recalibrated_from_the_markers_in_view() {
             "{label}: the knock must matter ({:.3} cm)",
             kept.carried_p95
         );
-        assert_figures(&label, &figures, Output::Goal);
+        assert_figures(&label, &figures);
         // Every line says which calibration it used; after the knock, a fresh one.
         for rep in &reports {
             let age = rep["calib"]["age_s"].as_f64().expect("calib on every line");
@@ -375,7 +346,7 @@ fn markers_out_of_sight_mark_the_floor_numbers_stale_and_occlusion_changes_nothi
     let occluded = render(covered);
     let reports = tracked(&occluded, &calib, &[]);
     let figures = report("two markers covered", &errors_from(&occluded, &reports, 0));
-    assert_figures("two markers covered", &figures, Output::Goal);
+    assert_figures("two markers covered", &figures);
     for rep in &reports {
         assert!(rep["calib"]["age_s"].as_f64().unwrap() < 1.0, "{rep}");
         assert!(rep.get("floor_stale").is_none(), "{rep}");

@@ -12,6 +12,7 @@ pub mod fit;
 pub mod floor_bg;
 pub mod morph;
 pub mod skeleton;
+pub mod spot_shape;
 pub mod streak;
 pub mod threshold;
 pub mod tips;
@@ -22,6 +23,7 @@ use blobs::{Blob, Labeler, Overflow};
 use floor_bg::FloorBackground;
 use morph::Kernel;
 use skeleton::SkeletonMethod;
+use spot_shape::SpotOptics;
 use streak::{Streak, StreakModel, StreakScratch};
 use threshold::static_map::StaticMap;
 use threshold::{blob_level, Levels, Threshold, AUTO_MARGIN_LUMA};
@@ -137,6 +139,8 @@ pub struct Detector {
     frames_segmented: u64,
     /// The time of the frame being segmented.
     t_us: u64,
+    /// The lens, when it squeezes a round spot: streak tips are placed for the spot's shape.
+    optics: Option<Box<dyn SpotOptics>>,
 }
 
 impl Detector {
@@ -161,6 +165,7 @@ impl Detector {
             keep_out: heapless::Vec::new(),
             frames_segmented: 0,
             t_us: 0,
+            optics: None,
         })
     }
 
@@ -404,9 +409,16 @@ impl Detector {
             self.config.skeleton,
             self.config.streak_model,
             self.floor.as_ref(),
+            self.optics.as_deref(),
             &mut self.streak,
         );
         Some((blob, streak))
+    }
+
+    /// Places streak tips for the spot shape `optics` makes of a round spot (set once, at
+    /// start-up, from the calibration's lens; without it a spot is taken to be round).
+    pub fn set_optics(&mut self, optics: Box<dyn SpotOptics>) {
+        self.optics = Some(optics);
     }
 
     /// The saturation mask of the last frame.

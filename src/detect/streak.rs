@@ -16,6 +16,7 @@ use super::fit::{self, Rough};
 use super::floor_bg::FloorBackground;
 use super::morph::{self, Kernel};
 use super::skeleton::{self, SkeletonMethod, SkeletonScratch, SEED_PRE_DILATIONS};
+use super::spot_shape::{self, SpotOptics};
 use super::threshold::Levels;
 use super::tips;
 use crate::frame::Frame;
@@ -132,7 +133,9 @@ impl StreakScratch {
 }
 
 /// Analyses blob `index` of `labeler` on `frame`. `threshold_luma` is the level the mask was
-/// cut at; rim pixels are weighted by how close they come to it.
+/// cut at; rim pixels are weighted by how close they come to it. With `optics` (a lens that
+/// squeezes a round spot), the tips of [`StreakModel::Ramps`] are placed for the spot's shape
+/// at the blob ([`spot_shape`]).
 #[allow(clippy::too_many_arguments)]
 pub fn analyze(
     frame: &Frame<'_>,
@@ -143,6 +146,7 @@ pub fn analyze(
     method: SkeletonMethod,
     model: StreakModel,
     background: Option<&FloorBackground>,
+    optics: Option<&dyn SpotOptics>,
     scratch: &mut StreakScratch,
 ) -> Streak {
     let threshold_luma = levels.threshold_luma.unwrap_or(levels.top_luma);
@@ -231,7 +235,11 @@ pub fn analyze(
                         levels.top_luma,
                     )
                 })
-                .flatten();
+                .flatten()
+                .and_then(|t| match optics.and_then(|o| o.spot_shape_at(mid_px)) {
+                    Some(shape) => spot_shape::through_lens(t, ends_px, mid_px, shape),
+                    None => Some(t),
+                });
             // A still LED has no path: its ends would only be the spot's own outline, and the
             // tracker carries its middle by the frames' velocity instead.
             let path = tips.filter(|t| !t.still).map(|t| StreakPath {

@@ -70,6 +70,12 @@ pub struct Tips {
     /// The blob is no longer than the spot itself (within the caps' uncertainty): a still LED,
     /// whose tips say nothing.
     pub still: bool,
+    /// The unit directions outward along the streak at its two ends.
+    pub outward: [(f32, f32); 2],
+    /// The footprint's length along the streak, from one brightness edge to the other.
+    pub footprint_px: f32,
+    /// The scatter of the spot's own extent as its two caps measure it (one deviation).
+    pub spread_px: f32,
 }
 
 /// Refines the skeleton `ends` of a streak with middle `mid` into path tips. `clip_luma` is
@@ -158,6 +164,9 @@ pub fn refine(
         radius_px,
         path_length_px,
         still,
+        outward: dirs,
+        footprint_px,
+        spread_px: spread,
     })
 }
 

@@ -27,6 +27,7 @@ use core::fmt;
 use nalgebra::{Matrix2, Matrix3, Rotation3, Vector2, Vector3};
 
 use super::homography::Point;
+use crate::detect::spot_shape::{SpotOptics, SpotShape};
 use crate::frame::FrameSize;
 
 /// Newton steps at most when undistorting one point. Each step roughly squares the error, so a
@@ -258,6 +259,25 @@ impl Lens {
     }
 }
 
+/// Through the lens's local Jacobian at the pixel: how it squeezes a round spot there.
+impl SpotOptics for Lens {
+    fn spot_shape_at(&self, px: (f32, f32)) -> Option<SpotShape> {
+        let n = self
+            .undistort(&Point::new(f64::from(px.0), f64::from(px.1)))
+            .ok()?;
+        // In pixels: image = K D(K⁻¹ ideal), so the image's Jacobian is K J K⁻¹ with K the
+        // focal lengths' diagonal; its inverse maps image pixels to ideal pixels.
+        let j = self.distortion_jacobian(n.x, n.y);
+        let (sx, sy) = (self.fx / self.fy, self.fy / self.fx);
+        let pixel = Matrix2::new(j[(0, 0)], j[(0, 1)] * sx, j[(1, 0)] * sy, j[(1, 1)]);
+        let a = pixel.try_inverse()?;
+        SpotShape::new([
+            [a[(0, 0)] as f32, a[(0, 1)] as f32],
+            [a[(1, 0)] as f32, a[(1, 1)] as f32],
+        ])
+    }
+}
+
 /// Where the camera is: floor coordinates to camera coordinates, `X_cam = R X_floor + t`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Pose {
@@ -382,6 +402,43 @@ mod tests {
                 assert!((back - px).norm() < 1e-9, "{px:?} → {back:?}");
             }
         }
+    }
+
+    #[test]
+    fn the_spot_shape_is_the_lens_seen_up_close() {
+        // A decentred lens with unequal focal lengths: every term of the pixel Jacobian counts.
+        let lens = Lens {
+            p1: 0.001,
+            p2: -0.0015,
+            ..Lens {
+                fy: 440.0,
+                cx: 325.5,
+                ..wide()
+            }
+        };
+        let step = 1e-3; // ideal pixels
+        for (u, v) in [(20.0, 15.0), (600.0, 400.0), (320.0, 240.0), (100.0, 420.0)] {
+            let shape = lens.spot_shape_at((u as f32, v as f32)).unwrap();
+            let n = lens.undistort(&Point::new(u, v)).unwrap();
+            for angle_deg in [0.0f64, 35.0, 90.0, 150.0] {
+                // An ideal displacement, through the lens: the shape maps it back.
+                let (c, s) = (angle_deg.to_radians().cos(), angle_deg.to_radians().sin());
+                let seen = lens.project(n.x + step * c / lens.fx, n.y + step * s / lens.fy);
+                let (du, dv) = (seen.x - u, seen.y - v);
+                let image = du.hypot(dv);
+                let d = ((du / image) as f32, (dv / image) as f32);
+                let ratio = f64::from(shape.ideal_per_image_px(d)) * image / step;
+                assert!(
+                    (ratio - 1.0).abs() < 1e-3,
+                    "({u}, {v}) at {angle_deg}°: {ratio}"
+                );
+            }
+        }
+        // Near the corner, the wide lens squeezes a round spot radially by a fifth or more.
+        let corner = wide().spot_shape_at((600.0, 450.0)).unwrap();
+        let radial = (0.8, 0.6);
+        assert!(corner.along_over_across(radial) < 0.8);
+        assert!(corner.along_over_across((-0.6, 0.8)) > 1.2);
     }
 
     /// OpenCV's own numbers (`tools/opencv/make_lens_fixture.py`): `projectPoints` and

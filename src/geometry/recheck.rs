@@ -9,24 +9,40 @@
 //! that much); after a
 //! check that found no marker, the period searches the whole frame in [`SEARCH_BANDS`]
 //! overlapping bands of rows instead, one per frame. The detector allocates nothing after
-//! start-up. After the period's last search, the markers found once each are compared with
-//! where the current pose puts them:
-//! - within [`MOVED_RMS_PX`] of the calibration's own residual: the pose is confirmed (its
-//!   age restarts);
-//! - farther: the pose is refitted to them with the lens held, and taken if the refit fits them
-//!   (one log line says so);
+//! start-up. Refining every marker's corners to sub-pixel was most of a check's cost, and a
+//! check that confirms the pose does not need it. A marker's corners as the detector traces them
+//! are about 0.8 px rms from where the pose puts them, and the centre where their diagonals cross
+//! up to 1.2 px (on the knocked renders), too far to tell a pose that holds from one a pixel off;
+//! but that offset is the marker's own (the traced outline of a marker the lens bends), the same
+//! from check to check while nothing moves. So when a marker's refined corners confirm the pose,
+//! its unrefined centre's offset is kept, and later checks compare its unrefined centre, less
+//! that offset, with where the pose puts it: a steady marker is not refined. A marker without a
+//! kept offset (the first check, after a refit), or one off by more than the calibration's
+//! residual plus [`MOVED_RMS_PX`], has its corners refined on the frame it was found in. After
+//! the period's last search:
+//! - every marker steady: the pose is confirmed (its age restarts), no corner refined;
+//! - the refined markers' corners within that bound of where the pose puts them (rms): the pose
+//!   is confirmed, and their offsets kept;
+//! - farther, and every marker refined (a knock moves them all): the pose is refitted to them with
+//!   the lens held, and taken if the refit fits them (one log line says so);
+//! - farther, but some markers steady (a knock within the period, or one marker kicked): nothing
+//!   changes yet, and the next period refines every marker and decides as above;
 //! - none seen: nothing changes (the robot may be standing on them); after
 //!   [`STALE_AFTER_CHECKS`] such checks in a row, once markers had been seen in this run, the
 //!   floor numbers are marked stale: the camera may have moved where no marker shows.
 //!
 //! A marker partly covered by the robot is not decoded at all, so occlusion changes nothing.
 
+use nalgebra::Vector2;
+
 use super::calibration::MarkerPlacement;
 use super::camera::CameraModel;
 use super::camera_fit::{fit_camera, LensChoice, MAX_FIT_POINTS};
 use super::floor::FloorStage;
 use super::homography::Point;
-use crate::detect::aruco::{Detector, DetectorConfig, Dictionary, Roi, MAX_MARKERS};
+use crate::detect::aruco::{
+    diagonals_cross, Detector, DetectorConfig, Dictionary, Roi, MAX_MARKERS,
+};
 use crate::frame::{Frame, FrameSize};
 
 /// Frames between two re-checks (0.5 s at 30 fps: a knock is caught well within a second).
@@ -49,7 +65,8 @@ const MIN_BAND_OVERLAP_PX: usize = 32;
 pub struct CalibStatus {
     /// Seconds since the pose was last confirmed by markers (or since the start of the run).
     pub age_s: f64,
-    /// The markers' rms residual at that confirmation (at the start: the file's).
+    /// The markers' corners' rms residual when they last confirmed or refitted the pose refined
+    /// (at the start: the file's); a confirmation by steady markers alone keeps it.
     pub residual_px: f64,
     /// No marker has been seen for a while after markers were seen: the camera may have moved.
     pub stale: bool,
@@ -83,6 +100,15 @@ pub struct MarkerRecheck {
     found_ids: heapless::Vec<u16, MAX_MARKERS>,
     /// The last check found no marker: this period searches the whole frame, band by band.
     search_bands: bool,
+    /// This period refines every marker's corners (the last check saw some markers move, or
+    /// found none).
+    refine_all: bool,
+    /// Per marker of the map, where its unrefined centre sits from where the pose puts it, as
+    /// learned when its refined corners confirmed the pose (cleared by a refit).
+    centre_bias_px: [Option<Vector2<f64>>; MAX_MARKERS],
+    /// This period's refined markers: their map index and unrefined centre's offset, learned as
+    /// their bias if they confirm the pose.
+    pending: heapless::Vec<(usize, Vector2<f64>), MAX_MARKERS>,
     /// Checks made, to turn which markers a period searches when there are more than frames.
     checks: u64,
 }
@@ -102,7 +128,14 @@ impl MarkerRecheck {
             let _ = kept.push(*m);
         }
         MarkerRecheck {
-            detector: Detector::new(size, DetectorConfig::new(dictionary)),
+            detector: Detector::new(
+                size,
+                DetectorConfig {
+                    // Refined only when a marker looks moved (see `search`).
+                    refine: false,
+                    ..DetectorConfig::new(dictionary)
+                },
+            ),
             map: kept,
             size,
             confirmed_us: None,
@@ -119,6 +152,9 @@ impl MarkerRecheck {
             screen_pts: heapless::Vec::new(),
             found_ids: heapless::Vec::new(),
             search_bands: false,
+            refine_all: false,
+            centre_bias_px: [None; MAX_MARKERS],
+            pending: heapless::Vec::new(),
             checks: 0,
         }
     }
@@ -151,6 +187,7 @@ impl MarkerRecheck {
                 self.floor_pts.clear();
                 self.screen_pts.clear();
                 self.found_ids.clear();
+                self.pending.clear();
             }
             self.search(frame, step, floor);
             if step + 1 == searches {
@@ -191,22 +228,40 @@ impl MarkerRecheck {
         let Some(roi) = roi else {
             return;
         };
-        let Ok(seen) = self.detector.detect(frame, Some(roi)) else {
+        if self.detector.detect(frame, Some(roi)).is_err() {
             return;
-        };
-        for p in &self.map {
+        }
+        let moved_px = self.calibration_px + MOVED_RMS_PX;
+        for (index, p) in self.map.iter().enumerate() {
             if only.is_some_and(|id| id != p.id) || self.found_ids.contains(&p.id) {
                 continue;
             }
-            let mut matching = seen.iter().filter(|m| m.id == p.id);
-            let (Some(m), None) = (matching.next(), matching.next()) else {
+            let mut matching = self.detector.markers().iter().filter(|m| m.id == p.id);
+            let (Some(&m), None) = (matching.next(), matching.next()) else {
                 continue;
             };
             let room = self.floor_pts.capacity() - self.floor_pts.len();
             if room < 4 || self.found_ids.push(p.id).is_err() {
                 break;
             }
-            for (f, s) in p.corners().iter().zip(&m.corners) {
+            // Steady: its unrefined centre where it sat when refined corners last confirmed the
+            // pose. Anything else gets sub-pixel corners, for the pose to be judged on them.
+            let offset = marker_centre_px(&camera, p).map(|c| m.centre() - c);
+            let bias = self.centre_bias_px.get(index).copied().flatten();
+            let steady = match (offset, bias) {
+                (Some(o), Some(b)) => (o - b).norm() <= moved_px,
+                _ => false,
+            };
+            if steady && !self.refine_all && !self.search_bands {
+                continue;
+            }
+            if let Some(o) = offset {
+                // Capacity MAX_MARKERS, one entry per marker of the map.
+                let _ = self.pending.push((index, o));
+            }
+            let corners = self.detector.refine(frame, &m).unwrap_or(m.corners);
+            let floor_corners = p.corners();
+            for (f, s) in floor_corners.iter().zip(&corners) {
                 // Room for four was checked above.
                 let _ = self.floor_pts.push(*f);
                 let _ = self.screen_pts.push(*s);
@@ -242,19 +297,36 @@ impl MarkerRecheck {
         let Some(camera) = floor.camera().copied() else {
             return Outcome::Nothing;
         };
-        let (floor_pts, screen_pts) = (&self.floor_pts, &self.screen_pts);
-        self.search_bands = floor_pts.is_empty();
-        if floor_pts.is_empty() {
+        let found = self.found_ids.len();
+        self.search_bands = found == 0;
+        if found == 0 {
             self.misses = self.misses.saturating_add(1);
             return Outcome::Nothing;
         }
         self.misses = 0;
         self.seen_any = true;
-        let current = rms_px(&camera, floor_pts, screen_pts);
+        self.refine_all = false;
+        let (floor_pts, screen_pts) = (&self.floor_pts, &self.screen_pts);
+        if floor_pts.is_empty() {
+            // Every marker steady by its centre.
+            return Outcome::Confirmed;
+        }
         let moved_px = self.calibration_px + MOVED_RMS_PX;
+        let current = rms_px(&camera, floor_pts, screen_pts);
         if current <= moved_px {
             self.residual_px = current;
+            for &(index, offset) in &self.pending {
+                if let Some(bias) = self.centre_bias_px.get_mut(index) {
+                    *bias = Some(offset);
+                }
+            }
             return Outcome::Confirmed;
+        }
+        if floor_pts.len() < 4 * found {
+            // The refined markers moved and the steady ones did not: settle it next period, on
+            // every marker's refined corners.
+            self.refine_all = true;
+            return Outcome::Nothing;
         }
         let Ok(fit) = fit_camera(
             floor_pts,
@@ -291,6 +363,8 @@ impl MarkerRecheck {
             );
             *floor = stage;
             self.residual_px = fit.rms_residual_px;
+            // Where each marker's unrefined centre sits is learned again under the new pose.
+            self.centre_bias_px = [None; MAX_MARKERS];
             return Outcome::Refit;
         }
         Outcome::Nothing
@@ -329,6 +403,16 @@ fn marker_region(camera: &CameraModel, marker: &MarkerPlacement) -> Option<Roi> 
         width_px: (x1 - x0).ceil() as usize,
         height_px: (y1 - y0).ceil() as usize,
     })
+}
+
+/// Where the diagonals of `marker`'s outline cross as `camera` sees it (as the detector finds a
+/// marker's centre, so that the lens bends both alike).
+fn marker_centre_px(camera: &CameraModel, marker: &MarkerPlacement) -> Option<Point> {
+    let mut corners = [Point::origin(); 4];
+    for (seen, c) in corners.iter_mut().zip(marker.corners()) {
+        *seen = camera.project(&c, 0.0).ok()?;
+    }
+    Some(diagonals_cross(&corners))
 }
 
 /// Rms distance between `screen` and `floor` seen through `camera`.

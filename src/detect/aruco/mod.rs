@@ -127,7 +127,7 @@ impl Marker {
 }
 
 /// Where a quadrilateral's diagonals cross (the corners' mean if they are parallel).
-fn diagonals_cross(corners: &[Point; 4]) -> Point {
+pub fn diagonals_cross(corners: &[Point; 4]) -> Point {
     let [a, b, c, d] = *corners;
     let (r, s) = (c - a, d - b);
     let denom = r.perp(&s);
@@ -373,6 +373,23 @@ impl Detector {
             }
         }
         Ok(&self.markers)
+    }
+}
+
+impl Detector {
+    /// The markers the last call to [`Detector::detect`] found.
+    pub fn markers(&self) -> &[Marker] {
+        &self.markers
+    }
+
+    /// `marker`'s corners (as found in `frame` with refinement off) refined to sub-pixel, for
+    /// a caller that needs them only now and then; `None` when refinement fails.
+    pub fn refine(&mut self, frame: &Frame<'_>, marker: &Marker) -> Option<[Point; 4]> {
+        if frame.size() != self.size {
+            return None;
+        }
+        let cells = self.config.dictionary.marker_bits() + 2;
+        refine::refine_corners(frame, &marker.corners, cells, &mut self.edge_samples).ok()
     }
 }
 
