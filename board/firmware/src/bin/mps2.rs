@@ -280,12 +280,9 @@ mod target {
                 // The age last, read as late as possible: the line's first bytes are out.
                 let now = now_us();
                 let _ = match cmd.age {
-                    Some(age) => writeln!(
-                        out,
-                        "{} {now} {}",
-                        age.age_at_us(now),
-                        age.received_at_us
-                    ),
+                    Some(age) => {
+                        writeln!(out, "{} {now} {}", age.age_at_us(now), age.received_at_us)
+                    }
                     None => writeln!(out, "- {now} -"),
                 };
             }
