@@ -19,13 +19,13 @@ mod common;
 
 use std::collections::BTreeSet;
 use std::io::{BufRead, BufReader, Write};
-use std::net::TcpListener;
 use std::process::{Child, Command, Stdio};
 use std::thread;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use common::arena::{calibrate, small};
 use common::live::lines_of;
+use common::peers::free_port;
 use common::{glint, parse_jsonl, quantile};
 use glint_tools::scene::{Arena, ArenaConfig, Visibility};
 use serde_json::Value;
@@ -49,15 +49,6 @@ fn unix_now_us() -> i64 {
         .duration_since(UNIX_EPOCH)
         .unwrap()
         .as_micros() as i64
-}
-
-/// A free TCP port on the loopback interface.
-fn free_port() -> u16 {
-    TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
 }
 
 fn num(v: &Value, key: &str) -> f64 {

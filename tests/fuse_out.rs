@@ -14,19 +14,17 @@
 
 mod common;
 
-use std::io::{BufRead, BufReader, Read, Write};
-use std::net::TcpListener;
+use std::io::{Read, Write};
 use std::os::unix::io::AsRawFd;
 use std::path::{Path, PathBuf};
-use std::process::{Child, ChildStdin, Command, Stdio};
+use std::process::{Command, Stdio};
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::mpsc::{self, Receiver};
 use std::sync::{Arc, OnceLock};
 use std::thread;
 use std::time::{Duration, Instant};
 
 use common::arena::{calibrate, small};
-use common::peers::python;
+use common::peers::{free_port, python, PySubscriber};
 use common::{glint, parse_jsonl};
 use glint_protocol::{Decoder, Message, Position, Received, Status, Units};
 use glint_tools::scene::{Arena, ArenaCamera, ArenaConfig};
@@ -528,62 +526,16 @@ fn pymavlink_decodes_the_fused_track_with_its_own_uncertainty() {
     );
 }
 
-/// A free TCP port on the loopback interface.
-fn free_port() -> u16 {
-    TcpListener::bind("127.0.0.1:0")
-        .and_then(|l| l.local_addr())
-        .expect("a free port")
-        .port()
-}
-
 /// The Python subscriber of the fused steps, listening on `port`.
-struct Subscriber {
-    child: Child,
-    stdin: Option<ChildStdin>,
-    samples: Receiver<Value>,
+fn subscriber(port: u16) -> PySubscriber {
+    PySubscriber::start(
+        "tests/fuse_out/subscribe_fused.py",
+        &[&format!("tcp/127.0.0.1:{port}"), KEY],
+        PATIENCE,
+    )
 }
 
-impl Subscriber {
-    fn start(port: u16) -> Subscriber {
-        let script =
-            Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fuse_out/subscribe_fused.py");
-        let mut child = Command::new(python())
-            .arg(script)
-            .args([&format!("tcp/127.0.0.1:{port}"), KEY])
-            .stdin(Stdio::piped())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::inherit())
-            .spawn()
-            .expect("start python");
-        let stdin = child.stdin.take();
-        let stdout = child.stdout.take().unwrap();
-        let (tx, samples) = mpsc::channel();
-        thread::spawn(move || {
-            for line in BufReader::new(stdout).lines().map_while(Result::ok) {
-                let value: Value = serde_json::from_str(&line)
-                    .unwrap_or_else(|e| panic!("subscriber printed {line:?}: {e}"));
-                if tx.send(value).is_err() {
-                    break;
-                }
-            }
-        });
-        let ready = samples.recv_timeout(PATIENCE).expect("subscriber ready");
-        assert_eq!(ready["ready"], true, "{ready}");
-        Subscriber {
-            child,
-            stdin,
-            samples,
-        }
-    }
-
-    /// Closes its input, so it exits, and returns every sample it printed since.
-    fn stop(mut self) -> Vec<Value> {
-        drop(self.stdin.take());
-        let status = self.child.wait().unwrap();
-        assert!(status.success(), "subscriber: {status:?}");
-        self.samples.try_iter().collect()
-    }
-
+impl PySubscriber {
     /// Waits for a fused JSON step later than `after` (s); its time.
     fn step_after(&self, after: Option<f64>, within: Duration) -> Option<f64> {
         let deadline = Instant::now() + within;
@@ -634,7 +586,7 @@ fn an_independent_peer_receives_every_fused_step_in_both_forms() {
     let rec = recordings();
     let dir = tempfile::tempdir().unwrap();
     let port = free_port();
-    let subscriber = Subscriber::start(port);
+    let subscriber = subscriber(port);
     let (fifos, writer) = paced(&rec.two, dir.path());
     let (steps, log) = fuse(
         &fifos,
@@ -711,7 +663,7 @@ fn an_independent_peer_receives_every_fused_step_in_both_forms() {
 fn a_subscriber_that_restarts_loses_fused_steps_not_the_process() {
     let rec = recordings();
     let port = free_port();
-    let first = Subscriber::start(port);
+    let first = subscriber(port);
     // One camera's lines over and over, each round later than the last, a line every 5 ms:
     // glint fuse runs until its input ends.
     let text = std::fs::read_to_string(&rec.one[0]).unwrap();
@@ -756,7 +708,7 @@ fn a_subscriber_that_restarts_loses_fused_steps_not_the_process() {
     // The subscriber is gone: glint fuse goes on, and keeps trying to reconnect.
     thread::sleep(Duration::from_millis(500));
     assert!(child.try_wait().unwrap().is_none(), "glint fuse exited");
-    let second = Subscriber::start(port);
+    let second = subscriber(port);
     let after = second.step_after(Some(before), PATIENCE);
     assert!(child.try_wait().unwrap().is_none(), "glint fuse exited");
     stop.store(true, Ordering::Relaxed);

@@ -11,16 +11,13 @@
 mod common;
 
 use std::collections::BTreeMap;
-use std::io::{BufRead, BufReader, Write};
-use std::net::TcpListener;
-use std::path::Path;
-use std::process::{Child, ChildStdin, Command, Stdio};
-use std::sync::mpsc::{self, Receiver};
+use std::io::Write;
+use std::process::{Command, Stdio};
 use std::thread;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use common::live::feed_endlessly;
-use common::peers::{calibrate_two_markers, python};
+use common::peers::{calibrate_two_markers, free_port, PySubscriber};
 use common::{glint, parse_jsonl, quantile, render, score};
 use serde_json::Value;
 
@@ -37,62 +34,16 @@ const BINARY_VELOCITY_TOLERANCE: f64 = 1e-2;
 /// The JSON's floor centimetres to 3 decimals, as metres.
 const POINT_TOLERANCE_M: f64 = 1e-5;
 
-/// A free TCP port on the loopback interface.
-fn free_port() -> u16 {
-    TcpListener::bind("127.0.0.1:0")
-        .and_then(|l| l.local_addr())
-        .expect("a free port")
-        .port()
+/// The Python subscriber of every report, listening on `port`.
+fn subscriber(port: u16) -> PySubscriber {
+    PySubscriber::start(
+        "tests/publish/subscribe.py",
+        &[&format!("tcp/127.0.0.1:{port}"), KEY, CAMERA, ROS_DOMAIN],
+        PATIENCE,
+    )
 }
 
-/// The Python subscriber, listening on `port`.
-struct Subscriber {
-    child: Child,
-    stdin: Option<ChildStdin>,
-    samples: Receiver<Value>,
-}
-
-impl Subscriber {
-    /// Starts it and waits until its subscriptions are declared.
-    fn start(port: u16) -> Subscriber {
-        let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/publish/subscribe.py");
-        let mut child = Command::new(python())
-            .arg(script)
-            .args([&format!("tcp/127.0.0.1:{port}"), KEY, CAMERA, ROS_DOMAIN])
-            .stdin(Stdio::piped())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::inherit())
-            .spawn()
-            .expect("start python");
-        let stdin = child.stdin.take();
-        let stdout = child.stdout.take().unwrap();
-        let (tx, samples) = mpsc::channel();
-        thread::spawn(move || {
-            for line in BufReader::new(stdout).lines().map_while(Result::ok) {
-                let value: Value = serde_json::from_str(&line)
-                    .unwrap_or_else(|e| panic!("subscriber printed {line:?}: {e}"));
-                if tx.send(value).is_err() {
-                    break;
-                }
-            }
-        });
-        let ready = samples.recv_timeout(PATIENCE).expect("subscriber ready");
-        assert_eq!(ready["ready"], true, "{ready}");
-        Subscriber {
-            child,
-            stdin,
-            samples,
-        }
-    }
-
-    /// Closes its input, so it exits, and returns every sample it printed.
-    fn stop(mut self) -> Vec<Value> {
-        drop(self.stdin.take());
-        let status = self.child.wait().unwrap();
-        assert!(status.success(), "subscriber: {status:?}");
-        self.samples.try_iter().collect()
-    }
-
+impl PySubscriber {
     /// Waits for a JSON report with a frame above `after`; its frame.
     fn json_frame_after(&self, after: Option<u64>, within: Duration) -> Option<u64> {
         let deadline = Instant::now() + within;
@@ -130,7 +81,7 @@ fn an_independent_peer_receives_every_report_in_every_form() {
     let frames = std::fs::read(&r.dump).unwrap();
     let frame_bytes = frames.len() / r.truths.len();
     let port = free_port();
-    let subscriber = Subscriber::start(port);
+    let subscriber = subscriber(port);
     let started_us = unix_now_us();
 
     let size = format!("{}x{}", r.scene.width_px(), r.scene.height_px());
@@ -318,7 +269,7 @@ fn a_subscriber_that_restarts_loses_reports_not_the_process() {
         ),
     )
     .unwrap();
-    let first = Subscriber::start(port);
+    let first = subscriber(port);
     let mut child = glint()
         .args(["run", "--config"])
         .arg(&settings)
@@ -341,7 +292,7 @@ fn a_subscriber_that_restarts_loses_reports_not_the_process() {
     thread::sleep(Duration::from_millis(500));
     assert!(child.try_wait().unwrap().is_none(), "glint exited");
 
-    let second = Subscriber::start(port);
+    let second = subscriber(port);
     let after = second.json_frame_after(Some(before), PATIENCE);
     assert!(child.try_wait().unwrap().is_none(), "glint exited");
     let kill = Command::new("kill")

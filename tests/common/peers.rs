@@ -1,11 +1,18 @@
 //! What the tests against independent implementations share: the Python venv that holds them
 //! (pymavlink, eclipse-zenoh, ...), and a calibration that gives reports floor positions.
 
+use std::io::{BufRead, BufReader};
+use std::net::TcpListener;
 use std::path::{Path, PathBuf};
+use std::process::{Child, ChildStdin, Command, Stdio};
+use std::sync::mpsc::{self, Receiver};
+use std::thread;
+use std::time::Duration;
 
 use glint::detect::aruco::Dictionary;
 use glint::geometry::Point;
 use glint_tools::markers::{reference_camera, MarkerScene, PlacedMarker};
+use serde_json::Value;
 
 use super::glint;
 
@@ -23,6 +30,66 @@ pub fn python() -> PathBuf {
         venv.display()
     );
     python
+}
+
+/// A free TCP port on the loopback interface.
+pub fn free_port() -> u16 {
+    TcpListener::bind("127.0.0.1:0")
+        .and_then(|l| l.local_addr())
+        .expect("a free port")
+        .port()
+}
+
+/// A Python subscriber (a script under tests/ run by the venv's python) that prints one JSON
+/// value a line, the first `{"ready": true}` once its subscriptions are declared, and exits when
+/// its standard input closes.
+pub struct PySubscriber {
+    child: Child,
+    stdin: Option<ChildStdin>,
+    /// What it printed after `ready`, in order.
+    pub samples: Receiver<Value>,
+}
+
+impl PySubscriber {
+    /// Starts `script` (relative to the package) with `args`, and waits up to `patience` for
+    /// it to be ready.
+    pub fn start(script: &str, args: &[&str], patience: Duration) -> PySubscriber {
+        let mut child = Command::new(python())
+            .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join(script))
+            .args(args)
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::inherit())
+            .spawn()
+            .expect("start python");
+        let stdin = child.stdin.take();
+        let stdout = child.stdout.take().expect("the subscriber's stdout");
+        let (tx, samples) = mpsc::channel();
+        thread::spawn(move || {
+            for line in BufReader::new(stdout).lines().map_while(Result::ok) {
+                let value: Value = serde_json::from_str(&line)
+                    .unwrap_or_else(|e| panic!("subscriber printed {line:?}: {e}"));
+                if tx.send(value).is_err() {
+                    break;
+                }
+            }
+        });
+        let ready = samples.recv_timeout(patience).expect("subscriber ready");
+        assert_eq!(ready["ready"], true, "{ready}");
+        PySubscriber {
+            child,
+            stdin,
+            samples,
+        }
+    }
+
+    /// Closes its input, so it exits, and returns every sample it printed since.
+    pub fn stop(mut self) -> Vec<Value> {
+        drop(self.stdin.take());
+        let status = self.child.wait().expect("wait for the subscriber");
+        assert!(status.success(), "subscriber: {status:?}");
+        self.samples.try_iter().collect()
+    }
 }
 
 fn marker(id: u16, x_cm: f64, y_cm: f64) -> PlacedMarker {
