@@ -11,10 +11,11 @@
 //!
 //! # Threads
 //!
-//! As for a camera's reports ([`super::PublishSink`]): the fusing thread hands each step's two
-//! forms to a bounded queue and returns; a full queue (a slow network) drops the step and
-//! counts it; a thread of its own puts them on the session, congestion control `block`. The
-//! fuser allocates per step anyway (see `crate::fuse`), so the forms are built on its thread.
+//! As for a camera's reports ([`super::PublishSink`], through the same [`super::outbox`]): the
+//! fusing thread hands each step's two forms to a bounded queue and returns; a full queue (a
+//! slow network) drops the step and counts it; a thread of its own puts them on the session,
+//! congestion control `block`. The fuser allocates per step anyway (see `crate::fuse`), so the
+//! forms are built on its thread.
 //!
 //! # Binary form (version 1)
 //!
@@ -25,10 +26,8 @@
 //! of 2 × f32, units/s), `sigma` (option of f32, floor units), `cameras` (varint: how many
 //! cameras contributed).
 
-use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::mpsc::{self, Receiver, SyncSender, TrySendError};
-use std::sync::Arc;
-use std::thread::JoinHandle;
+use std::sync::atomic::Ordering;
+use std::sync::mpsc::Receiver;
 
 use serde::{Deserialize, Serialize};
 use zenoh::bytes::Encoding;
@@ -37,8 +36,9 @@ use zenoh::qos::CongestionControl;
 use zenoh::{Session, Wait};
 
 use super::keys::{check_key, KeyError, FUSED_CHUNK};
+use super::outbox::{Counters, Outbox};
 use super::wire::unit_code;
-use super::{PublishError, PublishStats, QUEUE_REPORTS};
+use super::{PublishError, PublishStats};
 use crate::fuse::{FusedStep, MAX_ROBOTS};
 
 /// The schema named in the binary form's encoding.
@@ -112,20 +112,9 @@ struct Forms {
     binary: Vec<u8>,
 }
 
-/// What the publisher thread counts.
-#[derive(Debug, Default)]
-struct Counters {
-    sent: AtomicU64,
-    failed: AtomicU64,
-}
-
 /// The fusing thread's end of the fused steps' publisher.
 pub struct FusedPublisher {
-    queue: Option<SyncSender<Forms>>,
-    thread: Option<JoinHandle<()>>,
-    counters: Arc<Counters>,
-    queued: u64,
-    dropped: u64,
+    outbox: Outbox<Forms>,
 }
 
 impl FusedPublisher {
@@ -148,29 +137,16 @@ impl FusedPublisher {
             binary_key,
             Encoding::APPLICATION_OCTET_STREAM.with_schema(FUSED_SCHEMA),
         )?;
-        let (queue, steps) = mpsc::sync_channel(QUEUE_REPORTS);
-        let counters = Arc::new(Counters::default());
-        let thread_counters = Arc::clone(&counters);
-        let thread = std::thread::Builder::new()
-            .name("glint-publish-fused".into())
-            .spawn(move || run(&json, &binary, steps, &thread_counters))
-            .map_err(PublishError::Thread)?;
-        Ok(FusedPublisher {
-            queue: Some(queue),
-            thread: Some(thread),
-            counters,
-            queued: 0,
-            dropped: 0,
+        let outbox = Outbox::start("glint-publish-fused", move |steps, counters| {
+            run(&json, &binary, steps, counters)
         })
+        .map_err(PublishError::Thread)?;
+        Ok(FusedPublisher { outbox })
     }
 
     /// Queues one step: its JSON line (with or without its newline) and its binary form.
     /// Never waits: a full queue drops the step and counts it.
     pub fn publish(&mut self, json_line: &[u8], step: &FusedStep) {
-        let Some(queue) = &self.queue else {
-            self.dropped += 1;
-            return;
-        };
         let mut buf = [0u8; MAX_FUSED_BYTES];
         let binary = match WireFusedStep::new(step).encode(&mut buf) {
             Ok(bytes) => bytes.to_vec(),
@@ -178,36 +154,17 @@ impl FusedPublisher {
             Err(_) => Vec::new(),
         };
         let json = json_line.strip_suffix(b"\n").unwrap_or(json_line).to_vec();
-        match queue.try_send(Forms { json, binary }) {
-            Ok(()) => self.queued += 1,
-            Err(TrySendError::Full(_) | TrySendError::Disconnected(_)) => self.dropped += 1,
-        }
+        self.outbox.offer(Forms { json, binary });
     }
 
     /// The counts so far; final once [`FusedPublisher::finish`] has returned.
     pub fn stats(&self) -> PublishStats {
-        PublishStats {
-            queued: self.queued,
-            dropped: self.dropped,
-            sent: self.counters.sent.load(Ordering::Relaxed),
-            failed: self.counters.failed.load(Ordering::Relaxed),
-        }
+        self.outbox.stats()
     }
 
     /// Lets the publisher thread send what is queued and waits for it.
     pub fn finish(&mut self) {
-        drop(self.queue.take());
-        if let Some(thread) = self.thread.take() {
-            if thread.join().is_err() {
-                log::warn!("publish: the fused steps' publisher thread panicked");
-            }
-        }
-    }
-}
-
-impl Drop for FusedPublisher {
-    fn drop(&mut self) {
-        self.finish();
+        self.outbox.close();
     }
 }
 

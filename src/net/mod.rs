@@ -9,11 +9,12 @@
 //! # Threads and memory
 //!
 //! The tracking thread never waits for the network. [`PublishSink::write`] copies the report
-//! (a fixed-size `Copy` value) into a bounded queue, allocated in [`PublishSink::start`], and
+//! (a fixed-size value that owns no heap memory) into a bounded queue, allocated in [`PublishSink::start`], and
 //! returns; when the queue is full (the network or the publisher thread is slow) the report is
 //! dropped and counted. `try_send` on a bounded std channel allocates nothing, so the tracking
 //! thread stays allocation-free (`tests/alloc_free.rs`). The publisher thread ([`publisher`])
-//! formats and sends; it may allocate, and Zenoh's own threads do.
+//! formats and sends; it may allocate, and Zenoh's own threads do. The queue and its thread
+//! are [`outbox`]'s, shared with [`fused`].
 //!
 //! A network that goes away costs reports, never the process: with no peer connected a put goes
 //! nowhere at once; a stalled link blocks the publisher thread until Zenoh closes it (the queue
@@ -21,6 +22,7 @@
 
 pub mod fused;
 pub mod keys;
+mod outbox;
 mod publisher;
 pub mod ros;
 pub mod subscriber;
@@ -28,14 +30,11 @@ pub mod wire;
 
 use core::fmt;
 use std::io;
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-use std::sync::mpsc::{self, SyncSender, TrySendError};
-use std::sync::Arc;
-use std::thread::JoinHandle;
 
 use crate::report::FrameReport;
 use crate::sink::Sink;
 pub use keys::{KeyError, Keys};
+use outbox::Outbox;
 pub use publisher::open_session;
 
 /// Reports the queue holds: a second at 32 fps, so a publisher thread stalled for less than
@@ -108,82 +107,38 @@ impl fmt::Display for PublishStats {
     }
 }
 
-/// What the publisher thread counts, read by the tracking thread for the status line.
-#[derive(Debug, Default)]
-struct Counters {
-    sent: AtomicU64,
-    failed: AtomicU64,
-    /// Whether any subscriber matched the JSON key at the last report.
-    subscribed: AtomicBool,
-}
-
 /// The tracking thread's end: a [`Sink`] that queues reports for the publisher thread.
 pub struct PublishSink {
-    queue: Option<SyncSender<FrameReport>>,
-    thread: Option<JoinHandle<()>>,
-    counters: Arc<Counters>,
-    queued: u64,
-    dropped: u64,
+    outbox: Outbox<FrameReport>,
 }
 
 impl PublishSink {
     /// Opens the Zenoh session and its publishers, and starts the publisher thread.
     pub fn start(config: &PublishConfig) -> Result<PublishSink, PublishError> {
         let publishers = publisher::Publishers::open(config)?;
-        let (queue, reports) = mpsc::sync_channel(QUEUE_REPORTS);
-        let counters = Arc::new(Counters::default());
-        let thread_counters = Arc::clone(&counters);
-        let thread = std::thread::Builder::new()
-            .name("glint-publish".into())
-            .spawn(move || publishers.run(reports, &thread_counters))
-            .map_err(PublishError::Thread)?;
-        Ok(PublishSink {
-            queue: Some(queue),
-            thread: Some(thread),
-            counters,
-            queued: 0,
-            dropped: 0,
+        let outbox = Outbox::start("glint-publish", move |reports, counters| {
+            publishers.run(reports, counters)
         })
+        .map_err(PublishError::Thread)?;
+        Ok(PublishSink { outbox })
     }
 
     /// The counts so far.
     pub fn stats(&self) -> PublishStats {
-        PublishStats {
-            queued: self.queued,
-            dropped: self.dropped,
-            sent: self.counters.sent.load(Ordering::Relaxed),
-            failed: self.counters.failed.load(Ordering::Relaxed),
-        }
-    }
-
-    /// Lets the publisher thread send what is queued, then closes the session.
-    fn close(&mut self) {
-        drop(self.queue.take());
-        if let Some(thread) = self.thread.take() {
-            if thread.join().is_err() {
-                log::warn!("publish: the publisher thread panicked");
-            }
-        }
+        self.outbox.stats()
     }
 }
 
 impl Sink for PublishSink {
     fn write(&mut self, report: &FrameReport) -> io::Result<()> {
         // After `finish` nothing is sent any more: a late report is dropped like any other.
-        let Some(queue) = &self.queue else {
-            self.dropped += 1;
-            return Ok(());
-        };
-        match queue.try_send(report.clone()) {
-            Ok(()) => self.queued += 1,
-            Err(TrySendError::Full(_) | TrySendError::Disconnected(_)) => self.dropped += 1,
-        }
+        self.outbox.offer(report.clone());
         Ok(())
     }
 
     fn finish(&mut self) -> io::Result<()> {
-        if self.thread.is_some() {
-            self.close();
+        if self.outbox.is_open() {
+            self.outbox.close();
             log::info!("publish: {}", self.stats());
         }
         Ok(())
@@ -191,7 +146,7 @@ impl Sink for PublishSink {
 
     fn status(&self, out: &mut fmt::Formatter<'_>) -> fmt::Result {
         let stats = self.stats();
-        let audience = if self.counters.subscribed.load(Ordering::Relaxed) {
+        let audience = if self.outbox.subscribed() {
             "subscribed"
         } else {
             "no subscriber"
@@ -201,11 +156,5 @@ impl Sink for PublishSink {
             ", publish {audience} (sent {}, dropped {})",
             stats.sent, stats.dropped
         )
-    }
-}
-
-impl Drop for PublishSink {
-    fn drop(&mut self) {
-        self.close();
     }
 }

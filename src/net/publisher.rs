@@ -17,9 +17,10 @@ use zenoh::pubsub::Publisher;
 use zenoh::qos::CongestionControl;
 use zenoh::{Config, Session, Wait};
 
+use super::outbox::Counters;
 use super::ros::{self, POINT_STAMPED_BYTES};
 use super::wire::{self, WireReport};
-use super::{Counters, PublishConfig, PublishError};
+use super::{PublishConfig, PublishError};
 use crate::geometry::FloorFix;
 use crate::report::FrameReport;
 use crate::sink::mavlink::estimate::metres_per_unit;
