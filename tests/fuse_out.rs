@@ -24,7 +24,7 @@ use std::thread;
 use std::time::{Duration, Instant};
 
 use common::arena::{calibrate, small};
-use common::peers::{free_port, python, PySubscriber};
+use common::peers::{decode_mavlink, free_port, PySubscriber};
 use common::{glint, parse_jsonl};
 use glint_protocol::{Decoder, Message, Position, Received, Status, Units};
 use glint_tools::scene::{Arena, ArenaCamera, ArenaConfig};
@@ -387,28 +387,6 @@ fn robots_out_of_range_and_lines_beyond_them_are_refused_with_one_line() {
         assert_eq!(err.trim().lines().count(), 1, "{err}");
         assert!(run.stdout.is_empty());
     }
-}
-
-/// Decodes `bytes` with pymavlink (tests/mavlink/decode.py): the messages, then the summary.
-fn decode_mavlink(bytes: &[u8]) -> (Vec<Value>, Value) {
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/mavlink/decode.py");
-    let mut child = Command::new(python())
-        .arg(script)
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("start python");
-    child.stdin.take().unwrap().write_all(bytes).unwrap();
-    let out = child.wait_with_output().unwrap();
-    assert!(
-        out.status.success(),
-        "decode.py: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let mut lines = parse_jsonl(&out.stdout);
-    let summary = lines.pop().expect("summary line")["summary"].clone();
-    (lines, summary)
 }
 
 fn f(v: &Value) -> f64 {

@@ -10,13 +10,12 @@ mod common;
 
 use std::io::{Read, Write};
 use std::os::unix::io::AsRawFd;
-use std::path::Path;
-use std::process::{Command, Stdio};
+use std::process::Stdio;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use common::peers::{calibrate_two_markers, python};
+use common::peers::{calibrate_two_markers, decode_mavlink, python};
 use common::{glint, parse_jsonl, render};
 use nix::fcntl::{fcntl, FcntlArg, FdFlag};
 use serde_json::Value;
@@ -38,28 +37,6 @@ const POSITION_TOLERANCE_M: f64 = 1e-4;
 const VELOCITY_TOLERANCE_M_S: f64 = 1e-3;
 /// The variance of an angle uniform over the circle, π²/3 rad², given to unmeasured angles.
 const UNMEASURED_ANGLE_VARIANCE_RAD2: f64 = std::f64::consts::PI * std::f64::consts::PI / 3.0;
-
-/// Decodes `bytes` with pymavlink: the messages, then the summary.
-fn decode(bytes: &[u8]) -> (Vec<Value>, Value) {
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/mavlink/decode.py");
-    let mut child = Command::new(python())
-        .arg(script)
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("start python");
-    child.stdin.take().unwrap().write_all(bytes).unwrap();
-    let out = child.wait_with_output().unwrap();
-    assert!(
-        out.status.success(),
-        "decode.py: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let mut lines = parse_jsonl(&out.stdout);
-    let summary = lines.pop().expect("summary line")["summary"].clone();
-    (lines, summary)
-}
 
 /// `key=value` counts of the sink's summary line in glint's log.
 fn summary_count(log: &str, key: &str) -> u64 {
@@ -137,7 +114,7 @@ fn pymavlink_decodes_every_message_with_the_reported_positions() {
     let log = String::from_utf8_lossy(&run.stderr);
     assert!(run.status.success(), "{log}");
     let reports = parse_jsonl(&run.stdout);
-    let (messages, summary) = decode(&bytes);
+    let (messages, summary) = decode_mavlink(&bytes);
 
     // Every byte decodes, every CRC holds, and a flipped byte is caught.
     assert!(
@@ -447,7 +424,7 @@ fn an_unplugged_mavlink_port_is_reopened_and_sends_whole_frames_again() {
     assert!(summary_count(&log, "port_down") > 0, "{log}");
 
     // What comes after the reopening decodes whole: the writer never resumes mid-frame.
-    let (messages, _) = decode(&second_bytes);
+    let (messages, _) = decode_mavlink(&second_bytes);
     assert!(!messages.is_empty(), "nothing sent after reopening: {log}");
     assert!(
         messages.iter().all(|m| m["type"] != "BAD_DATA"),

@@ -1,7 +1,7 @@
 //! What the tests against independent implementations share: the Python venv that holds them
 //! (pymavlink, eclipse-zenoh, ...), and a calibration that gives reports floor positions.
 
-use std::io::{BufRead, BufReader};
+use std::io::{BufRead, BufReader, Write};
 use std::net::TcpListener;
 use std::path::{Path, PathBuf};
 use std::process::{Child, ChildStdin, Command, Stdio};
@@ -14,7 +14,7 @@ use glint::geometry::Point;
 use glint_tools::markers::{reference_camera, MarkerScene, PlacedMarker};
 use serde_json::Value;
 
-use super::glint;
+use super::{glint, parse_jsonl};
 
 /// The venv's python, or a failure that says how to make it.
 pub fn python() -> PathBuf {
@@ -30,6 +30,29 @@ pub fn python() -> PathBuf {
         venv.display()
     );
     python
+}
+
+/// Decodes MAVLink `bytes` with pymavlink (tests/mavlink/decode.py): the messages, then the
+/// summary.
+pub fn decode_mavlink(bytes: &[u8]) -> (Vec<Value>, Value) {
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/mavlink/decode.py");
+    let mut child = Command::new(python())
+        .arg(script)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("start python");
+    child.stdin.take().unwrap().write_all(bytes).unwrap();
+    let out = child.wait_with_output().unwrap();
+    assert!(
+        out.status.success(),
+        "decode.py: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let mut lines = parse_jsonl(&out.stdout);
+    let summary = lines.pop().expect("summary line")["summary"].clone();
+    (lines, summary)
 }
 
 /// A free TCP port on the loopback interface.

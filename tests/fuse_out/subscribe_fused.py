@@ -11,48 +11,11 @@ The first line is {"ready": true}, once the subscription is declared. Then per s
 """
 
 import json
-import queue
-import struct
+import os
 import sys
-import threading
 
-import zenoh
-
-print_lock = threading.Lock()
-
-
-def emit(obj):
-    with print_lock:
-        sys.stdout.write(json.dumps(obj) + "\n")
-        sys.stdout.flush()
-
-
-def varint(b, i):
-    value = shift = 0
-    while True:
-        byte = b[i]
-        i += 1
-        value |= (byte & 0x7F) << shift
-        shift += 7
-        if byte < 0x80:
-            return value, i
-
-
-def option(b, i, read):
-    tag = b[i]
-    if tag == 0:
-        return None, i + 1
-    if tag != 1:
-        raise ValueError(f"option tag {tag} at {i}")
-    return read(b, i + 1)
-
-
-def f32(b, i):
-    return struct.unpack_from("<f", b, i)[0], i + 4
-
-
-def f32_pair(b, i):
-    return list(struct.unpack_from("<2f", b, i)), i + 8
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "common"))
+from zenoh_peer import emit, f32, f32_pair, option, serve, varint  # noqa: E402
 
 
 def decode_binary(b):
@@ -83,9 +46,8 @@ def decode_binary(b):
 
 def main():
     endpoint, key = sys.argv[1:3]
-    received = queue.Queue()
 
-    def decode(k, encoding, payload):
+    def decode(k, encoding, payload, _attachment):
         out = {"key": k, "encoding": encoding}
         try:
             if k == key + "/fused":
@@ -98,27 +60,7 @@ def main():
             out.update(form="error", error=repr(e))
         emit(out)
 
-    def on_sample(sample):
-        received.put((str(sample.key_expr), str(sample.encoding), sample.payload.to_bytes()))
-
-    def decoder():
-        while (item := received.get()) is not None:
-            decode(*item)
-
-    decoding = threading.Thread(target=decoder)
-    decoding.start()
-    conf = zenoh.Config()
-    conf.insert_json5("mode", '"peer"')
-    conf.insert_json5("listen/endpoints", json.dumps([endpoint]))
-    conf.insert_json5("connect/endpoints", "[]")
-    conf.insert_json5("scouting/multicast/enabled", "false")
-    with zenoh.open(conf) as session:
-        subscriber = session.declare_subscriber(f"{key}/**", on_sample)
-        emit({"ready": True})
-        sys.stdin.read()
-        subscriber.undeclare()
-    received.put(None)
-    decoding.join()
+    serve(endpoint, [f"{key}/**"], decode, {"ready": True})
 
 
 if __name__ == "__main__":

@@ -15,53 +15,19 @@ sample arrives on it only if glint names the topic as rmw_zenoh does.
 """
 
 import json
-import queue
+import os
 import struct
 import sys
-import threading
 
-import zenoh
 from rosbags.typesys import Stores, get_typestore
 from zenoh_ros2_sdk.attachment import Attachment
 from zenoh_ros2_sdk.keyexpr import topic_keyexpr
 from zenoh_ros2_sdk.utils import ros2_to_dds_type
 
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "common"))
+from zenoh_peer import emit, f32, f32_pair, option, serve, varint  # noqa: E402
+
 POINT_STAMPED = "geometry_msgs/msg/PointStamped"
-print_lock = threading.Lock()
-
-
-def emit(obj):
-    with print_lock:
-        sys.stdout.write(json.dumps(obj) + "\n")
-        sys.stdout.flush()
-
-
-def varint(b, i):
-    value = shift = 0
-    while True:
-        byte = b[i]
-        i += 1
-        value |= (byte & 0x7F) << shift
-        shift += 7
-        if byte < 0x80:
-            return value, i
-
-
-def option(b, i, read):
-    tag = b[i]
-    if tag == 0:
-        return None, i + 1
-    if tag != 1:
-        raise ValueError(f"option tag {tag} at {i}")
-    return read(b, i + 1)
-
-
-def f32(b, i):
-    return struct.unpack_from("<f", b, i)[0], i + 4
-
-
-def f32_pair(b, i):
-    return list(struct.unpack_from("<2f", b, i)), i + 8
 
 
 def floor(b, i):
@@ -130,44 +96,12 @@ def main():
             out.update(form="error", error=repr(e))
         emit(out)
 
-    # Zenoh's callback only copies the sample out, so a slow decoder never pushes back on the
-    # link (which would make glint's side drop samples); a thread decodes in order.
-    received = queue.Queue()
-
-    def on_sample(sample):
-        att = sample.attachment
-        received.put(
-            (
-                str(sample.key_expr),
-                str(sample.encoding),
-                sample.payload.to_bytes(),
-                att.to_bytes() if att is not None else None,
-            )
-        )
-
-    def decoder():
-        while (item := received.get()) is not None:
-            decode(*item)
-
-    decoding = threading.Thread(target=decoder)
-    decoding.start()
-
-    conf = zenoh.Config()
-    conf.insert_json5("mode", '"peer"')
-    conf.insert_json5("listen/endpoints", json.dumps([endpoint]))
-    conf.insert_json5("connect/endpoints", "[]")
-    conf.insert_json5("scouting/multicast/enabled", "false")
-    with zenoh.open(conf) as session:
-        subscribers = [
-            session.declare_subscriber(f"{key}/**", on_sample),
-            session.declare_subscriber(rmw_key, on_sample),
-        ]
-        emit({"ready": True, "rmw_key": rmw_key})
-        sys.stdin.read()
-        for s in subscribers:
-            s.undeclare()
-    received.put(None)
-    decoding.join()
+    serve(
+        endpoint,
+        [f"{key}/**", rmw_key],
+        decode,
+        {"ready": True, "rmw_key": rmw_key},
+    )
 
 
 if __name__ == "__main__":
