@@ -39,6 +39,9 @@ const SCENE_FRAMES: u8 = 8;
 /// Streak middles found in the loop's frames are within this of the scene's truth (the p95
 /// bound of tests/replay_accuracy.rs).
 const MID_MAX_ERROR_PX: f64 = 0.5;
+/// The reported position (the streak's head, the LED at the end of the exposure) is within this
+/// of the scene's truth: the bound issue 11 sets for an LED through a real V4L2 driver.
+const HEAD_MAX_ERROR_PX: f64 = 1.5;
 /// Frames `glint record` records in the guest.
 const RECORD_FRAMES: usize = 12;
 
@@ -156,6 +159,35 @@ fn nearest_truth(report: &Value, truths: &[Truth]) -> (usize, f64) {
         })
         .min_by(|a, b| a.1.total_cmp(&b.1))
         .expect("some truths")
+}
+
+/// A found report's streak middle and head are where the fed frame's truth puts them.
+fn assert_on_truth(report: &Value, truth: &Truth) {
+    let at = |x: &str, y: &str| {
+        (
+            report[x]
+                .as_f64()
+                .unwrap_or_else(|| panic!("{report}: {x}")),
+            report[y]
+                .as_f64()
+                .unwrap_or_else(|| panic!("{report}: {y}")),
+        )
+    };
+    let (mid_x, mid_y) = at("mid_x", "mid_y");
+    let mid_px =
+        (mid_x - truth.mid_x_px.expect("visible")).hypot(mid_y - truth.mid_y_px.expect("visible"));
+    assert!(
+        mid_px <= MID_MAX_ERROR_PX,
+        "{report}: middle {mid_px:.3} px from scene frame {}'s",
+        truth.frame
+    );
+    let (x, y) = at("x", "y");
+    let head_px = (x - truth.x_px.expect("visible")).hypot(y - truth.y_px.expect("visible"));
+    assert!(
+        head_px <= HEAD_MAX_ERROR_PX,
+        "{report}: head {head_px:.3} px from scene frame {}'s",
+        truth.frame
+    );
 }
 
 /// The probe's frame hash: FNV-1a 64 over the unpadded rows.
@@ -602,13 +634,8 @@ fn glint_track_finds_the_led_of_a_scene_fed_through_the_loop() {
     );
     let mut matched = Vec::new();
     for report in found {
-        let (k, error_px) = nearest_truth(report, &truths);
-        assert!(
-            error_px <= MID_MAX_ERROR_PX,
-            "frame {}: {error_px:.3} px from the nearest fed LED (scene frame {})",
-            report["frame"],
-            k * SCENE_STEP
-        );
+        let (k, _) = nearest_truth(report, &truths);
+        assert_on_truth(report, &truths[k]);
         matched.push(k);
     }
     let distinct: std::collections::HashSet<_> = matched.iter().collect();
@@ -731,13 +758,7 @@ fn glint_record_writes_a_dump_and_sidecar_that_replays_with_the_real_timing() {
             continue;
         }
         found += 1;
-        let truth = &truths[k];
-        let error_px = (report["mid_x"].as_f64().unwrap() - truth.mid_x_px.unwrap())
-            .hypot(report["mid_y"].as_f64().unwrap() - truth.mid_y_px.unwrap());
-        assert!(
-            error_px <= MID_MAX_ERROR_PX,
-            "{report}: {error_px:.3} px off"
-        );
+        assert_on_truth(report, &truths[k]);
     }
     assert!(
         waited <= MAX_ACQUIRE_FRAMES.max(reports.len() / 3),
