@@ -104,14 +104,69 @@ impl Statics {
         })
     }
 
-    /// Where the blob of the frame before `frame_index` nearest `position_px` was, when one
-    /// was there and is not at `position_px` now: the place a blob that moved came from.
-    pub fn came_from(&self, position_px: (f32, f32), frame_index: u64) -> Option<(f32, f32)> {
-        self.entries
-            .iter()
-            .filter(|e| e.last_seen_frame + 1 == frame_index && !near(e.position_px, position_px))
-            .map(|e| e.position_px)
-            .min_by(|a, b| dist(*a, position_px).total_cmp(&dist(*b, position_px)))
+    /// Where a blob now at `position_px` that moved came from: a blob of the frame before
+    /// `frame_index` that is not at `position_px` now and was not standing still. Of those, the one whose displacement
+    /// to `position_px` carries most of that frame's blobs onto blobs of this frame (`now`),
+    /// within [`DRIFT_PX`]: LEDs on one robot move together, so the right origin explains the
+    /// others' motion too, where the nearest may be another LED of the row when the robot
+    /// moves more than half their spacing a frame. Among equals, the nearest.
+    pub fn came_from(
+        &self,
+        position_px: (f32, f32),
+        frame_index: u64,
+        now: impl Iterator<Item = (f32, f32)> + Clone,
+    ) -> Option<(f32, f32)> {
+        // Only what moved: a light standing still since it appeared is nobody's origin.
+        let before = || {
+            self.entries
+                .iter()
+                .filter(move |e| {
+                    e.last_seen_frame + 1 == frame_index
+                        && (e.seen_frames < STATIC_FRAMES || e.drifted())
+                })
+                .map(|e| e.position_px)
+        };
+        let explained = |origin: (f32, f32)| {
+            let d = (position_px.0 - origin.0, position_px.1 - origin.1);
+            before()
+                .filter(|b| {
+                    let carried = (b.0 + d.0, b.1 + d.1);
+                    now.clone().any(|p| dist(p, carried) <= DRIFT_PX)
+                })
+                .count()
+        };
+        before()
+            .filter(|&origin| !near(origin, position_px))
+            .map(|origin| (origin, explained(origin), dist(origin, position_px)))
+            .max_by(|a, b| a.1.cmp(&b.1).then(b.2.total_cmp(&a.2)))
+            .map(|(origin, _, _)| origin)
+    }
+
+    /// True when a blob at `position_px` is more likely another light than the LED: some
+    /// blob that was not the LED, seen since frame `since_frame` (from when the LED was
+    /// tracked: before, the LED itself was such a blob), in the last
+    /// [`super::MAX_MISSED_FRAMES`] frames before `frame_index`, and carried on by `step_px` a
+    /// frame since (the body's motion: another LED of the same robot moves with it), lands
+    /// nearer `position_px` than the LED's prediction, which lies `led_distance_px` from it.
+    pub fn continues_another(
+        &self,
+        position_px: (f32, f32),
+        frame_index: u64,
+        since_frame: u64,
+        step_px: (f32, f32),
+        led_distance_px: f32,
+    ) -> bool {
+        self.entries.iter().any(|e| {
+            let age = frame_index.saturating_sub(e.last_seen_frame);
+            let frames = age as f32;
+            let carried = (
+                e.position_px.0 + step_px.0 * frames,
+                e.position_px.1 + step_px.1 * frames,
+            );
+            (1..=u64::from(super::MAX_MISSED_FRAMES)).contains(&age)
+                && e.last_seen_frame >= since_frame
+                && dist(carried, position_px) < led_distance_px
+        })
     }
 
     /// Notes a blob that is not the LED, seen in frame `frame_index`; `led_elsewhere` when
@@ -210,6 +265,23 @@ mod tests {
         // 0.5 px a frame never breaks the match, but 4.5 px from its origin it has moved.
         assert_eq!(s.known((4.5, 0.0)), Known::Fresh);
         assert!(!s.stood_still((5.0, 0.0), 10));
+    }
+
+    #[test]
+    fn a_light_carried_on_with_the_body_explains_a_blob_better_than_a_far_prediction() {
+        let mut s = Statics::default();
+        // Another LED 20 px beside the lost one, moving 10 px a frame right with it.
+        s.observe((120.0, 100.0), 5, false);
+        // Two frames on it is at (140, 100); the lost LED is predicted 20 px from there.
+        assert!(s.continues_another((140.0, 100.0), 7, 0, (10.0, 0.0), 20.0));
+        // The lost LED back 1 px from its prediction is not that light (which is 20 px off).
+        assert!(!s.continues_another((120.5, 100.0), 7, 0, (10.0, 0.0), 1.0));
+        // Nothing is carried on from the frame itself, from before the LED was tracked, nor
+        // from longer ago than a track coasts.
+        assert!(!s.continues_another((120.0, 100.0), 5, 0, (0.0, 0.0), 20.0));
+        assert!(!s.continues_another((140.0, 100.0), 7, 6, (10.0, 0.0), 20.0));
+        let long_ago = 5 + u64::from(crate::track::MAX_MISSED_FRAMES) + 1;
+        assert!(!s.continues_another((120.0, 100.0), long_ago, 0, (0.0, 0.0), 20.0));
     }
 
     #[test]
