@@ -244,8 +244,10 @@ impl Tracker {
         frame_index: u64,
         t_us: u64,
     ) -> Choice {
-        let had_track = self.prediction(t_us).is_some();
+        let prediction = self.prediction(t_us);
+        let frame_us = t_us.saturating_sub(self.last_t_us);
         let (mut choice, acquired) = self.pick(candidates.clone(), frame_index, t_us);
+        let had_track = prediction.is_some();
         if !had_track && matches!(choice, Choice::Blob(_)) {
             self.held_since_frame = frame_index;
         }
@@ -295,11 +297,17 @@ impl Tracker {
             }
             _ => {}
         }
+        // What is seen beside the LED may be another light of its body; while the LED is
+        // lost, so is what continues such a light (nothing, for a lone LED).
         let led_elsewhere = matches!(choice, Choice::Blob(_));
         for (index, blob) in candidates {
             if choice != Choice::Blob(index) {
+                let here = blob.mass_centre_px;
+                let beside_led = prediction.is_some_and(|(predicted, _)| {
+                    self.is_another_light(&self.statics, here, predicted, frame_index, frame_us)
+                });
                 self.statics
-                    .observe(blob.mass_centre_px, frame_index, led_elsewhere);
+                    .observe(here, frame_index, led_elsewhere, beside_led);
             }
         }
         self.statics.expire(frame_index);

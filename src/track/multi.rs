@@ -152,7 +152,7 @@ impl MultiTracker {
         self.assign(frame_index, t_us.saturating_sub(previous_t_us));
         self.mark_merged();
         self.acquire(frame_index, previous_t_us);
-        self.observe_statics(frame_index);
+        self.observe_statics(frame_index, t_us.saturating_sub(previous_t_us));
     }
 
     /// Live tracks take candidates by the global optimum of summed distances to their
@@ -299,14 +299,28 @@ impl MultiTracker {
     }
 
     /// Blobs no track took are remembered by place; they were seen while a light was followed
-    /// elsewhere when any track took something.
-    fn observe_statics(&mut self, frame_index: u64) {
+    /// elsewhere when any track took something, and beside a lost LED when they continue a
+    /// light seen beside it (see [`Statics::continues_another`]).
+    fn observe_statics(&mut self, frame_index: u64, frame_us: u64) {
         let led_elsewhere = self.slots.iter().any(|s| s.choice.blob.is_some());
         for (index, blob) in &self.candidates {
-            if !self.slots.iter().any(|s| s.choice.blob == Some(*index)) {
-                self.statics
-                    .observe(blob.mass_centre_px, frame_index, led_elsewhere);
+            if self.slots.iter().any(|s| s.choice.blob == Some(*index)) {
+                continue;
             }
+            let here = blob.mass_centre_px;
+            let beside_led = self.slots.iter().zip(&self.predictions).any(|(s, p)| {
+                p.is_some_and(|(predicted, _)| {
+                    s.tracker.is_another_light(
+                        &self.statics,
+                        here,
+                        predicted,
+                        frame_index,
+                        frame_us,
+                    )
+                })
+            });
+            self.statics
+                .observe(here, frame_index, led_elsewhere, beside_led);
         }
         self.statics.expire(frame_index);
     }

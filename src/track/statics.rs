@@ -9,6 +9,13 @@
 //! distractor seen while the LED was tracked elsewhere is *cleared*: certainly not the LED.
 //! The tracked LED is never entered, so a robot that stops stays tracked: "not moving" alone
 //! does not make a distractor.
+//!
+//! A blob seen *beside* the tracked LED (in a frame where the LED was found elsewhere), or
+//! one that continues such a light while the LED is lost, may be another light of the LED's
+//! body: while the LED is lost, a blob that such a light, carried on with the body, explains
+//! better than the LED's prediction is that light. A blob seen only while the LED was lost
+//! and explained by no such light is not one: a lone LED that jumps far between frames (a
+//! capture that skips frames) is never taken for a companion it never had.
 
 use heapless::Vec as BoundedVec;
 
@@ -34,11 +41,18 @@ struct Static {
     seen_frames: u32,
     last_seen_frame: u64,
     cleared: bool,
+    /// Seen beside the tracked LED, or continuing a light that was: another light of its body.
+    beside_led: bool,
 }
 
 impl Static {
     fn drifted(&self) -> bool {
         dist(self.origin_px, self.position_px) > DRIFT_PX
+    }
+
+    /// It has stood still since it appeared: a lamp, not a light moving with a body.
+    fn standing(&self) -> bool {
+        self.seen_frames >= STATIC_FRAMES && !self.drifted()
     }
 }
 
@@ -143,11 +157,13 @@ impl Statics {
     }
 
     /// True when a blob at `position_px` is more likely another light than the LED: some
-    /// blob that was not the LED, seen since frame `since_frame` (from when the LED was
-    /// tracked: before, the LED itself was such a blob), in the last
-    /// [`super::MAX_MISSED_FRAMES`] frames before `frame_index`, and carried on by `step_px` a
-    /// frame since (the body's motion: another LED of the same robot moves with it), lands
-    /// nearer `position_px` than the LED's prediction, which lies `led_distance_px` from it.
+    /// light seen beside the LED (or continuing one that was) since frame `since_frame` (from
+    /// when the LED was tracked: before, the LED itself was such a blob), in the last
+    /// [`super::MAX_MISSED_FRAMES`] frames before `frame_index`, not standing still since it
+    /// appeared (a lamp is on no body), and carried on by `step_px` a frame since (the body's
+    /// motion: another LED of the same robot moves with it), lands nearer `position_px` than
+    /// the LED's prediction, which lies `led_distance_px` from it. With no such light (a lone
+    /// LED, which has no companion), never.
     pub fn continues_another(
         &self,
         position_px: (f32, f32),
@@ -163,15 +179,25 @@ impl Statics {
                 e.position_px.0 + step_px.0 * frames,
                 e.position_px.1 + step_px.1 * frames,
             );
-            (1..=u64::from(super::MAX_MISSED_FRAMES)).contains(&age)
+            e.beside_led
+                && !e.standing()
+                && (1..=u64::from(super::MAX_MISSED_FRAMES)).contains(&age)
                 && e.last_seen_frame >= since_frame
                 && dist(carried, position_px) < led_distance_px
         })
     }
 
     /// Notes a blob that is not the LED, seen in frame `frame_index`; `led_elsewhere` when
-    /// the LED was tracked elsewhere in that frame.
-    pub fn observe(&mut self, position_px: (f32, f32), frame_index: u64, led_elsewhere: bool) {
+    /// the LED was tracked elsewhere in that frame, `beside_led` when it was, or when the blob
+    /// continues a light that was seen beside it (see [`Statics::continues_another`]).
+    pub fn observe(
+        &mut self,
+        position_px: (f32, f32),
+        frame_index: u64,
+        led_elsewhere: bool,
+        beside_led: bool,
+    ) {
+        let beside_led = beside_led || led_elsewhere;
         if let Some(e) = self
             .entries
             .iter_mut()
@@ -183,10 +209,12 @@ impl Statics {
             } else if e.last_seen_frame != frame_index {
                 e.seen_frames = 1;
                 e.origin_px = position_px;
+                e.beside_led = false;
             }
             e.position_px = position_px;
             e.last_seen_frame = frame_index;
             e.cleared |= led_elsewhere;
+            e.beside_led |= beside_led;
             return;
         }
         let entry = Static {
@@ -195,6 +223,7 @@ impl Statics {
             seen_frames: 1,
             last_seen_frame: frame_index,
             cleared: led_elsewhere,
+            beside_led,
         };
         if let Err(entry) = self.entries.push(entry) {
             if let Some(oldest) = self.entries.iter_mut().min_by_key(|e| e.last_seen_frame) {
@@ -225,7 +254,7 @@ mod tests {
     #[test]
     fn a_blob_at_the_same_place_becomes_a_distractor_and_is_forgotten_later() {
         let mut s = Statics::default();
-        s.observe((10.0, 10.0), 0, false);
+        s.observe((10.0, 10.0), 0, false, false);
         assert_eq!(s.known((10.0, 10.0)), Known::Fresh);
         assert!(s.stood_still((10.2, 10.1), 1));
         assert!(
@@ -233,10 +262,10 @@ mod tests {
             "only the frame just before counts"
         );
         assert!(!s.stood_still((15.0, 10.0), 1));
-        s.observe((10.2, 10.1), 1, false);
+        s.observe((10.2, 10.1), 1, false, false);
         assert_eq!(s.known((10.0, 10.0)), Known::Still);
         assert_eq!(s.known((20.0, 10.0)), Known::Fresh);
-        s.observe((10.1, 10.1), 2, true);
+        s.observe((10.1, 10.1), 2, true, false);
         assert_eq!(s.known((10.0, 10.0)), Known::Cleared);
         s.expire(2 + FORGET_AFTER_FRAMES + 1);
         assert_eq!(s.known((10.0, 10.0)), Known::Fresh);
@@ -246,7 +275,7 @@ mod tests {
     fn a_blob_that_keeps_moving_never_does() {
         let mut s = Statics::default();
         for i in 0..20u64 {
-            s.observe((5.0 * i as f32, 0.0), i, false);
+            s.observe((5.0 * i as f32, 0.0), i, false, false);
         }
         assert!((0..20).all(|i| s.known((5.0 * i as f32, 0.0)) == Known::Fresh));
         assert!(s.any_vanished([(100.0, 0.0)].into_iter(), 20));
@@ -257,7 +286,7 @@ mod tests {
     fn a_blob_creeping_from_where_it_appeared_has_moved() {
         let mut s = Statics::default();
         for i in 0..10u64 {
-            s.observe((0.5 * i as f32, 0.0), i, false);
+            s.observe((0.5 * i as f32, 0.0), i, false, false);
             if i == 2 {
                 assert_eq!(s.known((1.0, 0.0)), Known::Still, "1 px from its origin");
             }
@@ -271,7 +300,7 @@ mod tests {
     fn a_light_carried_on_with_the_body_explains_a_blob_better_than_a_far_prediction() {
         let mut s = Statics::default();
         // Another LED 20 px beside the lost one, moving 10 px a frame right with it.
-        s.observe((120.0, 100.0), 5, false);
+        s.observe((120.0, 100.0), 5, true, false);
         // Two frames on it is at (140, 100); the lost LED is predicted 20 px from there.
         assert!(s.continues_another((140.0, 100.0), 7, 0, (10.0, 0.0), 20.0));
         // The lost LED back 1 px from its prediction is not that light (which is 20 px off).
@@ -285,11 +314,29 @@ mod tests {
     }
 
     #[test]
+    fn only_a_light_seen_beside_the_led_and_moving_is_another_light() {
+        // A blob seen only while the LED was lost (the lone LED itself, refused once) is no
+        // companion: however near it lands, it explains nothing.
+        let mut s = Statics::default();
+        s.observe((120.0, 100.0), 5, false, false);
+        assert!(!s.continues_another((140.0, 100.0), 7, 0, (10.0, 0.0), 20.0));
+        // One that continues a companion while the LED is lost is one.
+        s.observe((130.0, 100.0), 6, false, true);
+        assert!(s.continues_another((140.0, 100.0), 7, 0, (10.0, 0.0), 20.0));
+        // A lamp that stood still beside the moving LED is on no body: not carried with it.
+        let mut s = Statics::default();
+        for i in 0..4u64 {
+            s.observe((300.0, 100.0), i, true, true);
+        }
+        assert!(!s.continues_another((310.0, 100.0), 4, 0, (10.0, 0.0), 50.0));
+    }
+
+    #[test]
     fn a_full_table_replaces_the_oldest_entry() {
         let mut s = Statics::default();
         for i in 0..(MAX_STATICS as u64 + 1) {
-            s.observe((10.0 * i as f32, 0.0), i, false);
-            s.observe((10.0 * i as f32, 0.0), i + 1, false);
+            s.observe((10.0 * i as f32, 0.0), i, false, false);
+            s.observe((10.0 * i as f32, 0.0), i + 1, false, false);
         }
         assert_eq!(s.known((0.0, 0.0)), Known::Fresh, "the oldest made room");
         assert_eq!(s.known((10.0 * MAX_STATICS as f32, 0.0)), Known::Still);
