@@ -303,9 +303,8 @@ impl Tracker {
         for (index, blob) in candidates {
             if choice != Choice::Blob(index) {
                 let here = blob.mass_centre_px;
-                let beside_led = prediction.is_some_and(|(predicted, _)| {
-                    self.is_another_light(&self.statics, here, predicted, frame_index, frame_us)
-                });
+                let beside_led = prediction.is_some()
+                    && self.continues_companion(&self.statics, here, frame_index, frame_us);
                 self.statics
                     .observe(here, frame_index, led_elsewhere, beside_led);
             }
@@ -439,6 +438,20 @@ impl Tracker {
                 step_px,
                 dist(position_px, predicted_px),
             )
+        })
+    }
+
+    /// True when a blob at `position_px` of frame `frame_index`, not this track's LED,
+    /// continues a light of its body: see [`Statics::continues_companion`].
+    fn continues_companion(
+        &self,
+        statics: &Statics,
+        position_px: (f32, f32),
+        frame_index: u64,
+        frame_us: u64,
+    ) -> bool {
+        self.body_step_px(frame_us).is_some_and(|step_px| {
+            statics.continues_companion(position_px, frame_index, self.held_since_frame, step_px)
         })
     }
 

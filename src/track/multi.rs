@@ -309,15 +309,9 @@ impl MultiTracker {
             }
             let here = blob.mass_centre_px;
             let beside_led = self.slots.iter().zip(&self.predictions).any(|(s, p)| {
-                p.is_some_and(|(predicted, _)| {
-                    s.tracker.is_another_light(
-                        &self.statics,
-                        here,
-                        predicted,
-                        frame_index,
-                        frame_us,
-                    )
-                })
+                p.is_some()
+                    && s.tracker
+                        .continues_companion(&self.statics, here, frame_index, frame_us)
             });
             self.statics
                 .observe(here, frame_index, led_elsewhere, beside_led);

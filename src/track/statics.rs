@@ -156,14 +156,41 @@ impl Statics {
             .map(|(origin, _, _)| origin)
     }
 
+    /// Where each light seen beside the LED (or continuing one that was) since frame
+    /// `since_frame` (from when the LED was tracked: before, the LED itself was such a blob),
+    /// in the last [`super::MAX_MISSED_FRAMES`] frames before `frame_index`, and not standing
+    /// still since it appeared (a lamp is on no body), lands when carried on by `step_px` a
+    /// frame since it was seen (the body's motion: another LED of the same robot moves with
+    /// it); and how many frames it was carried.
+    fn carried_companions(
+        &self,
+        frame_index: u64,
+        since_frame: u64,
+        step_px: (f32, f32),
+    ) -> impl Iterator<Item = ((f32, f32), f32)> + '_ {
+        self.entries
+            .iter()
+            .filter(move |e| {
+                let age = frame_index.saturating_sub(e.last_seen_frame);
+                e.beside_led
+                    && !e.standing()
+                    && (1..=u64::from(super::MAX_MISSED_FRAMES)).contains(&age)
+                    && e.last_seen_frame >= since_frame
+            })
+            .map(move |e| {
+                let frames = frame_index.saturating_sub(e.last_seen_frame) as f32;
+                let carried = (
+                    e.position_px.0 + step_px.0 * frames,
+                    e.position_px.1 + step_px.1 * frames,
+                );
+                (carried, frames)
+            })
+    }
+
     /// True when a blob at `position_px` is more likely another light than the LED: some
-    /// light seen beside the LED (or continuing one that was) since frame `since_frame` (from
-    /// when the LED was tracked: before, the LED itself was such a blob), in the last
-    /// [`super::MAX_MISSED_FRAMES`] frames before `frame_index`, not standing still since it
-    /// appeared (a lamp is on no body), and carried on by `step_px` a frame since (the body's
-    /// motion: another LED of the same robot moves with it), lands nearer `position_px` than
-    /// the LED's prediction, which lies `led_distance_px` from it. With no such light (a lone
-    /// LED, which has no companion), never.
+    /// light of the LED's body (see [`Statics::carried_companions`]), carried on with it,
+    /// lands nearer `position_px` than the LED's prediction, which lies `led_distance_px` from
+    /// it. With no such light (a lone LED, which has no companion), never.
     pub fn continues_another(
         &self,
         position_px: (f32, f32),
@@ -172,24 +199,32 @@ impl Statics {
         step_px: (f32, f32),
         led_distance_px: f32,
     ) -> bool {
-        self.entries.iter().any(|e| {
-            let age = frame_index.saturating_sub(e.last_seen_frame);
-            let frames = age as f32;
-            let carried = (
-                e.position_px.0 + step_px.0 * frames,
-                e.position_px.1 + step_px.1 * frames,
-            );
-            e.beside_led
-                && !e.standing()
-                && (1..=u64::from(super::MAX_MISSED_FRAMES)).contains(&age)
-                && e.last_seen_frame >= since_frame
-                && dist(carried, position_px) < led_distance_px
-        })
+        self.carried_companions(frame_index, since_frame, step_px)
+            .any(|(carried, _)| dist(carried, position_px) < led_distance_px)
+    }
+
+    /// True when a blob at `position_px` that is not the LED continues a light of the LED's
+    /// body: it lies within such a light's gate, carried on with the body (the LED's gate:
+    /// [`super::GATE_MIN_PX`] plus [`super::GATE_TRAVEL_FACTOR`] times the carried travel, so
+    /// that a light on a curve is still followed). With no such light, never.
+    pub fn continues_companion(
+        &self,
+        position_px: (f32, f32),
+        frame_index: u64,
+        since_frame: u64,
+        step_px: (f32, f32),
+    ) -> bool {
+        let step_len_px = step_px.0.hypot(step_px.1);
+        self.carried_companions(frame_index, since_frame, step_px)
+            .any(|(carried, frames)| {
+                let gate_px = super::GATE_MIN_PX + super::GATE_TRAVEL_FACTOR * step_len_px * frames;
+                dist(carried, position_px) <= gate_px
+            })
     }
 
     /// Notes a blob that is not the LED, seen in frame `frame_index`; `led_elsewhere` when
     /// the LED was tracked elsewhere in that frame, `beside_led` when it was, or when the blob
-    /// continues a light that was seen beside it (see [`Statics::continues_another`]).
+    /// continues a light that was seen beside it (see [`Statics::continues_companion`]).
     pub fn observe(
         &mut self,
         position_px: (f32, f32),
@@ -320,9 +355,14 @@ mod tests {
         let mut s = Statics::default();
         s.observe((120.0, 100.0), 5, false, false);
         assert!(!s.continues_another((140.0, 100.0), 7, 0, (10.0, 0.0), 20.0));
+        assert!(!s.continues_companion((140.0, 100.0), 7, 0, (10.0, 0.0)));
         // One that continues a companion while the LED is lost is one.
         s.observe((130.0, 100.0), 6, false, true);
         assert!(s.continues_another((140.0, 100.0), 7, 0, (10.0, 0.0), 20.0));
+        // A companion is followed within its gate carried on with the body (24 px plus 2.5
+        // times the travel): 10 px a frame, seen in frame 6, so 49 px in frame 7.
+        assert!(s.continues_companion((140.0, 148.0), 7, 0, (10.0, 0.0)));
+        assert!(!s.continues_companion((140.0, 150.0), 7, 0, (10.0, 0.0)));
         // A lamp that stood still beside the moving LED is on no body: not carried with it.
         let mut s = Statics::default();
         for i in 0..4u64 {
