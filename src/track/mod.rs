@@ -11,8 +11,11 @@
 //!   is never entered among the distractors). Once its velocity is known, a tracked LED lost
 //!   for a frame is not replaced by one of several things outside the gate (other LEDs of the
 //!   same robot): the frame reads `found: false` until it is back in the gate or the track
-//!   expires. The one thing in view is taken back (the LED turned sharply, or came back from
-//!   behind an obstacle), so a robot's other LED alone in view can still take the track.
+//!   expires. The one thing in view is taken back (the LED turned sharply, came back from
+//!   behind an obstacle, or jumped because the capture skipped frames), unless another light
+//!   of its body explains it better (see [`statics::Statics::continues_another`]): lights
+//!   seen beside the LED, carried on at its velocity, are never taken for it, inside the
+//!   gate or alone in view. A lone LED has no such light, so a far jump is taken back.
 //! - Acquisition takes only what moved: a blob that appeared where nothing stood in the last
 //!   frame while something of that frame went away, or one that crept from where it first
 //!   appeared. Among several that moved (several LEDs on one robot), the largest. However

@@ -188,9 +188,11 @@ impl Statics {
     }
 
     /// True when a blob at `position_px` is more likely another light than the LED: some
-    /// light of the LED's body (see [`Statics::carried_companions`]), carried on with it,
-    /// lands nearer `position_px` than the LED's prediction, which lies `led_distance_px` from
-    /// it. With no such light (a lone LED, which has no companion), never.
+    /// light of the LED's body (seen beside it since frame `since_frame`, or continuing one
+    /// that was, in the last [`super::MAX_MISSED_FRAMES`] frames, and not standing still),
+    /// carried on by `step_px` a frame since it was seen, lands nearer `position_px` than the
+    /// LED's prediction, which lies `led_distance_px` from it. With no such light (a lone
+    /// LED, which has no companion), never.
     pub fn continues_another(
         &self,
         position_px: (f32, f32),
@@ -204,9 +206,10 @@ impl Statics {
     }
 
     /// True when a blob at `position_px` that is not the LED continues a light of the LED's
-    /// body: it lies within such a light's gate, carried on with the body (the LED's gate:
-    /// [`super::GATE_MIN_PX`] plus [`super::GATE_TRAVEL_FACTOR`] times the carried travel, so
-    /// that a light on a curve is still followed). With no such light, never.
+    /// body (as for [`Statics::continues_another`]): it lies within such a light's gate,
+    /// carried on by `step_px` a frame (the LED's gate: [`super::GATE_MIN_PX`] plus
+    /// [`super::GATE_TRAVEL_FACTOR`] times the carried travel, so that a light on a curve is
+    /// still followed). With no such light, never.
     pub fn continues_companion(
         &self,
         position_px: (f32, f32),
