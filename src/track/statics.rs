@@ -119,41 +119,54 @@ impl Statics {
     }
 
     /// Where a blob now at `position_px` that moved came from: a blob of the frame before
-    /// `frame_index` that is not at `position_px` now and was not standing still. Of those, the one whose displacement
-    /// to `position_px` carries most of that frame's blobs onto blobs of this frame (`now`),
-    /// within [`DRIFT_PX`]: LEDs on one robot move together, so the right origin explains the
-    /// others' motion too, where the nearest may be another LED of the row when the robot
-    /// moves more than half their spacing a frame. Among equals, the nearest.
+    /// `frame_index` that is not at `position_px` now and was not standing still. Of those, the
+    /// one whose displacement to `position_px` carries most of that frame's blobs onto blobs
+    /// of this frame (`now`), within [`DRIFT_PX`]: LEDs on one robot move together, so the
+    /// right origin explains the others' motion too, where the nearest may be another LED of
+    /// the row when the robot moves more than half their spacing a frame. Among equals, the
+    /// nearest. Failing any, the same choice among blobs that stood still and are gone now:
+    /// an LED that starts from rest leaves such a place, while a lamp still stands on its own.
     pub fn came_from(
         &self,
         position_px: (f32, f32),
         frame_index: u64,
         now: impl Iterator<Item = (f32, f32)> + Clone,
     ) -> Option<(f32, f32)> {
-        // Only what moved: a light standing still since it appeared is nobody's origin.
-        let before = || {
+        let now = &now;
+        let before = move |resting: bool| {
             self.entries
                 .iter()
                 .filter(move |e| {
+                    let gone = || !now.clone().any(|p| near(e.position_px, p));
                     e.last_seen_frame + 1 == frame_index
-                        && (e.seen_frames < STATIC_FRAMES || e.drifted())
+                        && if resting {
+                            e.standing() && gone()
+                        } else {
+                            !e.standing()
+                        }
                 })
                 .map(|e| e.position_px)
         };
-        let explained = |origin: (f32, f32)| {
+        let explained = |origin: (f32, f32), resting: bool| {
             let d = (position_px.0 - origin.0, position_px.1 - origin.1);
-            before()
+            before(resting)
                 .filter(|b| {
                     let carried = (b.0 + d.0, b.1 + d.1);
                     now.clone().any(|p| dist(p, carried) <= DRIFT_PX)
                 })
                 .count()
         };
-        before()
-            .filter(|&origin| !near(origin, position_px))
-            .map(|origin| (origin, explained(origin), dist(origin, position_px)))
-            .max_by(|a, b| a.1.cmp(&b.1).then(b.2.total_cmp(&a.2)))
-            .map(|(origin, _, _)| origin)
+        let origin = |resting: bool| {
+            before(resting)
+                .filter(|&origin| !near(origin, position_px))
+                .map(|origin| {
+                    let count = explained(origin, resting);
+                    (origin, count, dist(origin, position_px))
+                })
+                .max_by(|a, b| a.1.cmp(&b.1).then(b.2.total_cmp(&a.2)))
+                .map(|(origin, _, _)| origin)
+        };
+        origin(false).or_else(|| origin(true))
     }
 
     /// Where each light seen beside the LED (or continuing one that was) since frame
@@ -372,6 +385,27 @@ mod tests {
             s.observe((300.0, 100.0), i, true, true);
         }
         assert!(!s.continues_another((310.0, 100.0), 4, 0, (10.0, 0.0), 50.0));
+    }
+
+    #[test]
+    fn an_led_that_starts_from_rest_came_from_its_resting_place_not_from_a_lamp() {
+        let mut s = Statics::default();
+        for i in 0..4u64 {
+            s.observe((100.0, 100.0), i, false, false);
+            s.observe((300.0, 200.0), i, false, false);
+        }
+        // The LED leaves its place; the lamp stays on its own.
+        let now = [(103.0, 100.0), (300.0, 200.0)];
+        assert_eq!(
+            s.came_from((103.0, 100.0), 4, now.into_iter()),
+            Some((100.0, 100.0))
+        );
+        // Something that moved in the frame before is the origin before any resting place.
+        s.observe((90.0, 130.0), 3, false, false);
+        assert_eq!(
+            s.came_from((103.0, 100.0), 4, now.into_iter()),
+            Some((90.0, 130.0))
+        );
     }
 
     #[test]
