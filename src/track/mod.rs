@@ -277,6 +277,9 @@ impl Tracker {
             }
             _ => None,
         };
+        if let Some(origin) = self.came_from {
+            self.statics.forget(origin.estimate.mid_px);
+        }
         self.last_t_us = t_us;
         match (acquired, chosen) {
             (Acquired::Alone, Some(at)) => {

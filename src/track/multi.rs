@@ -302,6 +302,14 @@ impl MultiTracker {
     /// elsewhere when any track took something, and beside a lost LED when they continue a
     /// light seen beside it (see [`Statics::continues_another`]).
     fn observe_statics(&mut self, frame_index: u64, frame_us: u64) {
+        // Where a track acquired in this frame came from was its LED: never a distractor.
+        for slot in &self.slots {
+            if let Some(origin) = slot.tracker.came_from {
+                if slot.tracker.held_since_frame == frame_index {
+                    self.statics.forget(origin.estimate.mid_px);
+                }
+            }
+        }
         let led_elsewhere = self.slots.iter().any(|s| s.choice.blob.is_some());
         for (index, blob) in &self.candidates {
             if self.slots.iter().any(|s| s.choice.blob == Some(*index)) {

@@ -283,6 +283,13 @@ impl Statics {
         }
     }
 
+    /// Forgets the blob at `position_px`: it was the LED (the place a track was acquired
+    /// from), and the LED is never a distractor, so that it is taken again when it comes
+    /// back there.
+    pub fn forget(&mut self, position_px: (f32, f32)) {
+        self.entries.retain(|e| !near(e.position_px, position_px));
+    }
+
     /// Forgets blobs unseen for a long time.
     pub fn expire(&mut self, frame_index: u64) {
         self.entries
@@ -406,6 +413,11 @@ mod tests {
             s.came_from((103.0, 100.0), 4, now.into_iter()),
             Some((90.0, 130.0))
         );
+        // The LED's resting place, forgotten, is no distractor when it comes back there.
+        assert_eq!(s.known((100.0, 100.0)), Known::Still);
+        s.forget((100.0, 100.0));
+        assert_eq!(s.known((100.0, 100.0)), Known::Fresh);
+        assert_eq!(s.known((300.0, 200.0)), Known::Still, "the lamp is kept");
     }
 
     #[test]
