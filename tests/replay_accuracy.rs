@@ -230,11 +230,14 @@ fn csv_with_predict_arrival_carries_the_predicted_columns() {
     let cell = |row: &[&str], name: &str| row[col(name)].parse::<f64>().ok();
     let mut predicted = 0;
     let mut rows = 0;
+    // The previous row's time (s), velocity and velocity method, for the bend.
+    let mut previous: Option<(f64, f64, f64, String)> = None;
     for line in lines {
         let row: Vec<&str> = line.split(',').collect();
         assert_eq!(row.len(), header.len(), "a cell for every column: {row:?}");
         rows += 1;
-        let (Some(x), Some(y), Some(vx), Some(vy)) = (
+        let (Some(t), Some(x), Some(y), Some(vx), Some(vy)) = (
+            cell(&row, "t"),
             cell(&row, "x"),
             cell(&row, "y"),
             cell(&row, "vx"),
@@ -244,6 +247,7 @@ fn csv_with_predict_arrival_carries_the_predicted_columns() {
             for name in ["predicted_x", "predicted_y", "predicted_ahead_ms"] {
                 assert_eq!(row[col(name)], "", "{row:?}");
             }
+            previous = None;
             continue;
         };
         let (Some(px), Some(py), Some(ahead_ms)) = (
@@ -254,8 +258,11 @@ fn csv_with_predict_arrival_carries_the_predicted_columns() {
             panic!("a found, moving light is predicted: {row:?}");
         };
         predicted += 1;
-        // Along the velocity the light moves on by its speed over the look-ahead; the bend
-        // term is across the velocity only (on this line, the measured velocities' noise).
+        // Along the velocity the light moves on by its speed over the look-ahead; across it,
+        // by the bend: half the turn of the velocity since the previous frame (measured the
+        // same way, at most 100 ms before) over the square of the look-ahead. The look-ahead
+        // is measured (this machine's latency), so the bend is checked against it, not a
+        // fixed distance.
         let ahead_s = ahead_ms * 1e-3;
         assert!((0.0..1.0).contains(&ahead_s), "{row:?}");
         let speed = vx.hypot(vy);
@@ -267,10 +274,19 @@ fn csv_with_predict_arrival_carries_the_predicted_columns() {
             "{along} px along the velocity, {} px expected: {row:?}",
             speed * ahead_s
         );
+        let method = row[col("v_method")].to_owned();
+        let bend_px_s2 = previous
+            .as_ref()
+            .filter(|(t0, _, _, m)| *m == method && t > *t0 && t - t0 <= 0.1)
+            .map_or(0.0, |(t0, vx0, vy0, _)| {
+                ((vy - vy0) * vx - (vx - vx0) * vy) / speed / (t - t0)
+            });
+        let expected_px = 0.5 * bend_px_s2 * ahead_s * ahead_s;
         assert!(
-            across.abs() < 2.0,
-            "{across} px across the velocity: {row:?}"
+            (across - expected_px).abs() < 0.02 + 0.01 * expected_px.abs(),
+            "{across} px across the velocity, {expected_px} px expected from the bend: {row:?}"
         );
+        previous = Some((t, vx, vy, method));
     }
     assert!(predicted * 2 > rows, "{predicted} of {rows} rows predicted");
 }
