@@ -4,7 +4,7 @@
 //! # Input
 //!
 //! The fuser takes messages: a camera (an index into the names it was made with), its capture
-//! time when the transport carries one, and the camera's report line ([`line`]). Where they
+//! time when the transport carries one, and the camera's report line ([`line`](mod@line)). Where they
 //! come from is not its business: [`feed::FileFeed`] reads recorded JSON lines and hands them
 //! over in capture-time order; a network subscription hands them over as they arrive.
 //!

@@ -229,7 +229,7 @@ impl Lens {
     }
 
     /// The normalised point seen at pixel `px`: Newton's method on the distortion from the
-    /// distorted point, at most [`MAX_UNDISTORT_STEPS`] steps.
+    /// distorted point, at most `MAX_UNDISTORT_STEPS` steps.
     pub fn undistort(&self, px: &Point) -> Result<Vector2<f64>, CameraError> {
         if !(px.x.is_finite() && px.y.is_finite()) {
             return Err(CameraError::NonFinite);

@@ -15,7 +15,7 @@ use crate::frame::FrameSize;
 /// The grid's spacing on the floor, cm (the calibration file's unit).
 pub const GRID_SPACING_CM: f64 = 10.0;
 /// Points at most in a grid: room for a floor of about 4 × 4 m in view at
-/// [`SAMPLE_STEP_CM`], and the capacity to allocate for [`floor_grid_px`].
+/// `SAMPLE_STEP_CM`, and the capacity to allocate for [`floor_grid_px`].
 pub const MAX_GRID_POINTS: usize = 8192;
 /// Samples along each line, cm: short enough that a straight segment between two follows the
 /// lens's curve to well under a pixel at webcam distances.

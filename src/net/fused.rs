@@ -11,7 +11,7 @@
 //!
 //! # Threads
 //!
-//! As for a camera's reports ([`super::PublishSink`], through the same [`super::outbox`]): the
+//! As for a camera's reports ([`super::PublishSink`], through the same `outbox`): the
 //! fusing thread hands each step's two forms to a bounded queue and returns; a full queue (a
 //! slow network) drops the step and counts it; a thread of its own puts them on the session,
 //! congestion control `block`. The fuser allocates per step anyway (see `crate::fuse`), so the

@@ -12,9 +12,9 @@
 //! (a fixed-size value that owns no heap memory) into a bounded queue, allocated in [`PublishSink::start`], and
 //! returns; when the queue is full (the network or the publisher thread is slow) the report is
 //! dropped and counted. `try_send` on a bounded std channel allocates nothing, so the tracking
-//! thread stays allocation-free (`tests/alloc_free.rs`). The publisher thread ([`publisher`])
+//! thread stays allocation-free (`tests/alloc_free.rs`). The publisher thread (`publisher`)
 //! formats and sends; it may allocate, and Zenoh's own threads do. The queue and its thread
-//! are [`outbox`]'s, shared with [`fused`].
+//! are `outbox`'s, shared with [`fused`].
 //!
 //! A network that goes away costs reports, never the process: with no peer connected a put goes
 //! nowhere at once; a stalled link blocks the publisher thread until Zenoh closes it (the queue

@@ -144,7 +144,7 @@ impl Publishers {
     }
 }
 
-/// A Zenoh session in peer mode (see [`zenoh_config`]); the subscriber opens its own the same
+/// A Zenoh session in peer mode (see `zenoh_config`); the subscriber opens its own the same
 /// way.
 pub fn open_session(connect: &[String], listen: &[String]) -> Result<Session, PublishError> {
     zenoh::open(zenoh_config(connect, listen)?)

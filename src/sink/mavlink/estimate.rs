@@ -188,7 +188,7 @@ impl ToLocal {
 }
 
 /// The pose covariance's upper triangle, row by row: `variance_m2` on the x, y and z diagonal,
-/// [`UNMEASURED_ANGLE_VARIANCE_RAD2`] on the roll, pitch and yaw diagonal, 0 off the diagonal
+/// `UNMEASURED_ANGLE_VARIANCE_RAD2` on the roll, pitch and yaw diagonal, 0 off the diagonal
 /// (the states are taken as independent). Without a variance, all NaN (MAVLink's "unknown").
 pub fn pose_covariance(variance_m2: Option<f32>) -> [f32; POSE_COVARIANCE_LEN] {
     let Some(variance_m2) = variance_m2 else {

@@ -5,12 +5,12 @@
 //! once, at start, and only while a viewer has asked for something in the last few seconds,
 //! at most every [`COPY_PERIOD`], and only if the server is not reading the buffer at that
 //! moment (`try_lock`: tracking never waits). Encoding and serving happen on other threads
-//! ([`http`]); a slow or vanished client only ever holds up its own connection's thread.
+//! (`http`); a slow or vanished client only ever holds up its own connection's thread.
 //!
 //! The outside world cannot starve it either: the server bounds the whole time a client may
 //! take to send its request and to take the answer, the connections per client address and in
-//! all (the oldest are shed for newcomers, [`clients`]), and the size of a request head. Every
-//! viewer of a copied frame is sent the same encoded image ([`encoded`]): memory does not grow
+//! all (the oldest are shed for newcomers, `clients`), and the size of a request head. Every
+//! viewer of a copied frame is sent the same encoded image (`encoded`): memory does not grow
 //! with the number of viewers, and an image nobody is being sent is freed.
 
 mod bmp;
