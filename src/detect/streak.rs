@@ -90,6 +90,43 @@ pub struct StreakPath {
     pub path_length_px: f32,
     /// One standard deviation of the ends, from the fit's residual ([`StreakModel::Fit`]).
     pub fit_px: Option<f32>,
+    /// The floor the fit read the light on ([`StreakModel::Fit`]).
+    pub fit_floor: Option<FitFloor>,
+}
+
+/// The floor under a fitted streak: learned where the floor was seen without the light, else
+/// one fitted flat floor (the first frames, an LED standing still since the start), whose
+/// texture the fit may read as light.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FitFloor {
+    /// Every fitted pixel's floor was learned.
+    Learned,
+    /// Some were: the others shared a fitted flat floor.
+    Partly,
+    /// None was: the fit ran on a fitted flat floor.
+    Flat,
+}
+
+impl FitFloor {
+    /// Of the fraction of the fitted pixels whose floor was learned.
+    fn of(measured: f32) -> Self {
+        if measured >= 1.0 {
+            FitFloor::Learned
+        } else if measured > 0.0 {
+            FitFloor::Partly
+        } else {
+            FitFloor::Flat
+        }
+    }
+
+    /// The name used in the output.
+    pub fn name(self) -> &'static str {
+        match self {
+            FitFloor::Learned => "learned",
+            FitFloor::Partly => "partly",
+            FitFloor::Flat => "flat",
+        }
+    }
 }
 
 /// Scratch for the streak stage, sized once to the frame.
@@ -246,6 +283,7 @@ pub fn analyze(
                 ends_px: t.tips_px,
                 path_length_px: t.path_length_px,
                 fit_px: None,
+                fit_floor: None,
             });
             (mid_px, path)
         }
@@ -306,6 +344,7 @@ fn fitted_path(
         ends_px: if still { [mid; 2] } else { f.ends_px },
         path_length_px: f.path_length_px,
         fit_px: Some(f.uncertainty_px),
+        fit_floor: Some(FitFloor::of(f.floor_measured)),
     };
     (mid, Some(path))
 }

@@ -59,6 +59,9 @@ pub use state::TrackState;
 /// Frames the history ring keeps.
 pub const HISTORY_FRAMES: usize = 16;
 
+/// Frames a still streak's velocity is measured over (see [`Tracker::update`]).
+const STEADY_FRAMES: usize = 3;
+
 /// The gate's radius with no motion known, in pixels.
 pub const GATE_MIN_PX: f32 = 24.0;
 
@@ -398,7 +401,11 @@ impl Tracker {
             .filter(|_| self.previous_found)
             .or(self.came_from.take());
         let mid_px = streak.mid_px;
-        let head = streak.path.and_then(|path| {
+        // A still path (both ends the middle: no longer than the spot is wide) has no
+        // direction to choose; like a streak whose ends could not be measured, its head is
+        // carried from the middle by the frames' velocity below.
+        let moving = streak.path.filter(|p| p.ends_px[0] != p.ends_px[1]);
+        let head = moving.and_then(|path| {
             let before = previous?.estimate.position_px;
             let [a, b] = path.ends_px;
             Some(if dist(a, before) >= dist(b, before) {
@@ -416,7 +423,10 @@ impl Tracker {
                 return None;
             }
             let exposure_s = self.config.exposure_us? as f32 * 1e-6;
-            let ((vx, vy), _) = velocity_px_s?;
+            // A still path's middle jitters as much as the LED moves: its velocity is taken
+            // over a few frames, which divides that jitter.
+            let steady = streak.path.and_then(|_| self.steady_velocity(mid_px, t_us));
+            let (vx, vy) = steady.or(velocity_px_s.map(|(v, _)| v))?;
             Some((
                 mid_px.0 + 0.5 * exposure_s * vx,
                 mid_px.1 + 0.5 * exposure_s * vy,
@@ -437,6 +447,23 @@ impl Tracker {
         self.missed_frames = 0;
         self.previous_found = true;
         Some(estimate)
+    }
+
+    /// The middle's mean velocity over the last [`STEADY_FRAMES`] frames found in a row
+    /// (`None` unless the previous frame was found).
+    fn steady_velocity(&self, mid_px: (f32, f32), t_us: u64) -> Option<(f32, f32)> {
+        if !self.previous_found {
+            return None;
+        }
+        let oldest = self
+            .history
+            .oldest_ordered()
+            .rev()
+            .take(STEADY_FRAMES)
+            .last()?;
+        let dt_s = t_us.checked_sub(oldest.t_us).filter(|&dt| dt > 0)? as f32 * 1e-6;
+        let before = oldest.estimate.mid_px;
+        Some(((mid_px.0 - before.0) / dt_s, (mid_px.1 - before.1) / dt_s))
     }
 
     fn velocity(
@@ -505,6 +532,7 @@ mod tests {
                 ends_px,
                 path_length_px: ((ends_px[1].0 - ends_px[0].0).hypot(ends_px[1].1 - ends_px[0].1)),
                 fit_px: None,
+                fit_floor: None,
             }),
             path_failed: false,
         }
