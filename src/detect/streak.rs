@@ -14,6 +14,7 @@ use super::bitimage::{BitImage, Window, NEIGHBOURS_8};
 use super::blobs::{Blob, Labeler};
 use super::fit::{self, Rough};
 use super::floor_bg::FloorBackground;
+use super::moments::{Moments, StadiumPath};
 use super::morph::{self, Kernel};
 use super::skeleton::{self, SkeletonMethod, SkeletonScratch, SEED_PRE_DILATIONS};
 use super::spot_shape::{self, SpotOptics};
@@ -287,13 +288,17 @@ pub fn analyze(
             });
             (mid_px, path)
         }
-        StreakModel::Fit => fitted_path(
-            frame,
-            blob,
-            (ends_px, mid_px, thickness_px),
-            levels,
-            background,
-        ),
+        StreakModel::Fit => {
+            let moments = Moments::of_runs(labeler.runs_of(index).map(|r| (r.y, r.x0, r.x1)));
+            fitted_path(
+                frame,
+                blob,
+                (ends_px, mid_px, thickness_px),
+                moments.map(|m| m.stadium()),
+                levels,
+                background,
+            )
+        }
     };
 
     Streak {
@@ -315,16 +320,27 @@ fn fitted_path(
     frame: &Frame<'_>,
     blob: &Blob,
     (ends_px, mid_px, thickness_px): ([(f32, f32); 2], (f32, f32), f32),
+    stadium: Option<StadiumPath>,
     levels: Levels,
     background: Option<&FloorBackground>,
 ) -> ((f32, f32), Option<StreakPath>) {
     // A round blob's skeleton is a dot, and area over length is then its area: its width is
     // at most the diameter of a disk of that area.
     let disk_diameter_px = 2.0 * (blob.area_px as f32 / core::f32::consts::PI).sqrt();
-    let rough = Rough {
+    let skeleton = Rough {
         ends_px,
         mid_px,
         thickness_px: thickness_px.min(disk_diameter_px),
+    };
+    // The skeleton of a blob no longer than it is wide is noise: the stadium of its moments
+    // is the better start there (a short streak in a wide glow).
+    let rough = match stadium {
+        Some(s) if dist(s.ends_px[0], s.ends_px[1]) < s.width_px => Rough {
+            ends_px: s.ends_px,
+            mid_px: s.mid_px,
+            thickness_px: s.width_px,
+        },
+        _ => skeleton,
     };
     let Some(f) = fit::fit(frame, &rough, levels.top_luma, background) else {
         return (mid_px, None);
