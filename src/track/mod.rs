@@ -449,8 +449,8 @@ impl Tracker {
         Some(estimate)
     }
 
-    /// The middle's mean velocity over the last [`STEADY_FRAMES`] frames found in a row
-    /// (`None` unless the previous frame was found).
+    /// The middle's mean velocity since the [`STEADY_FRAMES`]-th last found frame (`None`
+    /// unless the previous frame was found).
     fn steady_velocity(&self, mid_px: (f32, f32), t_us: u64) -> Option<(f32, f32)> {
         if !self.previous_found {
             return None;
@@ -828,6 +828,44 @@ mod tests {
             (vx - 1000.0).abs() < 1e-3 && vy.abs() < 1e-3,
             "10 px in 10 ms: {vx}, {vy}"
         );
+    }
+
+    /// A fitted path no longer than the spot is wide has both ends at its middle: the head is
+    /// that middle carried by its velocity over the last three frames, half an exposure on,
+    /// so a slow LED's head is not half a streak behind, and a still one's stays put.
+    #[test]
+    fn a_still_path_s_head_is_its_middle_carried_by_three_frames_velocity() {
+        let exposure_us = 10_000;
+        for (speed_px_per_frame, jitter_px) in [(3.0f32, 0.3f32), (0.0, 0.3)] {
+            let mut t = Tracker::new(TrackerConfig {
+                exposure_us: Some(exposure_us),
+            });
+            let mut last = None;
+            for i in 0..6u64 {
+                // The middle jitters across the motion, alternately up and down.
+                let sign = if i % 2 == 0 { 1.0 } else { -1.0 };
+                let mid = (
+                    100.0 + speed_px_per_frame * i as f32,
+                    100.0 + sign * jitter_px,
+                );
+                last = t.update(i * FRAME_US, Some(&streak(mid, Some([mid, mid]))));
+            }
+            let e = last.unwrap();
+            let exposure_frames = exposure_us as f32 / FRAME_US as f32;
+            let travel_px = 0.5 * speed_px_per_frame * exposure_frames;
+            let true_head = (100.0 + speed_px_per_frame * 5.0 + travel_px, 100.0);
+            let error_px = (e.position_px.0 - true_head.0).hypot(e.position_px.1 - true_head.1);
+            assert_eq!(e.position_method, PositionMethod::Head);
+            // The middle's own jitter, plus half an exposure's travel at the jitter's change
+            // over three frames (2 × jitter / 3 per frame; over one frame it would be thrice
+            // that, and the middle alone would be the travel behind).
+            let bound_px = jitter_px * (1.0 + 0.5 * exposure_frames * 2.0 / 3.0) + 1e-3;
+            assert!(
+                error_px <= bound_px,
+                "{speed_px_per_frame} px/frame: head {:?}, truth {true_head:?}",
+                e.position_px
+            );
+        }
     }
 
     #[test]
