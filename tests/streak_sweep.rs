@@ -15,7 +15,7 @@
 //! `cargo test --test streak_sweep -- --ignored`. It prints every point's figures and the
 //! sweep's totals, then fails listing the points out of bounds.
 
-use glint::detect::streak::StreakModel;
+use glint::detect::streak::{FitFloor, StreakModel};
 use glint::detect::{Detector, DetectorConfig};
 use glint::frame::{Frame, FrameSize};
 use glint::pipeline::{Pipeline, PipelineConfig};
@@ -89,6 +89,7 @@ fn run_point(point: &SweepPoint, model: StreakModel) -> PointScore {
     let mut bytes = vec![0u8; scene.frame_len_bytes()];
     let mut s = PointScore::default();
     let period_us = (1e6 / scene.fps()) as u64;
+    let frames_printed = std::env::var_os("GLINT_SWEEP_FRAMES").is_some();
     for index in 0..scene.frame_count() {
         let truth = scene.render(index, &mut bytes).unwrap();
         let frame = Frame::new_checked(&bytes, size, size.row_bytes()).unwrap();
@@ -111,6 +112,9 @@ fn run_point(point: &SweepPoint, model: StreakModel) -> PointScore {
                     (f64::from(x) - tx.unwrap()).hypot(f64::from(y) - ty.unwrap())
                 };
                 s.mid_px.push(d(e.mid_px, truth.mid_x_px, truth.mid_y_px));
+                if frames_printed {
+                    print_frame(index, &truth, &e, report.detection.best.as_ref());
+                }
                 if index > 0 {
                     s.head_px.push(d(e.position_px, truth.x_px, truth.y_px));
                 }
@@ -129,6 +133,45 @@ fn run_point(point: &SweepPoint, model: StreakModel) -> PointScore {
         }
     }
     s
+}
+
+/// One frame's figures (`GLINT_SWEEP_FRAMES=1`), to tell the kinds of error apart: the head's
+/// error, its distance from the true start (a reversed direction lands there), how the
+/// position was taken, and the fitted path against the true one.
+fn print_frame(
+    index: usize,
+    truth: &glint_tools::scene::Truth,
+    e: &glint::track::Estimate,
+    best: Option<&(glint::detect::blobs::Blob, glint::detect::streak::Streak)>,
+) {
+    let (Some(x), Some(y), Some(mx), Some(my)) =
+        (truth.x_px, truth.y_px, truth.mid_x_px, truth.mid_y_px)
+    else {
+        return;
+    };
+    let d =
+        |(px, py): (f32, f32), (tx, ty): (f64, f64)| (f64::from(px) - tx).hypot(f64::from(py) - ty);
+    let start = (2.0 * mx - x, 2.0 * my - y);
+    let streak = best.map(|(_, s)| s);
+    let path = streak.and_then(|s| s.path);
+    eprintln!(
+        "    frame {index:>2}: true len {:.1} px, head {:.2} px (from the start {:.2}), mid {:.2} px, \
+         {} {}, fitted len {}, fit_px {}, thickness {}",
+        truth.streak_px.unwrap_or(f64::NAN),
+        d(e.position_px, (x, y)),
+        d(e.position_px, start),
+        d(e.mid_px, (mx, my)),
+        e.position_method.name(),
+        match (streak.map(|s| s.path_failed), path) {
+            (Some(true), _) => "fit failed",
+            (_, Some(p)) if p.ends_px[0] == p.ends_px[1] => "still",
+            (_, Some(_)) => "path",
+            _ => "no path",
+        },
+        path.map_or("-".to_string(), |p| format!("{:.2}", p.path_length_px)),
+        path.and_then(|p| p.fit_px).map_or("-".to_string(), |f| format!("{f:.3}")),
+        streak.map_or("-".to_string(), |s| format!("{:.1}", s.thickness_px)),
+    );
 }
 
 /// Errors of the heads of a still LED, in frames after the first, with the fitted model:
@@ -157,6 +200,9 @@ fn still_heads(point: &SweepPoint) -> Vec<f64> {
         let estimate = tracker.update(index as u64 * period_us, streak);
         let e = estimate.unwrap_or_else(|| panic!("{point}: frame {index} not detected"));
         if index > 0 {
+            if std::env::var_os("GLINT_SWEEP_FRAMES").is_some() {
+                print_frame(index, &truth, &e, detection.best.as_ref());
+            }
             let (x, y) = e.position_px;
             head_px.push(
                 (f64::from(x) - truth.x_px.unwrap()).hypot(f64::from(y) - truth.y_px.unwrap()),
@@ -281,7 +327,16 @@ fn the_fit_reads_a_streak_on_a_textured_floor_it_has_seen() {
             let frame = Frame::new_checked(&bytes, size, size.row_bytes()).unwrap();
             let (_, streak) = detector.detect(&frame).best.expect("the streak is found");
             // The floor under the streak's start was under the last frame's streak: it is
-            // seen from the third frame on.
+            // seen from the third frame on. Before any floor is learned, the fit says it ran
+            // on a flat one.
+            // From the fourth frame on, every fitted pixel's floor has been seen.
+            let floor = streak.path.and_then(|p| p.fit_floor);
+            let expected = match index {
+                0 => FitFloor::Flat,
+                1 | 2 => FitFloor::Partly,
+                _ => FitFloor::Learned,
+            };
+            assert_eq!(floor, Some(expected), "frame {index}");
             if index < 2 {
                 continue;
             }

@@ -36,7 +36,8 @@ use crate::frame::Frame;
 pub const MAX_FIT_PX: usize = 128;
 /// Of those, pixels taken from the body (between the end caps).
 const BODY_PX: usize = 32;
-/// Levenberg–Marquardt iterations at most, in each of the two stages.
+/// Levenberg–Marquardt iterations at most, in each stage (the core alone, then everything,
+/// at most twice).
 pub const MAX_ITERATIONS: usize = 10;
 /// The most the path's parameters may move in one step.
 const MAX_PATH_STEP_PX: f32 = 2.0;
@@ -154,10 +155,16 @@ pub fn fit(
     core_only[6] = false;
     core_only[8] = false;
     p[8] = 0.0;
-    let (p, _) = levenberg_marquardt(&samples, p, clip, &core_only)?;
-    let mut p = p;
+    let (core, core_cost) = levenberg_marquardt(&samples, p, clip, &core_only)?;
+    let mut p = core;
     p[8] = GLOW_RATIO0;
-    let (p, cost) = levenberg_marquardt(&samples, p, clip, &all)?;
+    let (mut p, mut cost) = levenberg_marquardt(&samples, p, clip, &all)?;
+    // The glow, started at its usual share, can upset a spot that has none (its core's
+    // amplitude and tone) and end worse than the core alone did: then again from the core
+    // alone, with no glow to start with, which can only end better.
+    if cost > core_cost {
+        (p, cost) = levenberg_marquardt(&samples, core, clip, &all)?;
+    }
     let mut normal = normal_equations(&samples, &p, clip, &all)?.0;
     for i in [FLAT_FLOOR, PEDESTAL] {
         if !all[i] {

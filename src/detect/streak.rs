@@ -14,6 +14,7 @@ use super::bitimage::{BitImage, Window, NEIGHBOURS_8};
 use super::blobs::{Blob, Labeler};
 use super::fit::{self, Rough};
 use super::floor_bg::FloorBackground;
+use super::moments::{Moments, StadiumPath};
 use super::morph::{self, Kernel};
 use super::skeleton::{self, SkeletonMethod, SkeletonScratch, SEED_PRE_DILATIONS};
 use super::spot_shape::{self, SpotOptics};
@@ -90,6 +91,43 @@ pub struct StreakPath {
     pub path_length_px: f32,
     /// One standard deviation of the ends, from the fit's residual ([`StreakModel::Fit`]).
     pub fit_px: Option<f32>,
+    /// The floor the fit read the light on ([`StreakModel::Fit`]).
+    pub fit_floor: Option<FitFloor>,
+}
+
+/// The floor under a fitted streak: learned where the floor was seen without the light, else
+/// one fitted flat floor (the first frames, an LED standing still since the start), whose
+/// texture the fit may read as light.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FitFloor {
+    /// Every fitted pixel's floor was learned.
+    Learned,
+    /// Some were: the others shared a fitted flat floor.
+    Partly,
+    /// None was: the fit ran on a fitted flat floor.
+    Flat,
+}
+
+impl FitFloor {
+    /// Of the fraction of the fitted pixels whose floor was learned.
+    fn of(measured: f32) -> Self {
+        if measured >= 1.0 {
+            FitFloor::Learned
+        } else if measured > 0.0 {
+            FitFloor::Partly
+        } else {
+            FitFloor::Flat
+        }
+    }
+
+    /// The name used in the output.
+    pub fn name(self) -> &'static str {
+        match self {
+            FitFloor::Learned => "learned",
+            FitFloor::Partly => "partly",
+            FitFloor::Flat => "flat",
+        }
+    }
 }
 
 /// Scratch for the streak stage, sized once to the frame.
@@ -246,16 +284,21 @@ pub fn analyze(
                 ends_px: t.tips_px,
                 path_length_px: t.path_length_px,
                 fit_px: None,
+                fit_floor: None,
             });
             (mid_px, path)
         }
-        StreakModel::Fit => fitted_path(
-            frame,
-            blob,
-            (ends_px, mid_px, thickness_px),
-            levels,
-            background,
-        ),
+        StreakModel::Fit => {
+            let moments = Moments::of_runs(labeler.runs_of(index).map(|r| (r.y, r.x0, r.x1)));
+            fitted_path(
+                frame,
+                blob,
+                (ends_px, mid_px, thickness_px),
+                moments.map(|m| m.stadium()),
+                levels,
+                background,
+            )
+        }
     };
 
     Streak {
@@ -277,16 +320,27 @@ fn fitted_path(
     frame: &Frame<'_>,
     blob: &Blob,
     (ends_px, mid_px, thickness_px): ([(f32, f32); 2], (f32, f32), f32),
+    stadium: Option<StadiumPath>,
     levels: Levels,
     background: Option<&FloorBackground>,
 ) -> ((f32, f32), Option<StreakPath>) {
     // A round blob's skeleton is a dot, and area over length is then its area: its width is
     // at most the diameter of a disk of that area.
     let disk_diameter_px = 2.0 * (blob.area_px as f32 / core::f32::consts::PI).sqrt();
-    let rough = Rough {
+    let skeleton = Rough {
         ends_px,
         mid_px,
         thickness_px: thickness_px.min(disk_diameter_px),
+    };
+    // The skeleton of a blob no longer than it is wide is noise: the stadium of its moments
+    // is the better start there (a short streak in a wide glow).
+    let rough = match stadium {
+        Some(s) if dist(s.ends_px[0], s.ends_px[1]) < s.width_px => Rough {
+            ends_px: s.ends_px,
+            mid_px: s.mid_px,
+            thickness_px: s.width_px,
+        },
+        _ => skeleton,
     };
     let Some(f) = fit::fit(frame, &rough, levels.top_luma, background) else {
         return (mid_px, None);
@@ -306,6 +360,7 @@ fn fitted_path(
         ends_px: if still { [mid; 2] } else { f.ends_px },
         path_length_px: f.path_length_px,
         fit_px: Some(f.uncertainty_px),
+        fit_floor: Some(FitFloor::of(f.floor_measured)),
     };
     (mid, Some(path))
 }

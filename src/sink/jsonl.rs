@@ -14,7 +14,8 @@
 //! "ahead_ms"}`, the position extrapolated to the moment the line is written, `ahead_ms` after
 //! the end of the exposure (see [`super::predict`]). Then the detection's diagnostics, among
 //! them, with `--streak-model fit`, `fit_px`: one standard deviation of the fitted path's ends
-//! (px).
+//! (px), and `fit_floor`: `learned`, `partly` or `flat`, whether the floor under the fitted
+//! pixels was learned or (where no floor was learned yet) one fitted flat floor.
 //!
 //! With several robots (`--robots N`, N > 1) the line holds the frame's own fields (`frame`,
 //! `t`, `found`: any robot found, `calib`, `seq`, `dropped`, `blobs`, `threshold`, `learning`,
@@ -219,7 +220,7 @@ fn write_floor(out: &mut impl Write, floor: Option<FloorFix>) -> io::Result<()> 
     Ok(())
 }
 
-/// `area_px`, `len_px` and, with a fitted model, `fit_px` of the light's blob.
+/// `area_px`, `len_px` and, with a fitted model, `fit_px` and `fit_floor` of the light's blob.
 fn write_blob(out: &mut impl Write, blob: Option<(Blob, Streak)>) -> io::Result<()> {
     if let Some((blob, streak)) = blob {
         write!(
@@ -229,6 +230,9 @@ fn write_blob(out: &mut impl Write, blob: Option<(Blob, Streak)>) -> io::Result<
         )?;
         if let Some(fit_px) = streak.path.and_then(|p| p.fit_px) {
             write!(out, ",\"fit_px\":{fit_px:.3}")?;
+        }
+        if let Some(floor) = streak.path.and_then(|p| p.fit_floor) {
+            write!(out, ",\"fit_floor\":\"{}\"", floor.name())?;
         }
     }
     Ok(())

@@ -62,6 +62,9 @@ pub use state::TrackState;
 /// Frames the history ring keeps.
 pub const HISTORY_FRAMES: usize = 16;
 
+/// Frames a still streak's velocity is measured over (see [`Tracker::update`]).
+const STEADY_FRAMES: usize = 3;
+
 /// The gate's radius with no motion known, in pixels.
 pub const GATE_MIN_PX: f32 = 24.0;
 
@@ -477,7 +480,11 @@ impl Tracker {
             .filter(|_| self.previous_found)
             .or(self.came_from.take());
         let mid_px = streak.mid_px;
-        let head = streak.path.and_then(|path| {
+        // A still path (both ends the middle: no longer than the spot is wide) has no
+        // direction to choose; like a streak whose ends could not be measured, its head is
+        // carried from the middle by the frames' velocity below.
+        let moving = streak.path.filter(|p| p.ends_px[0] != p.ends_px[1]);
+        let head = moving.and_then(|path| {
             let before = previous?.estimate.position_px;
             let [a, b] = path.ends_px;
             Some(if dist(a, before) >= dist(b, before) {
@@ -495,7 +502,10 @@ impl Tracker {
                 return None;
             }
             let exposure_s = self.config.exposure_us? as f32 * 1e-6;
-            let ((vx, vy), _) = velocity_px_s?;
+            // A still path's middle jitters as much as the LED moves: its velocity is taken
+            // over a few frames, which divides that jitter.
+            let steady = streak.path.and_then(|_| self.steady_velocity(mid_px, t_us));
+            let (vx, vy) = steady.or(velocity_px_s.map(|(v, _)| v))?;
             Some((
                 mid_px.0 + 0.5 * exposure_s * vx,
                 mid_px.1 + 0.5 * exposure_s * vy,
@@ -516,6 +526,23 @@ impl Tracker {
         self.missed_frames = 0;
         self.previous_found = true;
         Some(estimate)
+    }
+
+    /// The middle's mean velocity since the [`STEADY_FRAMES`]-th last found frame (`None`
+    /// unless the previous frame was found).
+    fn steady_velocity(&self, mid_px: (f32, f32), t_us: u64) -> Option<(f32, f32)> {
+        if !self.previous_found {
+            return None;
+        }
+        let oldest = self
+            .history
+            .oldest_ordered()
+            .rev()
+            .take(STEADY_FRAMES)
+            .last()?;
+        let dt_s = t_us.checked_sub(oldest.t_us).filter(|&dt| dt > 0)? as f32 * 1e-6;
+        let before = oldest.estimate.mid_px;
+        Some(((mid_px.0 - before.0) / dt_s, (mid_px.1 - before.1) / dt_s))
     }
 
     fn velocity(
@@ -584,6 +611,7 @@ mod tests {
                 ends_px,
                 path_length_px: ((ends_px[1].0 - ends_px[0].0).hypot(ends_px[1].1 - ends_px[0].1)),
                 fit_px: None,
+                fit_floor: None,
             }),
             path_failed: false,
         }
@@ -879,6 +907,44 @@ mod tests {
             (vx - 1000.0).abs() < 1e-3 && vy.abs() < 1e-3,
             "10 px in 10 ms: {vx}, {vy}"
         );
+    }
+
+    /// A fitted path no longer than the spot is wide has both ends at its middle: the head is
+    /// that middle carried by its velocity over the last three frames, half an exposure on,
+    /// so a slow LED's head is not half a streak behind, and a still one's stays put.
+    #[test]
+    fn a_still_path_s_head_is_its_middle_carried_by_three_frames_velocity() {
+        let exposure_us = 10_000;
+        for (speed_px_per_frame, jitter_px) in [(3.0f32, 0.3f32), (0.0, 0.3)] {
+            let mut t = Tracker::new(TrackerConfig {
+                exposure_us: Some(exposure_us),
+            });
+            let mut last = None;
+            for i in 0..6u64 {
+                // The middle jitters across the motion, alternately up and down.
+                let sign = if i % 2 == 0 { 1.0 } else { -1.0 };
+                let mid = (
+                    100.0 + speed_px_per_frame * i as f32,
+                    100.0 + sign * jitter_px,
+                );
+                last = t.update(i * FRAME_US, Some(&streak(mid, Some([mid, mid]))));
+            }
+            let e = last.unwrap();
+            let exposure_frames = exposure_us as f32 / FRAME_US as f32;
+            let travel_px = 0.5 * speed_px_per_frame * exposure_frames;
+            let true_head = (100.0 + speed_px_per_frame * 5.0 + travel_px, 100.0);
+            let error_px = (e.position_px.0 - true_head.0).hypot(e.position_px.1 - true_head.1);
+            assert_eq!(e.position_method, PositionMethod::Head);
+            // The middle's own jitter, plus half an exposure's travel at the jitter's change
+            // over three frames (2 × jitter / 3 per frame; over one frame it would be thrice
+            // that, and the middle alone would be the travel behind).
+            let bound_px = jitter_px * (1.0 + 0.5 * exposure_frames * 2.0 / 3.0) + 1e-3;
+            assert!(
+                error_px <= bound_px,
+                "{speed_px_per_frame} px/frame: head {:?}, truth {true_head:?}",
+                e.position_px
+            );
+        }
     }
 
     #[test]
