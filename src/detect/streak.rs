@@ -16,7 +16,7 @@ use super::fit::{self, Rough};
 use super::floor_bg::FloorBackground;
 use super::morph::{self, Kernel};
 use super::skeleton::{self, SkeletonMethod, SkeletonScratch, SEED_PRE_DILATIONS};
-use super::spot_shape::{self, SpotOptics};
+use super::spot_shape::{self, SpotOptics, SpotShape};
 use super::threshold::Levels;
 use super::tips;
 use crate::frame::Frame;
@@ -133,9 +133,10 @@ impl StreakScratch {
 }
 
 /// Analyses blob `index` of `labeler` on `frame`. `threshold_luma` is the level the mask was
-/// cut at; rim pixels are weighted by how close they come to it. With `optics` (a lens that
-/// squeezes a round spot), the tips of [`StreakModel::Ramps`] are placed for the spot's shape
-/// at the blob ([`spot_shape`]).
+/// cut at; rim pixels are weighted by how close they come to it. The tips of
+/// [`StreakModel::Ramps`] are placed for the spot's shape at the blob ([`spot_shape`]): through
+/// `optics` (a lens that squeezes a round spot) or, without one, a round spot; either way a tip
+/// run on into something bright beside the LED is refused.
 #[allow(clippy::too_many_arguments)]
 pub fn analyze(
     frame: &Frame<'_>,
@@ -236,9 +237,11 @@ pub fn analyze(
                     )
                 })
                 .flatten()
-                .and_then(|t| match optics.and_then(|o| o.spot_shape_at(mid_px)) {
-                    Some(shape) => spot_shape::through_lens(t, ends_px, mid_px, shape),
-                    None => Some(t),
+                .and_then(|t| {
+                    let shape = optics
+                        .and_then(|o| o.spot_shape_at(mid_px))
+                        .unwrap_or_else(SpotShape::identity);
+                    spot_shape::through_lens(t, ends_px, mid_px, shape)
                 });
             // A still LED has no path: its ends would only be the spot's own outline, and the
             // tracker carries its middle by the frames' velocity instead.
