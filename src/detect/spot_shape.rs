@@ -92,10 +92,10 @@ pub trait SpotOptics: Send + Sync {
 }
 
 /// `tips`, measured as for a round spot, placed again for the spot `shape` the lens makes of a
-/// round spot there, and judged still by the path's length in ideal pixels (or still as they
-/// were already). `None`
-/// when a tip lands farther from its skeleton end (`ends_px`, in the same order) than the
-/// spot's own extent along the streak: the LED's centre at the end of its path is inside the
+/// round spot there (or none: [`SpotShape::identity`]), and judged still by the path's length
+/// in ideal pixels (or still as they were already). `None` when a tip lands farther from its
+/// skeleton end (`ends_px`, in the same order) than the spot's own extent along the streak
+/// (and half a pixel's diagonal): the LED's centre at the end of its path is inside the
 /// saturated blob, whose skeleton ends within that extent of it, so such a tip was read from a
 /// ramp that ran on into something bright beside the LED (a marker's white square).
 pub fn through_lens(
