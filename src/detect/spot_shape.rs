@@ -23,14 +23,23 @@
 //! caps' own rule already calls still stays still: taking a slow LED for a still one costs
 //! little (the tracker carries the middle by the frames' motion, a fraction of a pixel here),
 //! while tips read off a path shorter than a pixel are off by about as much as the path. With
-//! an ideal lens the factor is 1; the pipeline gives the detector no lens then, and nothing
-//! changes.
+//! an ideal lens (or none) the factor is 1: [`SpotShape::identity`] places the tips where the
+//! round reading put them, and the path the still rule judges is the footprint less the spot's
+//! width across.
+//!
+//! The guard in [`through_lens`] (a tip no farther from its skeleton end than the spot's extent)
+//! holds with or without a lens: a ramp that runs on into a white square beside the LED is no
+//! lens's doing (`tests/bright_beside.rs`).
 
 use super::tips::Tips;
 
 /// A path within this many of the caps' standard deviations of nothing is still (as the rule
 /// without a lens in [`tips`](super::tips)).
 const STILL_UNCERTAINTIES: f32 = 2.0;
+
+/// A skeleton end is a pixel's centre: where the thinning actually stopped is anywhere in that
+/// pixel, up to half its diagonal away.
+const SKELETON_END_SLACK_PX: f32 = core::f32::consts::FRAC_1_SQRT_2;
 
 /// The lens's local linear map at one pixel: image pixels to the pixels of an ideal camera
 /// with the same focal lengths (the inverse of the distortion's Jacobian there).
@@ -51,6 +60,14 @@ impl SpotShape {
             image_to_ideal,
             det,
         })
+    }
+
+    /// No lens: image pixels are ideal pixels, and a round spot stays round.
+    pub fn identity() -> SpotShape {
+        SpotShape {
+            image_to_ideal: [[1.0, 0.0], [0.0, 1.0]],
+            det: 1.0,
+        }
     }
 
     /// Ideal pixels per image pixel along the unit image direction `d`: `|A d|`.
@@ -75,10 +92,10 @@ pub trait SpotOptics: Send + Sync {
 }
 
 /// `tips`, measured as for a round spot, placed again for the spot `shape` the lens makes of a
-/// round spot there, and judged still by the path's length in ideal pixels (or still as they
-/// were already). `None`
-/// when a tip lands farther from its skeleton end (`ends_px`, in the same order) than the
-/// spot's own extent along the streak: the LED's centre at the end of its path is inside the
+/// round spot there (or none: [`SpotShape::identity`]), and judged still by the path's length
+/// in ideal pixels (or still as they were already). `None` when a tip lands farther from its
+/// skeleton end (`ends_px`, in the same order) than the spot's own extent along the streak
+/// (and half a pixel's diagonal): the LED's centre at the end of its path is inside the
 /// saturated blob, whose skeleton ends within that extent of it, so such a tip was read from a
 /// ramp that ran on into something bright beside the LED (a marker's white square).
 pub fn through_lens(
@@ -104,7 +121,7 @@ pub fn through_lens(
     if tips_px
         .iter()
         .zip(&ends_px)
-        .any(|(&tip, &end)| dist(tip, end) > along_px)
+        .any(|(&tip, &end)| dist(tip, end) > along_px + SKELETON_END_SLACK_PX)
     {
         return None;
     }
@@ -150,6 +167,7 @@ mod tests {
     #[test]
     fn an_ideal_lens_changes_nothing() {
         let shape = SpotShape::new([[1.0, 0.0], [0.0, 1.0]]).unwrap();
+        assert_eq!(shape, SpotShape::identity());
         let t = tips(10.0, 0.2);
         let s = seen(t, shape).unwrap();
         assert_eq!(s.tips_px, t.tips_px);

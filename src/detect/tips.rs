@@ -19,7 +19,9 @@
 //! of a chord is quadratic in the chord's position along the axis). Its semi-axis along the
 //! streak is the spot's own extent there. A blob no longer along its axis than the spot's
 //! extents at its two ends, within the fits' scatter, is a still LED: it has no path, and the
-//! tracker takes the middle.
+//! tracker takes the middle. So is a blob whose path is no longer than the streak is wide
+//! (its cross-section at the low level): when the streak is no longer than the spot is wide,
+//! there is no direction to choose, and the head is the middle.
 //!
 //! The tips of a longer streak still subtract the width across the middle: the caps' fitted
 //! extents scatter by a few tenths of a pixel more than that width (a clipped edge is read to
@@ -157,7 +159,15 @@ pub fn refine(
     // A footprint no longer along its axis than the spot's own extent at its two ends (within
     // the caps' scatter): the blob is the spot itself, and its tips would only be its outline.
     let footprint_px = dist(origins[0], origins[1]) + ramps[0].0 + ramps[1].0;
-    let still = footprint_px <= along_px[0] + along_px[1] + STILL_UNCERTAINTIES * spread;
+    // Or a path no longer than the streak is wide (its cross-section at the low level): there
+    // is no direction to choose, and an end picked on a blob that round is off by half of it
+    // (a still LED's tips made a 5 px path of a 0.8 px one). The path is the footprint along
+    // less the footprint across, both from edge to edge as the ramps read them, so that what
+    // the ramps make of a spot (a wide glow's long ramps) cancels. A slow LED taken for still
+    // costs little: the tracker carries its middle by the frames' motion.
+    let across_px = side_a.edge_px + side_b.edge_px;
+    let still = footprint_px <= along_px[0] + along_px[1] + STILL_UNCERTAINTIES * spread
+        || footprint_px - across_px <= 2.0 * half_width_low;
     let path_length_px = dist(tips[0], mid) + dist(mid, tips[1]);
     Some(Tips {
         tips_px: tips,
