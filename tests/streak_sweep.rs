@@ -218,8 +218,7 @@ const STILL_P95_MAX_PX: f64 = 0.75;
 
 /// A still LED reads still: with the fitted model, the position of an LED that does not move
 /// stays within [`STILL_P95_MAX_PX`] of the truth for every spot, brightness, gamma, noise and
-/// range of the sweep (today's ramps jitter by pixels here, picking an "end" of a streak that
-/// has none).
+/// range of the sweep (`tests/ramps_still.rs` holds the default ramps to the same bound).
 #[test]
 fn a_still_led_reads_still() {
     let mut worst = Vec::new();
