@@ -46,6 +46,11 @@ use crate::geometry::homography::Point;
 const MIN_MARGIN_PX: f64 = 16.0;
 /// Markers that must agree with a refitted pose, unless only one marker was found.
 const MIN_AGREEING_MARKERS: usize = 2;
+/// Steady markers that end a check's search early: a knock moves every marker, so three found
+/// where they were say the camera did not move. Any marker found not steady (or too few found)
+/// has every marker of the map searched in the same copy, so that a decision is always made on
+/// every marker in view; the next check starts with the markers this one did not search.
+const STEADY_QUORUM: usize = 3;
 
 /// What a check decided about the pose.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -96,6 +101,8 @@ pub struct Checker {
     /// on them).
     seen: [Option<Marker>; MAX_MARKERS],
     refined: [Option<[Point; 4]>; MAX_MARKERS],
+    /// The map index the next check's search starts at.
+    turn: usize,
     /// Corners for a fit: floor and screen.
     floor_pts: heapless::Vec<Point, MAX_FIT_POINTS>,
     screen_pts: heapless::Vec<Point, MAX_FIT_POINTS>,
@@ -135,6 +142,7 @@ impl Checker {
             moved: [false; MAX_MARKERS],
             seen: [None; MAX_MARKERS],
             refined: [None; MAX_MARKERS],
+            turn: 0,
             floor_pts: heapless::Vec::new(),
             screen_pts: heapless::Vec::new(),
             size,
@@ -166,14 +174,10 @@ impl Checker {
         let mut disagree_new = false;
         let mut agree_any = false;
         for i in 0..self.map.len() {
-            let Some((m, p)) = self.marker(i) else {
+            let Some((_, p)) = self.marker(i) else {
                 continue;
             };
-            let offset = marker_centre_px(camera, &p).map(|c| m.centre() - c);
-            let bias = self.centre_bias_px.get(i).copied().flatten();
-            let steady = !self.is_moved(i)
-                && matches!((offset, bias), (Some(o), Some(b)) if (o - b).norm() <= agree_px);
-            if steady {
+            if self.is_steady(camera, i) {
                 agree_any = true;
                 continue;
             }
@@ -227,7 +231,11 @@ impl Checker {
     fn find(&mut self, frame: &Frame<'_>, camera: &CameraModel) {
         self.seen = [None; MAX_MARKERS];
         self.refined = [None; MAX_MARKERS];
-        for i in 0..self.map.len() {
+        let n = self.map.len();
+        let (mut searched, mut steady, mut all) = (0, 0, false);
+        while searched < n && (all || steady < STEADY_QUORUM) {
+            let i = (self.turn + searched) % n;
+            searched += 1;
             let Some(p) = self.map.get(i).copied() else {
                 continue;
             };
@@ -237,7 +245,17 @@ impl Checker {
             if self.detector.detect(frame, Some(roi)).is_ok() {
                 self.take(i, p.id);
             }
+            if self.seen.get(i).copied().flatten().is_some() {
+                if self.is_steady(camera, i) {
+                    steady += 1;
+                } else {
+                    // A marker not steady is judged with every marker in view.
+                    all = true;
+                }
+            }
         }
+        // The next check starts with the markers this one did not search.
+        self.turn = (self.turn + searched) % n.max(1);
         if self.seen.iter().all(Option::is_none) && self.detector.detect(frame, None).is_ok() {
             for i in 0..self.map.len() {
                 if let Some(p) = self.map.get(i).copied() {
@@ -245,6 +263,18 @@ impl Checker {
                 }
             }
         }
+    }
+
+    /// Whether map marker `i`, found in this check, is steady: not known to be moved, and its
+    /// unrefined centre where it sat when refined corners last confirmed the pose.
+    fn is_steady(&self, camera: &CameraModel, i: usize) -> bool {
+        let Some((m, p)) = self.marker(i) else {
+            return false;
+        };
+        let offset = marker_centre_px(camera, &p).map(|c| m.centre() - c);
+        let bias = self.centre_bias_px.get(i).copied().flatten();
+        !self.is_moved(i)
+            && matches!((offset, bias), (Some(o), Some(b)) if (o - b).norm() <= self.agree_px())
     }
 
     /// Keeps the last detection's one marker of `id` (none if it was seen twice) as map
