@@ -1,25 +1,36 @@
 //! The re-check of the calibration's markers while tracking (`glint::geometry::recheck`), on
-//! 640×480 frames of the six-marker map seen through the mild lens: a frame between checks, one
-//! frame's search (the region around one marker, steady or with its corners refined; or one band
-//! of rows of the whole-frame search made after a check that found no marker), and a whole check
-//! (the six searches in a row, which in use fall on six frames) that confirms the pose (after
-//! the first, with no corner refined) or, after a 0.8° knock, refits it (plus the pose-only
-//! bundle adjustment). The whole-frame detection each check made before the
-//! work was spread is measured for comparison.
+//! 640×480 frames of the six-marker map seen through the mild lens.
+//!
+//! On the tracking thread: a frame between checks, and the copy of a frame's luma that a check
+//! hands to the worker thread (once every period). On the worker (`judge::Checker`, the same
+//! code the worker runs): a check that confirms the pose with steady markers (no corner
+//! refined), one whose every marker is refined (the first check, or after a refit), one that
+//! refits the pose after a 0.8° knock, and one after a knock that also moved one marker on the
+//! floor (the pose refitted, the moved marker found and left out). The whole-frame detection
+//! of the six markers is measured for scale.
 
 use std::hint::black_box;
 
-use criterion::{criterion_group, criterion_main, Criterion};
+use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
 use glint::detect::aruco::Dictionary;
 use glint::frame::{Frame, FrameSize};
-use glint::geometry::recheck::{MarkerRecheck, RECHECK_PERIOD_FRAMES};
+use glint::geometry::recheck::judge::{Checker, Decision};
+use glint::geometry::recheck::{copy_luma, luma_bytes, MarkerRecheck, RECHECK_PERIOD_FRAMES};
 use glint::geometry::{fit_camera, FloorStage, FloorUnit, LensChoice, MarkerPlacement};
-use glint_tools::scene::Scene;
+use glint_tools::scene::{Bump, Scene};
 
 fn bench(c: &mut Criterion) {
-    let config = Scene::preset_config("knocked").expect("preset");
+    let mut config = Scene::preset_config("knocked").expect("preset");
     let view = config.view.clone().expect("a view");
     let knock = view.knock.expect("a knock").frame;
+    // The second marker is kicked 3 cm at the knock (seen only in the frame rendered for it).
+    config.view.as_mut().expect("a view").bump = Some(Bump {
+        frame: knock + 1,
+        marker: 1,
+        dx_cm: 3.0,
+        dy_cm: 0.0,
+        turn_deg: 0.0,
+    });
     let scene = Scene::new(config).expect("scene");
     let size = FrameSize::new(640, 480).expect("size");
     let render = |i: usize| {
@@ -27,7 +38,7 @@ fn bench(c: &mut Criterion) {
         scene.render(i, &mut bytes).expect("render");
         bytes
     };
-    let (before, after) = (render(knock - 15), render(knock));
+    let (before, after, bumped) = (render(knock - 15), render(knock), render(knock + 1));
     let map: Vec<MarkerPlacement> = view.markers.iter().map(|m| m.placement()).collect();
     // The camera as glint calibrates it: lens and pose fitted to the first frame's markers.
     let frame = Frame::new_checked(&before, size, size.row_bytes()).expect("frame");
@@ -45,77 +56,89 @@ fn bench(c: &mut Criterion) {
     }
     assert_eq!(floor.len(), 24, "all six markers seen");
     let fit = fit_camera(&floor, &screen, size, LensChoice::Fit).expect("fit");
-    let stage = FloorStage::from_camera(fit.camera, FloorUnit::Cm);
-    let new = || MarkerRecheck::new(size, Dictionary::Aruco6x6_250, &map, fit.rms_residual_px);
+    let camera = fit.camera;
+    let residual_px = fit.rms_residual_px;
 
-    let period = RECHECK_PERIOD_FRAMES;
-    let mut recheck = new();
-    let mut floor_stage = stage;
-    c.bench_function("recheck: frame between checks", |b| {
-        b.iter(|| black_box(recheck.check(black_box(&frame), period - 1, 33_333, &mut floor_stage)))
+    // The tracking thread's share.
+    let mut recheck =
+        MarkerRecheck::new(size, Dictionary::Aruco6x6_250, &map, residual_px).expect("thread");
+    let mut stage = FloorStage::from_camera(camera, FloorUnit::Cm);
+    recheck.check(&frame, 0, 0, &mut stage);
+    c.bench_function("recheck: tracking thread, a frame between checks", |b| {
+        b.iter(|| {
+            black_box(recheck.check(
+                black_box(&frame),
+                RECHECK_PERIOD_FRAMES - 1,
+                33_333,
+                &mut stage,
+            ))
+        })
     });
-    // A steady marker's search: a whole check first, whose refined corners confirm the pose and
-    // leave each marker's unrefined centre known; then one marker's region, again and again.
-    let mut recheck = new();
-    let mut s = stage;
-    for i in 0..map.len() as u64 {
-        recheck.check(&frame, i, 0, &mut s);
-    }
-    // Frame `period` is the first of a period, whose searches start afresh: each call searches
-    // the marker again.
+    let mut copy = vec![0u8; luma_bytes(size)];
     c.bench_function(
-        "recheck: one steady marker's region (one of six frames)",
+        "recheck: tracking thread, a check's copy of the luma",
+        |b| b.iter(|| black_box(copy_luma(black_box(&frame), &mut copy))),
+    );
+
+    // The worker's check.
+    let grey = |luma: &[u8]| {
+        let mut out = vec![0u8; luma_bytes(size)];
+        copy_luma(
+            &Frame::new_checked(luma, size, size.row_bytes()).expect("frame"),
+            &mut out,
+        );
+        out
+    };
+    let (before, after, bumped) = (grey(&before), grey(&after), grey(&bumped));
+    fn as_frame(luma: &[u8]) -> Frame<'_> {
+        let size = FrameSize::new(640, 480).expect("size");
+        Frame::new_checked_as(luma, size, size.width(), glint::frame::PixelFormat::Grey)
+            .expect("frame")
+    }
+    let new = || Checker::new(size, Dictionary::Aruco6x6_250, &map, residual_px);
+    let mut checker = new();
+    checker.check(&as_frame(&before), &camera);
+    c.bench_function(
+        "recheck (worker): a check that confirms the pose, markers steady",
         |b| {
             b.iter(|| {
-                let mut s = stage;
-                black_box(recheck.check(black_box(&frame), period, 0, &mut s))
+                let v = checker.check(black_box(&as_frame(&before)), &camera);
+                assert_eq!(v.decision, Decision::Confirmed);
+                assert_eq!(v.residual_px, None, "no marker refined");
             })
         },
     );
-    // A marker whose corners are refined (the first check, or one that looks moved).
-    let mut recheck = new();
-    c.bench_function("recheck: one marker's region, corners refined", |b| {
-        b.iter(|| {
-            let mut s = stage;
-            black_box(recheck.check(black_box(&frame), period, 0, &mut s))
-        })
-    });
-    // After a check that found no marker (a black picture), the whole frame band by band.
-    let black = vec![0u8; scene.frame_len_bytes()];
-    let black = Frame::new_checked(&black, size, size.row_bytes()).expect("frame");
-    let mut recheck = new();
-    let mut s = stage;
-    for i in 0..map.len() as u64 {
-        recheck.check(&black, i, 0, &mut s);
-    }
-    c.bench_function("recheck: one band of the whole-frame search", |b| {
-        b.iter(|| black_box(recheck.check(black_box(&frame), period + 1, 0, &mut s)))
-    });
-    // A whole check, its six searches in a row (in use, one per frame).
-    let mut recheck = new();
-    c.bench_function(
-        "recheck: a whole check that confirms the pose (6 regions)",
-        |b| {
-            b.iter(|| {
-                let mut s = stage;
-                for i in 0..map.len() as u64 {
-                    black_box(recheck.check(black_box(&frame), i, 0, &mut s));
-                }
-            })
-        },
+    let batched = |label: &str, luma: &[u8], c: &mut Criterion, refit: bool| {
+        c.bench_function(label, |b| {
+            b.iter_batched(
+                new,
+                |mut checker| {
+                    let v = checker.check(black_box(&as_frame(luma)), &camera);
+                    assert_eq!(matches!(v.decision, Decision::Refit { .. }), refit);
+                    v
+                },
+                BatchSize::LargeInput,
+            )
+        });
+    };
+    batched(
+        "recheck (worker): a check that confirms the pose, every marker refined",
+        &before,
+        c,
+        false,
     );
-    let knocked = Frame::new_checked(&after, size, size.row_bytes()).expect("frame");
-    let mut recheck = new();
-    c.bench_function("recheck: a whole check after a knock, pose refit", |b| {
-        b.iter(|| {
-            let mut s = stage;
-            for i in 0..map.len() as u64 {
-                black_box(recheck.check(black_box(&knocked), i, 0, &mut s));
-            }
-            assert_ne!(s, stage, "the pose is refitted");
-        })
-    });
-    // For comparison: the whole-frame detection each check made before it was spread.
+    batched(
+        "recheck (worker): a check after a knock, pose refit",
+        &after,
+        c,
+        true,
+    );
+    batched(
+        "recheck (worker): a check after a knock that also moved a marker",
+        &bumped,
+        c,
+        true,
+    );
     c.bench_function("recheck: whole-frame marker detection", |b| {
         b.iter(|| black_box(detector.detect(black_box(&frame), None).map(|m| m.len())))
     });

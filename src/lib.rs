@@ -8,12 +8,14 @@
 //! bounded run and blob tables, the background model, the streak fit's learned floor
 //! (`--streak-model fit`: a running mean and count per pixel), the marker detector's scratch, the
 //! latency histograms, the output writer's buffer, the serial sink's mailbox and writer
-//! thread, and (`--publish`, the `net` feature) the publish queue and its thread. After that,
+//! thread, the marker re-check's luma copy and worker thread (`--calib` with a marker map), and
+//! (`--publish`, the `net` feature) the publish queue and its thread. After that,
 //! processing a frame
 //! performs **zero heap allocations**: frames are borrowed views of the source's buffer,
 //! bounded lists are `heapless` with their capacity in the type, reports are formatted straight
 //! into the reused writer, and serial packets are encoded into stack buffers.
-//! `tests/alloc_free.rs`, `tests/capture_path.rs` and `tests/aruco_alloc_free.rs` install a
+//! `tests/alloc_free.rs`, `tests/capture_path.rs`, `tests/aruco_alloc_free.rs` and
+//! `tests/recheck_alloc_free.rs` (which counts the re-check's worker thread too) install a
 //! counting global allocator and hold the per-frame paths to this. Before any of it is
 //! allocated, [`budget`] adds it up from the options, so that a size the machine cannot hold is
 //! refused with a message (`--max-memory-mb`) instead of aborting the process;

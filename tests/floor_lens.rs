@@ -384,3 +384,110 @@ fn markers_out_of_sight_mark_the_floor_numbers_stale_and_occlusion_changes_nothi
         }
     }
 }
+
+/// A knock of the camera, as the renderer takes it.
+fn knock(frame: usize, pan_deg: f64, tilt_deg: f64, roll_deg: f64) -> glint_tools::scene::Knock {
+    glint_tools::scene::Knock {
+        frame,
+        pan_deg,
+        tilt_deg,
+        roll_deg,
+    }
+}
+
+#[test]
+fn a_marker_moved_on_the_floor_is_left_out_and_does_not_drag_the_pose() {
+    // One marker of the map kicked along the floor (and turned) mid-run: with the camera still,
+    // the pose must stay as it is; with the camera also knocked, the pose is refitted to the
+    // markers that agree with each other. Either way the moved marker is named in one line,
+    // and the floor numbers hold the goal (from 1 s after the knock).
+    struct Case {
+        seed: u64,
+        marker: usize,
+        moved_cm: (f64, f64),
+        turn_deg: f64,
+        bumped_at: usize,
+        knock: Option<glint_tools::scene::Knock>,
+    }
+    let cases = [
+        Case {
+            seed: 11,
+            marker: 1,
+            moved_cm: (2.0, 0.0),
+            turn_deg: 0.0,
+            bumped_at: 40,
+            knock: None,
+        },
+        Case {
+            seed: 12,
+            marker: 4,
+            moved_cm: (-1.0, 1.5),
+            turn_deg: 6.0,
+            bumped_at: 25,
+            knock: None,
+        },
+        Case {
+            seed: 13,
+            marker: 2,
+            moved_cm: (0.0, 3.0),
+            turn_deg: 0.0,
+            bumped_at: 30,
+            knock: Some(knock(30, 0.3, 0.8, 0.2)),
+        },
+        Case {
+            seed: 14,
+            marker: 5,
+            moved_cm: (1.5, -1.0),
+            turn_deg: -4.0,
+            bumped_at: 15,
+            knock: Some(knock(40, -0.6, 0.5, -0.3)),
+        },
+    ];
+    for case in cases {
+        let mut config = preset("knocked", case.seed);
+        if case.knock.is_none() {
+            // A second of tracking after the kick is enough to see the pose kept.
+            config.frame_count = case.bumped_at + 30;
+        }
+        let v = config.view.as_mut().unwrap();
+        v.knock = case.knock;
+        v.bump = Some(glint_tools::scene::Bump {
+            frame: case.bumped_at,
+            marker: case.marker,
+            dx_cm: case.moved_cm.0,
+            dy_cm: case.moved_cm.1,
+            turn_deg: case.turn_deg,
+        });
+        let id = v.markers[case.marker].id;
+        let r = render(config);
+        let dir = tempfile::tempdir().unwrap();
+        let calib = calibrate(&r, dir.path(), "fit");
+        let label = format!(
+            "marker {id} moved {:?} cm, turned {}° at frame {}, knock {:?}",
+            case.moved_cm, case.turn_deg, case.bumped_at, case.knock
+        );
+        let out = common::track(&r, &["--calib", calib.to_str().unwrap()]);
+        assert!(out.status.success());
+        let log = String::from_utf8_lossy(&out.stderr);
+        eprint!("{log}");
+        let reports = parse_jsonl(&out.stdout);
+        let from = case.knock.map_or(0, |k| k.frame + 30);
+        let figures = report(&label, &errors_from(&r, &reports, from));
+        assert_figures(&label, &figures);
+        let named = format!("calibration marker {id} is ");
+        assert_eq!(
+            log.matches(&named).count(),
+            1,
+            "{label}: the moved marker is named once:\n{log}"
+        );
+        for other in view(&r).markers.iter().filter(|m| m.id != id) {
+            let named = format!("calibration marker {} is ", other.id);
+            assert!(!log.contains(&named), "{label}: only the moved one:\n{log}");
+        }
+        assert_eq!(
+            log.contains("camera moved"),
+            case.knock.is_some(),
+            "{label}: the pose is refitted only when the camera moved:\n{log}"
+        );
+    }
+}

@@ -95,3 +95,26 @@ fn the_marker_pipeline_allocates_what_the_plan_says() {
         assert_close("aruco", size, planned, measured);
     }
 }
+
+#[test]
+fn the_marker_recheck_allocates_what_the_plan_says() {
+    use glint::geometry::recheck::MarkerRecheck;
+    use glint::geometry::{MarkerPlacement, Point};
+    let map = [MarkerPlacement {
+        id: 3,
+        size: 18.0,
+        origin: Point::new(0.0, 0.0),
+    }];
+    for size in SIZES {
+        let size: FrameSize = size.parse().unwrap();
+        let dictionary = Dictionary::Aruco6x6_250;
+        let max_perimeter_px = aruco::DetectorConfig::new(dictionary).max_perimeter_px;
+        // As `glint track` plans it (src/cli/track.rs).
+        let planned = budget::marker_detector_bytes(size, max_perimeter_px)
+            + MarkerRecheck::copy_bytes(size) as u64;
+        let measured = bytes_allocated_during(|| {
+            std::hint::black_box(MarkerRecheck::new(size, dictionary, &map, 0.2).unwrap());
+        });
+        assert_close("marker re-check", size, planned, measured);
+    }
+}

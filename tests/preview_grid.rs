@@ -104,12 +104,9 @@ fn the_floor_grid_reprojects_onto_the_true_floor_before_and_after_a_knock() {
     let mut pipeline = Pipeline::new(size, PipelineConfig::default())
         .unwrap()
         .with_floor(FloorStage::from_camera(fit.camera, FloorUnit::Cm))
-        .with_recheck(MarkerRecheck::new(
-            size,
-            Dictionary::Aruco6x6_250,
-            &map,
-            fit.rms_residual_px,
-        ));
+        .with_recheck(
+            MarkerRecheck::new(size, Dictionary::Aruco6x6_250, &map, fit.rms_residual_px).unwrap(),
+        );
     let mut preview = PreviewSink::start("127.0.0.1:0".parse().unwrap(), size, Vec::new())
         .unwrap()
         .with_floor_camera(fit.camera);
@@ -153,12 +150,16 @@ fn the_floor_grid_reprojects_onto_the_true_floor_before_and_after_a_knock() {
     };
     check("before the knock", off(&before, before_frame), before.len());
 
-    // The knock, and the re-check's searches of the period that finds it.
-    for i in knock..knock + 7 {
+    // The knock, the re-check that finds it (a check every period from the first frame fed),
+    // and its verdict a lag later.
+    let period = glint::geometry::recheck::RECHECK_PERIOD_FRAMES as usize;
+    let lag = glint::geometry::recheck::VERDICT_LAG_FRAMES as usize;
+    let checked = before_frame + period * (knock - before_frame).div_ceil(period);
+    for i in knock..=checked + lag {
         feed(i);
     }
     std::thread::sleep(glint::sink::preview::COPY_PERIOD + Duration::from_millis(50));
-    let after_frame = knock + 8;
+    let after_frame = checked + lag + 1;
     feed(after_frame);
     let after = state(addr);
     assert_eq!(after["index"], after_frame as u64);

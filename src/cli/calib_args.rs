@@ -121,7 +121,7 @@ pub fn build_pipeline(
                 dictionary,
                 &map,
                 calibration.rms_residual_px,
-            ))),
+            )?)),
         _ => Ok(pipeline),
     }
 }

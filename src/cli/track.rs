@@ -219,7 +219,8 @@ impl TrackSettings {
             DetectorArg::Aruco => plan.add(
                 "the marker detector",
                 format!("--detector aruco, --size {size}"),
-                budget::marker_detector_bytes(size, self.floor.max_perimeter_px()),
+                budget::marker_detector_bytes(size, self.floor.max_perimeter_px())
+                    + glint::geometry::recheck::MarkerRecheck::copy_bytes(size) as u64,
             ),
             DetectorArg::Saturation | DetectorArg::Bgdiff => plan.add(
                 "the masks and scratch",
@@ -240,7 +241,8 @@ impl TrackSettings {
             plan.add(
                 "the marker re-check",
                 format!("--calib without --no-recheck, --size {size}"),
-                budget::marker_detector_bytes(size, self.floor.max_perimeter_px()),
+                budget::marker_detector_bytes(size, self.floor.max_perimeter_px())
+                    + glint::geometry::recheck::MarkerRecheck::copy_bytes(size) as u64,
             );
         }
         if self.detector == DetectorArg::Bgdiff {

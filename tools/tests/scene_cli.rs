@@ -1,5 +1,5 @@
-//! `glint-scene` with a camera view, run as a user runs it: marker presets, lens, height and
-//! knock flags, the floor truth and the calibrate command it prints.
+//! `glint-scene` with a camera view, run as a user runs it: marker presets, lens, height,
+//! knock and moved-marker flags, the floor truth and the calibrate command it prints.
 
 use std::process::Command;
 
@@ -32,6 +32,8 @@ fn a_marker_map_scene_prints_its_calibrate_command_and_writes_the_floor_truth() 
         "10",
         "--knock",
         "1:0.8",
+        "--move-marker",
+        "2:4:2.5,-1",
     ]);
     assert!(ok, "{stderr}");
     assert!(
@@ -82,4 +84,17 @@ fn view_flags_are_checked() {
     assert!(!ok && stderr.contains("the lens folds over"), "{stderr}");
     let (ok, _, stderr) = scene(&["--scene", "led-mast", "--out-dir", d, "--knock", "x"]);
     assert!(!ok && stderr.contains("FRAME:TILT_DEG"), "{stderr}");
+    let (ok, _, stderr) = scene(&["--scene", "knocked", "--out-dir", d, "--move-marker", "5:2"]);
+    assert!(!ok && stderr.contains("FRAME:ID:DX_CM,DY_CM"), "{stderr}");
+    let (ok, _, stderr) = scene(&[
+        "--scene",
+        "knocked",
+        "--out-dir",
+        d,
+        "--frames",
+        "1",
+        "--move-marker",
+        "0:42:1,0",
+    ]);
+    assert!(!ok && stderr.contains("no marker 42"), "{stderr}");
 }

@@ -13,8 +13,8 @@ use std::time::Instant;
 use anyhow::{bail, Context, Result};
 use clap::Parser;
 use glint_tools::scene::{
-    write_truth_csv, Arena, ArenaConfig, Fleet, Knock, Range, Scene, SceneConfig, Spot, SweepPoint,
-    Trajectory, Truth, Visibility,
+    write_truth_csv, Arena, ArenaConfig, Bump, Fleet, Knock, Range, Scene, SceneConfig, Spot,
+    SweepPoint, Trajectory, Truth, Visibility,
 };
 
 /// Render a synthetic glint scene with ground truth.
@@ -94,6 +94,11 @@ pub(crate) struct Args {
     #[arg(long, value_name = "FRAME:TILT_DEG", value_parser = parse_knock,
           allow_hyphen_values = true)]
     knock: Option<(usize, f64)>,
+    /// Move one marker on the floor at this frame, as if kicked: `FRAME:ID:DX_CM,DY_CM` (the
+    /// map printed for `glint calibrate` stays as it was; presets with markers in view).
+    #[arg(long = "move-marker", value_name = "FRAME:ID:DX_CM,DY_CM", value_parser = parse_move,
+          allow_hyphen_values = true)]
+    move_marker: Option<(usize, u16, f64, f64)>,
 }
 
 fn parse_distortion(s: &str) -> Result<[f64; 5], String> {
@@ -122,6 +127,23 @@ fn parse_knock(s: &str) -> Result<(usize, f64), String> {
         return Err(format!("{s:?}: the tilt must be at most 30°"));
     }
     Ok((frame, deg))
+}
+
+fn parse_move(s: &str) -> Result<(usize, u16, f64, f64), String> {
+    let usage = || format!("{s:?} is not FRAME:ID:DX_CM,DY_CM, e.g. 40:2:2.5,0");
+    let mut parts = s.splitn(3, ':');
+    let (Some(frame), Some(id), Some(offset)) = (parts.next(), parts.next(), parts.next()) else {
+        return Err(usage());
+    };
+    let (dx, dy) = offset.split_once(',').ok_or_else(usage)?;
+    let frame: usize = frame.trim().parse().map_err(|_| usage())?;
+    let id: u16 = id.trim().parse().map_err(|_| usage())?;
+    let dx: f64 = dx.trim().parse().map_err(|_| usage())?;
+    let dy: f64 = dy.trim().parse().map_err(|_| usage())?;
+    if !(dx.is_finite() && dy.is_finite() && dx.hypot(dy) <= 100.0) {
+        return Err(format!("{s:?}: the move must be at most 100 cm"));
+    }
+    Ok((frame, id, dx, dy))
 }
 
 fn main() -> ExitCode {
@@ -176,8 +198,10 @@ fn run(args: Args) -> Result<()> {
     if let Some(seed) = args.seed {
         config.seed = seed;
     }
-    let view_flags =
-        args.distortion.is_some() || args.led_height_cm.is_some() || args.knock.is_some();
+    let view_flags = args.distortion.is_some()
+        || args.led_height_cm.is_some()
+        || args.knock.is_some()
+        || args.move_marker.is_some();
     match config.view.as_mut() {
         Some(view) => {
             if let Some([k1, k2, k3, p1, p2]) = args.distortion {
@@ -194,9 +218,22 @@ fn run(args: Args) -> Result<()> {
                     roll_deg: 0.0,
                 });
             }
+            if let Some((frame, id, dx_cm, dy_cm)) = args.move_marker {
+                let Some(marker) = view.markers.iter().position(|m| m.id == id) else {
+                    bail!("--move-marker: the scene has no marker {id}");
+                };
+                view.bump = Some(Bump {
+                    frame,
+                    marker,
+                    dx_cm,
+                    dy_cm,
+                    turn_deg: 0.0,
+                });
+            }
         }
         None if view_flags => bail!(
-            "--distortion, --led-height-cm and --knock need a preset with a camera view \
+            "--distortion, --led-height-cm, --knock and --move-marker need a preset with a \
+             camera view \
              (marker, marker-map, lens-wide, lens-mild, led-mast, knocked)"
         ),
         None => {}

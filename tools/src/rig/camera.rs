@@ -108,6 +108,7 @@ impl RigCamera {
             lens: Lens::ideal(&camera),
             led_height_cm: 0.0,
             knock: None,
+            bump: None,
             markers: rig_markers(),
         });
         let scene = Scene::new(config).map_err(CameraError::Scene)?;

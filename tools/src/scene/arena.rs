@@ -268,6 +268,7 @@ impl Arena {
                 lens: Lens::ideal(&camera),
                 led_height_cm: c.led_height_cm,
                 knock: None,
+                bump: None,
                 markers: markers.clone(),
             };
             let radius_px = LED_RADIUS_PER_WIDTH * f64::from(c.width_px);

@@ -40,7 +40,7 @@ pub use optics::{Glare, Led, Spot};
 pub use sweep::{SpotKind, SweepPath, SweepPoint};
 pub use trajectory::{Motion, Point, Trajectory};
 pub use truth::{read_truth_csv, write_truth_csv, Truth, TruthCsvError, Visibility, CSV_HEADER};
-pub use view::{Knock, Lens, View};
+pub use view::{Bump, Knock, Lens, View};
 
 use optics::Patch;
 use rng::{mix64, SplitMix64};
@@ -190,8 +190,8 @@ impl Scene {
         validate(&config)?;
         let (width, height) = (config.width_px as usize, config.height_px as usize);
         if let Some(view) = &config.view {
-            let mut poses: Vec<PoseImage> = (0..view.pose_count())
-                .map(|pose| view.render_static(&config.floor, config.seed, width, height, pose))
+            let mut poses: Vec<PoseImage> = (0..view.image_count())
+                .map(|image| view.render_static(&config.floor, config.seed, width, height, image))
                 .collect();
             for pose in &mut poses {
                 add_glare_and_occluders(&config, &mut pose.radiance, width);
@@ -591,7 +591,7 @@ impl Scene {
     /// (bilinearly) where each output pixel looks; occluders hide it in the picture.
     fn render_view_into(&self, view: &View, frame: usize, out: &mut [u8]) {
         let width = self.config.width_px as usize;
-        let Some(pose) = self.poses.get(view.pose_at(frame)) else {
+        let Some(pose) = self.poses.get(view.image_at(frame)) else {
             return;
         };
         // The patch's frame: everything the picture sees, with room for the bilinear taps.

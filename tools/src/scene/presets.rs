@@ -184,6 +184,7 @@ fn view(lens: Lens, markers: Vec<PlacedMarker>) -> View {
         lens,
         led_height_cm: 0.0,
         knock: None,
+        bump: None,
         markers,
     }
 }

@@ -1,6 +1,6 @@
 //! A real camera in front of the scene: a pinhole over the floor, a lens with Brown–Conrady
-//! distortion, markers lying on the floor, an LED at a height, and a knock that turns the
-//! camera mid-run.
+//! distortion, markers lying on the floor, an LED at a height, a knock that turns the camera
+//! mid-run, and a bump that moves one marker on the floor mid-run.
 //!
 //! A scene's trajectory, floor texture and glare are drawn in the pixels of a *reference*
 //! ideal camera (the pinhole [`MarkerCamera`], no lens). The picture the real camera delivers
@@ -170,6 +170,20 @@ impl Knock {
     }
 }
 
+/// One marker moved on the floor mid-run (kicked, or picked up and put down elsewhere): from
+/// frame `frame` on, marker `marker` (an index into [`View::markers`]) lies `dx_cm, dy_cm`
+/// further along the floor's axes and is turned `turn_deg` more about its centre. The floor
+/// truth is the LED's and does not change; the marker map given to glint (the markers as
+/// placed at the start) becomes wrong for that marker.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Bump {
+    pub frame: usize,
+    pub marker: usize,
+    pub dx_cm: f64,
+    pub dy_cm: f64,
+    pub turn_deg: f64,
+}
+
 fn mul(a: &[[f64; 3]; 3], b: &[[f64; 3]; 3]) -> [[f64; 3]; 3] {
     let mut out = [[0.0; 3]; 3];
     for (r, row) in out.iter_mut().enumerate() {
@@ -200,7 +214,9 @@ pub struct View {
     pub led_height_cm: f64,
     /// A knock mid-run, if any.
     pub knock: Option<Knock>,
-    /// Markers on the floor, each on white paper.
+    /// A marker moved mid-run, if any.
+    pub bump: Option<Bump>,
+    /// Markers on the floor, each on white paper (as placed at the start).
     pub markers: Vec<PlacedMarker>,
 }
 
@@ -246,6 +262,13 @@ impl View {
         if !markers_ok {
             return Err("markers must have a positive size and a finite position");
         }
+        if let Some(b) = self.bump {
+            if b.marker >= self.markers.len()
+                || ![b.dx_cm, b.dy_cm, b.turn_deg].iter().all(|v| v.is_finite())
+            {
+                return Err("a bump must move one of the view's markers by a finite amount");
+            }
+        }
         // Every pixel of the picture must see through the lens.
         let (w, h) = (width_px as f64, height_px as f64);
         for (x, y) in [
@@ -269,13 +292,38 @@ impl View {
     }
 
     /// How many poses the camera takes over the run (1, or 2 with a knock).
-    pub(crate) fn pose_count(&self) -> usize {
+    fn pose_count(&self) -> usize {
         1 + usize::from(self.knock.is_some())
     }
 
     /// The pose index at `frame`.
-    pub(crate) fn pose_at(&self, frame: usize) -> usize {
+    fn pose_at(&self, frame: usize) -> usize {
         usize::from(self.knock.is_some_and(|k| frame >= k.frame))
+    }
+
+    /// How many static pictures the run has: one per pose, each with the markers as placed
+    /// and, with a bump, as moved.
+    pub(crate) fn image_count(&self) -> usize {
+        self.pose_count() * (1 + usize::from(self.bump.is_some()))
+    }
+
+    /// The static picture's index at `frame`: its pose, plus [`View::pose_count`] once the
+    /// marker is bumped.
+    pub(crate) fn image_at(&self, frame: usize) -> usize {
+        let bumped = self.bump.is_some_and(|b| frame >= b.frame);
+        self.pose_at(frame) + self.pose_count() * usize::from(bumped)
+    }
+
+    /// The markers on the floor in static picture `image`.
+    fn markers_in(&self, image: usize) -> Vec<PlacedMarker> {
+        let mut markers = self.markers.clone();
+        if let Some(b) = self.bump.filter(|_| image >= self.pose_count()) {
+            if let Some(m) = markers.get_mut(b.marker) {
+                m.origin_cm = FloorPoint::new(m.origin_cm.x + b.dx_cm, m.origin_cm.y + b.dy_cm);
+                m.rotation_deg += b.turn_deg;
+            }
+        }
+        markers
     }
 
     fn pose_rotation(&self, pose: usize) -> Option<[[f64; 3]; 3]> {
@@ -364,16 +412,16 @@ impl View {
         self.floor_under(self.to_reference(output_px, self.pose_at(frame))?)
     }
 
-    /// Radiance of a reference pixel if a marker or its paper covers what it sees.
-    pub(crate) fn marker_radiance(&self, reference_px: Point) -> Option<f64> {
-        if self.markers.is_empty() {
+    /// Radiance of a reference pixel if one of `markers` or its paper covers what it sees.
+    fn marker_radiance(&self, markers: &[PlacedMarker], reference_px: Point) -> Option<f64> {
+        if markers.is_empty() {
             return None;
         }
         let floor = self
             .camera
             .unproject(FloorPoint::new(reference_px.x, reference_px.y))?;
         crate::markers::albedo_of(
-            &self.markers,
+            markers,
             PAPER_MARGIN_CELLS,
             floor,
             MARKER_BLACK,
@@ -401,16 +449,22 @@ pub(crate) struct PoseImage {
 }
 
 impl View {
-    /// Radiance of the floor (or a marker on it) seen at a reference pixel, and whether a
-    /// marker (or its paper) was seen.
-    fn radiance_at(&self, floor: &Floor, seed: u64, r: Point) -> (f64, bool) {
-        match self.marker_radiance(r) {
+    /// Radiance of the floor (or one of `markers` on it) seen at a reference pixel, and
+    /// whether a marker (or its paper) was seen.
+    fn radiance_at(
+        &self,
+        floor: &Floor,
+        markers: &[PlacedMarker],
+        seed: u64,
+        r: Point,
+    ) -> (f64, bool) {
+        match self.marker_radiance(markers, r) {
             Some(v) => (v, true),
             None => (floor.radiance(r.x, r.y, seed), false),
         }
     }
 
-    /// The static picture in pose `pose`: each output pixel is the average of the scene over
+    /// Static picture `image` (see [`View::image_at`]): each output pixel is the average of the scene over
     /// the pixel's area as seen through the lens (corners mapped exactly; inside a pixel the
     /// mapping is bilinear, which the lens is to far below a thousandth of a pixel).
     pub(crate) fn render_static(
@@ -419,8 +473,10 @@ impl View {
         seed: u64,
         width: usize,
         height: usize,
-        pose: usize,
+        image: usize,
     ) -> PoseImage {
+        let pose = image % self.pose_count();
+        let markers = self.markers_in(image);
         let nan = Point::new(f64::NAN, f64::NAN);
         let corners: Vec<Point> = (0..=height)
             .flat_map(|y| (0..=width).map(move |x| (x, y)))
@@ -433,7 +489,7 @@ impl View {
             .iter()
             .map(|&r| {
                 if r.is_finite() {
-                    self.radiance_at(floor, seed, r)
+                    self.radiance_at(floor, &markers, seed, r)
                 } else {
                     (0.0, false)
                 }
@@ -464,7 +520,9 @@ impl View {
                         let (fx, fy) = hammersley(k);
                         let top = lerp(quad[0], quad[1], fx);
                         let bottom = lerp(quad[2], quad[3], fx);
-                        sum += self.radiance_at(floor, seed, lerp(top, bottom, fy)).0;
+                        sum += self
+                            .radiance_at(floor, &markers, seed, lerp(top, bottom, fy))
+                            .0;
                     }
                     sum / EDGE_SAMPLES as f64
                 } else {
@@ -547,6 +605,46 @@ mod tests {
     }
 
     #[test]
+    fn a_bump_moves_one_marker_from_its_frame_on() {
+        let placed = |x: f64| PlacedMarker {
+            dictionary: glint::detect::aruco::Dictionary::Aruco6x6_250,
+            id: 3,
+            size_cm: 18.0,
+            origin_cm: FloorPoint::new(x, 10.0),
+            rotation_deg: 0.0,
+        };
+        let view = View {
+            camera: reference_camera(),
+            lens: wide(),
+            led_height_cm: 0.0,
+            knock: Some(Knock {
+                frame: 10,
+                pan_deg: 0.0,
+                tilt_deg: 0.8,
+                roll_deg: 0.0,
+            }),
+            bump: Some(Bump {
+                frame: 20,
+                marker: 1,
+                dx_cm: 4.0,
+                dy_cm: -3.0,
+                turn_deg: 10.0,
+            }),
+            markers: vec![placed(-40.0), placed(40.0)],
+        };
+        assert_eq!(view.image_count(), 4);
+        let images = [9, 10, 19, 20, 99].map(|f| view.image_at(f));
+        assert_eq!(images, [0, 1, 1, 3, 3]);
+        for image in [0, 1] {
+            assert_eq!(view.markers_in(image), view.markers);
+        }
+        let moved = view.markers_in(3);
+        assert_eq!(moved[0], view.markers[0]);
+        assert_eq!(moved[1].origin_cm, FloorPoint::new(44.0, 7.0));
+        assert_eq!(moved[1].rotation_deg, 10.0);
+    }
+
+    #[test]
     fn a_knock_moves_the_picture_and_comes_back_exactly() {
         let view = View {
             camera: reference_camera(),
@@ -558,6 +656,7 @@ mod tests {
                 tilt_deg: 0.8,
                 roll_deg: 0.3,
             }),
+            bump: None,
             markers: Vec::new(),
         };
         let p = Point::new(400.0, 300.0);
