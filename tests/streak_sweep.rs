@@ -174,15 +174,14 @@ fn print_frame(
     );
 }
 
-/// Errors of the heads of a still LED, in frames after the first, with the fitted model:
-/// detection and the tracker's head without acquisition, which (rightly) never takes a round
-/// spot that stood still since it appeared, alone in view, for the LED. Every frame must be
-/// detected.
-fn still_heads(point: &SweepPoint) -> Vec<f64> {
+/// Errors of the heads of a still LED, in frames after the first, with `model`: detection and
+/// the tracker's head without acquisition, which (rightly) never takes a round spot that stood
+/// still since it appeared, alone in view, for the LED. Every frame must be detected.
+fn still_heads(point: &SweepPoint, model: StreakModel) -> Vec<f64> {
     let scene = Scene::new(point.config()).expect("sweep scene");
     let size = FrameSize::new(scene.width_px(), scene.height_px()).unwrap();
     let config = DetectorConfig {
-        streak_model: StreakModel::Fit,
+        streak_model: model,
         ..DetectorConfig::default()
     };
     let mut detector = Detector::new(size, config).unwrap();
@@ -216,25 +215,39 @@ fn still_heads(point: &SweepPoint) -> Vec<f64> {
 /// reference (p95).
 const STILL_P95_MAX_PX: f64 = 0.75;
 
-/// A still LED reads still: with the fitted model, the position of an LED that does not move
-/// stays within [`STILL_P95_MAX_PX`] of the truth for every spot, brightness, gamma, noise and
-/// range of the sweep (`tests/ramps_still.rs` holds the default ramps to the same bound).
-#[test]
-fn a_still_led_reads_still() {
+/// A still LED reads still: with either streak model, the position of an LED that does not
+/// move stays within [`STILL_P95_MAX_PX`] of the truth for every spot, brightness, gamma, noise
+/// and range of the sweep. Before the ramps' rule "a path no longer than the streak is wide is
+/// still", they picked an "end" of a round blob and reported it up to 13.7 px off on the
+/// sweep's still points.
+fn assert_a_still_led_reads_still(model: StreakModel) {
     let mut worst = Vec::new();
     for mut point in SweepPoint::sweep(DEFAULT_SEED, 12) {
         point.path = SweepPath::Line {
             length_px: 0.0,
             angle_rad: 0.0,
         };
-        let head_px = still_heads(&point);
+        let head_px = still_heads(&point, model);
         let p95 = quantile(&head_px, 0.95).unwrap();
-        eprintln!("still: p95 {p95:.3} px: {point}");
+        eprintln!("still, {model:?}: p95 {p95:.3} px: {point}");
         worst.push((p95, point.to_string()));
     }
     for (p95, point) in worst {
-        assert!(p95 <= STILL_P95_MAX_PX, "{point}: p95 {p95:.3} px");
+        assert!(
+            p95 <= STILL_P95_MAX_PX,
+            "{model:?}, {point}: p95 {p95:.3} px"
+        );
     }
+}
+
+#[test]
+fn a_still_led_reads_still() {
+    assert_a_still_led_reads_still(StreakModel::Fit);
+}
+
+#[test]
+fn a_still_led_reads_still_with_the_ramps() {
+    assert_a_still_led_reads_still(StreakModel::Ramps);
 }
 
 /// The fitted model on the spot it is made of (a Gaussian, seen through gamma 2.2, clipped)
