@@ -341,7 +341,6 @@ fn the_marker_recheck_and_a_pose_refit_allocate_nothing() {
     use glint::frame::Frame;
     use glint::geometry::recheck::MarkerRecheck;
     use glint::geometry::{CameraModel, FloorStage, FloorUnit, Lens, MarkerPlacement, Pose};
-    use glint::source::FrameMeta;
     use nalgebra::Vector3;
 
     // The knocked scene's true camera before the knock: the mild lens over the reference pose.
@@ -405,13 +404,7 @@ fn the_marker_recheck_and_a_pose_refit_allocate_nothing() {
     let allocations = allocations_during(|| {
         for (i, bytes) in &frames {
             let frame = Frame::new_checked(bytes, size, size.row_bytes()).unwrap();
-            let meta = FrameMeta {
-                index: *i as u64,
-                sequence: *i as u64,
-                dropped: 0,
-                timestamp_us: *i as u64 * 33_333,
-                monotonic_us: *i as u64 * 33_333,
-            };
+            let meta = common::view::meta_at_30_fps(*i);
             let report = pipeline.process(&frame, meta);
             ages.push(report.calib.unwrap().age_s).unwrap();
             glint::sink::Sink::write_frame(&mut preview, &frame, &report).unwrap();

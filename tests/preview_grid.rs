@@ -11,14 +11,14 @@ mod common;
 use std::time::Duration;
 
 use common::live::get;
-use glint::detect::aruco::{Detector, DetectorConfig, Dictionary};
+use common::view::{fit_first_frame, meta_at_30_fps};
+use glint::detect::aruco::Dictionary;
 use glint::frame::{Frame, FrameSize};
 use glint::geometry::recheck::MarkerRecheck;
-use glint::geometry::{fit_camera, FloorStage, FloorUnit, LensChoice, MarkerPlacement};
+use glint::geometry::{FloorStage, FloorUnit};
 use glint::pipeline::{Pipeline, PipelineConfig};
 use glint::sink::preview::PreviewSink;
 use glint::sink::Sink;
-use glint::source::FrameMeta;
 use glint_tools::scene::{Point as ScenePoint, Scene, View};
 use serde_json::Value;
 
@@ -85,21 +85,7 @@ fn the_floor_grid_reprojects_onto_the_true_floor_before_and_after_a_knock() {
     };
 
     // The camera as glint fits it to the first frame's six markers.
-    let first = render(0);
-    let frame = Frame::new_checked(&first, size, size.row_bytes()).unwrap();
-    let map: Vec<MarkerPlacement> = view.markers.iter().map(|m| m.placement()).collect();
-    let mut detector = Detector::new(size, DetectorConfig::new(Dictionary::Aruco6x6_250));
-    let seen = detector.detect(&frame, None).unwrap().to_vec();
-    let (mut floor, mut screen) = (Vec::new(), Vec::new());
-    for p in &map {
-        let m = seen
-            .iter()
-            .find(|m| m.id == p.id)
-            .expect("every marker seen");
-        floor.extend(p.corners());
-        screen.extend(m.corners);
-    }
-    let fit = fit_camera(&floor, &screen, size, LensChoice::Fit).unwrap();
+    let (map, fit) = fit_first_frame(&scene, &view);
 
     let mut pipeline = Pipeline::new(size, PipelineConfig::default())
         .unwrap()
@@ -114,13 +100,7 @@ fn the_floor_grid_reprojects_onto_the_true_floor_before_and_after_a_knock() {
     let mut feed = |i: usize| {
         let bytes = render(i);
         let frame = Frame::new_checked(&bytes, size, size.row_bytes()).unwrap();
-        let meta = FrameMeta {
-            index: i as u64,
-            sequence: i as u64,
-            dropped: 0,
-            timestamp_us: i as u64 * 33_333,
-            monotonic_us: i as u64 * 33_333,
-        };
+        let meta = meta_at_30_fps(i);
         let report = pipeline.process(&frame, meta);
         preview.write_frame(&frame, &report).unwrap();
     };

@@ -6,13 +6,13 @@
 mod common;
 
 use common::alloc::{allocations_on_every_thread_during, Counting};
+use common::view::{fit_first_frame, meta_at_30_fps};
 
-use glint::detect::aruco::{Detector, DetectorConfig, Dictionary};
+use glint::detect::aruco::Dictionary;
 use glint::frame::{Frame, FrameSize};
 use glint::geometry::recheck::{MarkerRecheck, RECHECK_PERIOD_FRAMES, VERDICT_LAG_FRAMES};
-use glint::geometry::{fit_camera, FloorStage, FloorUnit, LensChoice, MarkerPlacement};
+use glint::geometry::{FloorStage, FloorUnit};
 use glint::pipeline::{Pipeline, PipelineConfig};
-use glint::source::FrameMeta;
 use glint_tools::scene::{Bump, Scene};
 
 #[global_allocator]
@@ -38,18 +38,7 @@ fn the_recheck_worker_and_the_tracking_thread_allocate_nothing_per_frame() {
         bytes
     };
     // The camera as glint fits it to the first frame's six markers.
-    let first = render(0);
-    let frame = Frame::new_checked(&first, size, size.row_bytes()).unwrap();
-    let map: Vec<MarkerPlacement> = view.markers.iter().map(|m| m.placement()).collect();
-    let mut detector = Detector::new(size, DetectorConfig::new(Dictionary::Aruco6x6_250));
-    let seen = detector.detect(&frame, None).unwrap().to_vec();
-    let (mut floor, mut screen) = (Vec::new(), Vec::new());
-    for p in &map {
-        let m = seen.iter().find(|m| m.id == p.id).unwrap();
-        floor.extend(p.corners());
-        screen.extend(m.corners);
-    }
-    let fit = fit_camera(&floor, &screen, size, LensChoice::Fit).unwrap();
+    let (map, fit) = fit_first_frame(&scene, &view);
     let recheck =
         MarkerRecheck::new(size, Dictionary::Aruco6x6_250, &map, fit.rms_residual_px).unwrap();
     let mut pipeline = Pipeline::new(size, PipelineConfig::default())
@@ -69,13 +58,7 @@ fn the_recheck_worker_and_the_tracking_thread_allocate_nothing_per_frame() {
     let allocations = allocations_on_every_thread_during(|| {
         for (i, bytes) in &frames {
             let frame = Frame::new_checked(bytes, size, size.row_bytes()).unwrap();
-            let meta = FrameMeta {
-                index: *i as u64,
-                sequence: *i as u64,
-                dropped: 0,
-                timestamp_us: *i as u64 * 33_333,
-                monotonic_us: *i as u64 * 33_333,
-            };
+            let meta = meta_at_30_fps(*i);
             let report = pipeline.process(&frame, meta);
             found += usize::from(report.floor.is_some());
         }

@@ -7,6 +7,7 @@ pub mod alloc;
 pub mod arena;
 pub mod live;
 pub mod peers;
+pub mod view;
 
 use std::path::PathBuf;
 use std::process::{Command, Output};
