@@ -13,7 +13,7 @@ mod common;
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
-use common::arena::{calibrate, small};
+use common::arena::{small, track};
 use common::{glint, parse_jsonl, quantile};
 use glint_tools::scene::{Arena, ArenaCamera, ArenaConfig, Visibility};
 use serde_json::Value;
@@ -43,29 +43,13 @@ struct Run {
 
 /// Renders, calibrates and tracks one camera; its JSON lines are written to `NAME.jsonl`.
 fn record(arena: &Arena, cam: &ArenaCamera, dir: &Path) -> Recorded {
-    let dump = cam.write_dump(dir).unwrap();
-    let calib = calibrate(cam, &dump, dir);
-    let size = format!("{}x{}", cam.scene.width_px(), cam.scene.height_px());
-    let run = glint()
-        .args(["track", "--input"])
-        .arg(&dump)
-        .args(["--size", &size, "--exposure-us"])
-        .arg(cam.scene.exposure_us().to_string())
-        .arg("--calib")
-        .arg(&calib)
-        .args(["--led-height-cm", &arena.config.led_height_cm.to_string()])
-        .output()
-        .unwrap();
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
-    );
+    let height_cm = arena.config.led_height_cm.to_string();
+    let stdout = track(cam, dir, &["--led-height-cm", &height_cm]);
     let jsonl = dir.join(format!("{}.jsonl", cam.name));
-    std::fs::write(&jsonl, &run.stdout).unwrap();
+    std::fs::write(&jsonl, &stdout).unwrap();
     Recorded {
         jsonl,
-        reports: parse_jsonl(&run.stdout),
+        reports: parse_jsonl(&stdout),
     }
 }
 

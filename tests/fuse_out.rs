@@ -23,8 +23,8 @@ use std::sync::{Arc, OnceLock};
 use std::thread;
 use std::time::{Duration, Instant};
 
-use common::arena::{calibrate, small};
-use common::peers::{decode_mavlink, free_port, PySubscriber};
+use common::arena::{small, track};
+use common::peers::{decode_mavlink, free_port, north_east_m, number, PySubscriber};
 use common::{glint, parse_jsonl};
 use glint_protocol::{Decoder, Message, Position, Received, Status, Units};
 use glint_tools::scene::{Arena, ArenaCamera, ArenaConfig};
@@ -61,25 +61,8 @@ struct Recordings {
 
 /// Renders, calibrates and tracks one camera.
 fn record(cam: &ArenaCamera, dir: &Path) -> Recorded {
-    let dump = cam.write_dump(dir).unwrap();
-    let calib = calibrate(cam, &dump, dir);
-    let size = format!("{}x{}", cam.scene.width_px(), cam.scene.height_px());
-    let run = glint()
-        .args(["track", "--input"])
-        .arg(&dump)
-        .args(["--size", &size, "--exposure-us"])
-        .arg(cam.scene.exposure_us().to_string())
-        .arg("--calib")
-        .arg(&calib)
-        .output()
-        .unwrap();
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
-    );
     Recorded {
-        lines: parse_jsonl(&run.stdout),
+        lines: parse_jsonl(&track(cam, dir, &[])),
     }
 }
 
@@ -389,16 +372,6 @@ fn robots_out_of_range_and_lines_beyond_them_are_refused_with_one_line() {
     }
 }
 
-fn f(v: &Value) -> f64 {
-    v.as_f64().unwrap_or_else(|| panic!("not a number: {v}"))
-}
-
-/// Floor cm → (north, east) m under the README's convention.
-fn north_east_m(x_cm: f64, y_cm: f64) -> (f64, f64) {
-    let (s, c) = YAW_OFFSET_DEG.to_radians().sin_cos();
-    ((x_cm * c - y_cm * s) / 100.0, (x_cm * s + y_cm * c) / 100.0)
-}
-
 #[test]
 fn pymavlink_decodes_the_fused_track_with_its_own_uncertainty() {
     let rec = recordings();
@@ -445,20 +418,20 @@ fn pymavlink_decodes_the_fused_track_with_its_own_uncertainty() {
         let fields = &p["fields"];
         let track = at(fields["usec"].as_u64().unwrap());
         assert_eq!(track["found"], true);
-        let (n, e) = north_east_m(num(track, "floor_x"), num(track, "floor_y"));
+        let (n, e) = north_east_m(num(track, "floor_x"), num(track, "floor_y"), YAW_OFFSET_DEG);
         assert!(
-            (f(&fields["x"]) - n).abs() < POSITION_TOLERANCE_M,
+            (number(&fields["x"]) - n).abs() < POSITION_TOLERANCE_M,
             "{fields} vs {track}"
         );
         assert!(
-            (f(&fields["y"]) - e).abs() < POSITION_TOLERANCE_M,
+            (number(&fields["y"]) - e).abs() < POSITION_TOLERANCE_M,
             "{fields} vs {track}"
         );
         let cov = fields["covariance"].as_array().expect("covariance sent");
         match track.get("floor_sigma").and_then(Value::as_f64) {
             Some(sigma_cm) => {
                 // The fused σ, printed to 3 decimals in cm, squared in m².
-                let sent_cm = f(&cov[0]).sqrt() * 100.0;
+                let sent_cm = number(&cov[0]).sqrt() * 100.0;
                 assert!(
                     (sent_cm - sigma_cm).abs() <= 6e-4,
                     "{sent_cm} vs {sigma_cm}"
@@ -481,13 +454,17 @@ fn pymavlink_decodes_the_fused_track_with_its_own_uncertainty() {
     for s in &speeds {
         let fields = &s["fields"];
         let track = at(fields["usec"].as_u64().unwrap());
-        let (n, e) = north_east_m(num(track, "floor_vx"), num(track, "floor_vy"));
+        let (n, e) = north_east_m(
+            num(track, "floor_vx"),
+            num(track, "floor_vy"),
+            YAW_OFFSET_DEG,
+        );
         assert!(
-            (f(&fields["x"]) - n).abs() < VELOCITY_TOLERANCE_M_S,
+            (number(&fields["x"]) - n).abs() < VELOCITY_TOLERANCE_M_S,
             "{fields} vs {track}"
         );
         assert!(
-            (f(&fields["y"]) - e).abs() < VELOCITY_TOLERANCE_M_S,
+            (number(&fields["y"]) - e).abs() < VELOCITY_TOLERANCE_M_S,
             "{fields} vs {track}"
         );
     }
@@ -597,7 +574,7 @@ fn an_independent_peer_receives_every_fused_step_in_both_forms() {
     }
     // The binary form says the same, decoded from the module's table.
     assert_eq!(binary.len(), steps.len());
-    let close = |a: &Value, b: &Value| (f(a) - f(b)).abs() <= BINARY_TOLERANCE;
+    let close = |a: &Value, b: &Value| (number(a) - number(b)).abs() <= BINARY_TOLERANCE;
     for (sample, step) in binary.iter().zip(&steps) {
         assert_eq!(sample["key"], format!("{KEY}/fused/bin"));
         assert_eq!(sample["encoding"], "application/octet-stream;glint.fused.1");

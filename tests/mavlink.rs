@@ -15,7 +15,7 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use common::peers::{calibrate_two_markers, decode_mavlink, python};
+use common::peers::{calibrate_two_markers, decode_mavlink, north_east_m, number, python};
 use common::{glint, parse_jsonl, render};
 use nix::fcntl::{fcntl, FcntlArg, FdFlag};
 use serde_json::Value;
@@ -48,16 +48,6 @@ fn summary_count(log: &str, key: &str) -> u64 {
         .find_map(|kv| kv.strip_prefix(&format!("{key}=")))
         .and_then(|v| v.parse().ok())
         .unwrap_or_else(|| panic!("no {key} in {line}"))
-}
-
-fn f(v: &Value) -> f64 {
-    v.as_f64().unwrap_or_else(|| panic!("not a number: {v}"))
-}
-
-/// Floor cm → (north, east) m under the README's convention.
-fn north_east_m(x_cm: f64, y_cm: f64) -> (f64, f64) {
-    let (s, c) = YAW_OFFSET_DEG.to_radians().sin_cos();
-    ((x_cm * c - y_cm * s) / 100.0, (x_cm * s + y_cm * c) / 100.0)
 }
 
 #[test]
@@ -160,7 +150,7 @@ fn pymavlink_decodes_every_message_with_the_reported_positions() {
     let at = |usec: u64| {
         floor_reports
             .iter()
-            .find(|r| (f(&r["t"]) * 1e6).round() as u64 == usec)
+            .find(|r| (number(&r["t"]) * 1e6).round() as u64 == usec)
             .unwrap_or_else(|| panic!("no report with a floor position at {usec} µs"))
     };
     let positions: Vec<_> = of_type("VISION_POSITION_ESTIMATE").collect();
@@ -171,19 +161,23 @@ fn pymavlink_decodes_every_message_with_the_reported_positions() {
         assert!(Some(usec) > last_usec, "times increase");
         last_usec = Some(usec);
         let report = at(usec);
-        let (n, e) = north_east_m(f(&report["floor_x"]), f(&report["floor_y"]));
+        let (n, e) = north_east_m(
+            number(&report["floor_x"]),
+            number(&report["floor_y"]),
+            YAW_OFFSET_DEG,
+        );
         assert!(
-            (f(&fields["x"]) - n).abs() < POSITION_TOLERANCE_M,
+            (number(&fields["x"]) - n).abs() < POSITION_TOLERANCE_M,
             "{fields} vs {report}"
         );
         assert!(
-            (f(&fields["y"]) - e).abs() < POSITION_TOLERANCE_M,
+            (number(&fields["y"]) - e).abs() < POSITION_TOLERANCE_M,
             "{fields} vs {report}"
         );
-        assert_eq!(f(&fields["z"]), 0.0);
+        assert_eq!(number(&fields["z"]), 0.0);
         let cov = fields["covariance"].as_array().expect("covariance sent");
         assert_eq!(cov.len(), 21);
-        let variance = f(&cov[0]);
+        let variance = number(&cov[0]);
         // A σ between 0.1 mm and 1 cm: a fraction of a pixel at a few mm per pixel (about 1 mm here).
         assert!((1e-8..1e-4).contains(&variance), "variance {variance} m²");
         // The diagonal: x, y, z the same; roll, pitch, yaw a whole circle (π²/3); 0 elsewhere.
@@ -195,13 +189,13 @@ fn pymavlink_decodes_every_message_with_the_reported_positions() {
                 UNMEASURED_ANGLE_VARIANCE_RAD2
             };
             assert!(
-                (f(&cov[i]) - expected).abs() <= 1e-6 * expected,
+                (number(&cov[i]) - expected).abs() <= 1e-6 * expected,
                 "entry {i}: {cov:?}"
             );
         }
         let off_diagonal = (0..21).filter(|i| !diagonal.contains(i));
         assert!(
-            off_diagonal.into_iter().all(|i| f(&cov[i]) == 0.0),
+            off_diagonal.into_iter().all(|i| number(&cov[i]) == 0.0),
             "{cov:?}"
         );
     }
@@ -209,13 +203,17 @@ fn pymavlink_decodes_every_message_with_the_reported_positions() {
     for s in &speeds {
         let fields = &s["fields"];
         let report = at(fields["usec"].as_u64().unwrap());
-        let (n, e) = north_east_m(f(&report["floor_vx"]), f(&report["floor_vy"]));
+        let (n, e) = north_east_m(
+            number(&report["floor_vx"]),
+            number(&report["floor_vy"]),
+            YAW_OFFSET_DEG,
+        );
         assert!(
-            (f(&fields["x"]) - n).abs() < VELOCITY_TOLERANCE_M_S,
+            (number(&fields["x"]) - n).abs() < VELOCITY_TOLERANCE_M_S,
             "{fields} vs {report}"
         );
         assert!(
-            (f(&fields["y"]) - e).abs() < VELOCITY_TOLERANCE_M_S,
+            (number(&fields["y"]) - e).abs() < VELOCITY_TOLERANCE_M_S,
             "{fields} vs {report}"
         );
         assert!(
@@ -441,19 +439,23 @@ fn an_unplugged_mavlink_port_is_reopened_and_sends_whole_frames_again() {
         .filter(|m| m["type"] == "VISION_POSITION_ESTIMATE")
         .collect();
     assert!(!positions.is_empty(), "positions after reopening");
-    let unplugged_at_us = f(&reports[third]["t"]) * 1e6;
+    let unplugged_at_us = number(&reports[third]["t"]) * 1e6;
     for p in positions {
         let usec = p["fields"]["usec"].as_u64().unwrap() as f64;
         let report = reports
             .iter()
-            .find(|r| (f(&r["t"]) * 1e6 - usec).abs() < 0.5)
+            .find(|r| (number(&r["t"]) * 1e6 - usec).abs() < 0.5)
             .unwrap_or_else(|| panic!("no report at {usec} µs"));
         assert!(
             usec >= unplugged_at_us,
             "{usec} µs was sent before the unplugging"
         );
-        let (n, e) = north_east_m(f(&report["floor_x"]), f(&report["floor_y"]));
-        assert!((f(&p["fields"]["x"]) - n).abs() < POSITION_TOLERANCE_M);
-        assert!((f(&p["fields"]["y"]) - e).abs() < POSITION_TOLERANCE_M);
+        let (n, e) = north_east_m(
+            number(&report["floor_x"]),
+            number(&report["floor_y"]),
+            YAW_OFFSET_DEG,
+        );
+        assert!((number(&p["fields"]["x"]) - n).abs() < POSITION_TOLERANCE_M);
+        assert!((number(&p["fields"]["y"]) - e).abs() < POSITION_TOLERANCE_M);
     }
 }

@@ -49,3 +49,28 @@ pub fn calibrate(cam: &ArenaCamera, dump: &Path, dir: &Path) -> PathBuf {
     );
     out
 }
+
+/// Renders camera `cam`'s dump into `dir`, calibrates it ([`calibrate`]) and runs `glint track`
+/// on it with its calibration and `extra` arguments; returns the JSON lines it printed.
+pub fn track(cam: &ArenaCamera, dir: &Path, extra: &[&str]) -> Vec<u8> {
+    let dump = cam.write_dump(dir).unwrap();
+    let calib = calibrate(cam, &dump, dir);
+    let size = format!("{}x{}", cam.scene.width_px(), cam.scene.height_px());
+    let run = glint()
+        .args(["track", "--input"])
+        .arg(&dump)
+        .args(["--size", &size, "--exposure-us"])
+        .arg(cam.scene.exposure_us().to_string())
+        .arg("--calib")
+        .arg(&calib)
+        .args(extra)
+        .output()
+        .unwrap();
+    assert!(
+        run.status.success(),
+        "{}: {}",
+        cam.name,
+        String::from_utf8_lossy(&run.stderr)
+    );
+    run.stdout
+}

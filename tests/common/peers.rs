@@ -55,6 +55,18 @@ pub fn decode_mavlink(bytes: &[u8]) -> (Vec<Value>, Value) {
     (lines, summary)
 }
 
+/// A JSON number, or a failure naming the value.
+pub fn number(v: &Value) -> f64 {
+    v.as_f64().unwrap_or_else(|| panic!("not a number: {v}"))
+}
+
+/// Floor cm → (north, east) m under the README's MAVLink convention, for a yaw offset of
+/// `yaw_offset_deg` (`--mavlink-yaw-offset-deg`).
+pub fn north_east_m(x_cm: f64, y_cm: f64, yaw_offset_deg: f64) -> (f64, f64) {
+    let (s, c) = yaw_offset_deg.to_radians().sin_cos();
+    ((x_cm * c - y_cm * s) / 100.0, (x_cm * s + y_cm * c) / 100.0)
+}
+
 /// A free TCP port on the loopback interface.
 pub fn free_port() -> u16 {
     TcpListener::bind("127.0.0.1:0")
