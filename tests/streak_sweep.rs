@@ -250,6 +250,31 @@ fn a_still_led_reads_still_with_the_ramps() {
     assert_a_still_led_reads_still(StreakModel::Ramps);
 }
 
+/// The spot the fitted model is made of (a Gaussian of σ 1.5 px, 4× the clip, seen through
+/// gamma 2.2) swept along a 20 px line, at read noise `noise_luma`.
+fn gaussian_streak(noise_luma: f64) -> SweepPoint {
+    let mut point = SweepPoint::new(DEFAULT_SEED, 1);
+    point.spot = glint_tools::scene::SpotKind::Gaussian;
+    point.width_px = 1.5;
+    point.saturation = 4.0;
+    point.gamma = 2.2;
+    point.noise_luma = noise_luma;
+    point.path = SweepPath::Line {
+        length_px: 20.0,
+        angle_rad: 0.4,
+    };
+    point
+}
+
+/// A detector with the fitted streak model for frames of `size`.
+fn fit_detector(size: FrameSize) -> glint::detect::Detector {
+    let config = DetectorConfig {
+        streak_model: StreakModel::Fit,
+        ..DetectorConfig::default()
+    };
+    glint::detect::Detector::new(size, config).unwrap()
+}
+
 /// The fitted model on the spot it is made of (a Gaussian, seen through gamma 2.2, clipped)
 /// over a flat floor: the ends of a 20 px streak land within 0.3 px of the truth, and the
 /// reported uncertainty (`fit_px`) grows with the noise. (Over the presets' textured floor
@@ -257,28 +282,14 @@ fn a_still_led_reads_still_with_the_ramps() {
 /// flat. The sweep measures that case.)
 #[test]
 fn the_fit_finds_a_gaussian_streak_s_ends_and_knows_its_noise() {
-    use glint::detect::Detector;
     let mut uncertainties = Vec::new();
     for noise_luma in [0.0, 4.0] {
-        let mut point = SweepPoint::new(DEFAULT_SEED, 1);
-        point.spot = glint_tools::scene::SpotKind::Gaussian;
-        point.width_px = 1.5;
-        point.saturation = 4.0;
-        point.gamma = 2.2;
-        point.noise_luma = noise_luma;
-        point.path = SweepPath::Line {
-            length_px: 20.0,
-            angle_rad: 0.4,
-        };
+        let point = gaussian_streak(noise_luma);
         let mut config = point.config();
         config.floor.contrast = 0.0;
         let scene = Scene::new(config).unwrap();
         let size = FrameSize::new(scene.width_px(), scene.height_px()).unwrap();
-        let detector_config = DetectorConfig {
-            streak_model: StreakModel::Fit,
-            ..DetectorConfig::default()
-        };
-        let mut detector = Detector::new(size, detector_config).unwrap();
+        let mut detector = fit_detector(size);
         let mut bytes = vec![0u8; scene.frame_len_bytes()];
         let truth = scene.render(1, &mut bytes).unwrap();
         let frame = Frame::new_checked(&bytes, size, size.row_bytes()).unwrap();
@@ -311,27 +322,13 @@ fn the_fit_finds_a_gaussian_streak_s_ends_and_knows_its_noise() {
 /// at σ 4 luma within 0.5 px (the floor learned from two to five frames carries their noise).
 #[test]
 fn the_fit_reads_a_streak_on_a_textured_floor_it_has_seen() {
-    use glint::detect::Detector;
     for (noise_luma, bound_px) in [(0.0, 0.1), (4.0, 0.5)] {
-        let mut point = SweepPoint::new(DEFAULT_SEED, 1);
-        point.spot = glint_tools::scene::SpotKind::Gaussian;
-        point.width_px = 1.5;
-        point.saturation = 4.0;
-        point.gamma = 2.2;
-        point.noise_luma = noise_luma;
-        point.path = SweepPath::Line {
-            length_px: 20.0,
-            angle_rad: 0.4,
-        };
+        let point = gaussian_streak(noise_luma);
         let config = point.config();
         assert!(config.floor.contrast > 0.0, "the floor is textured");
         let scene = Scene::new(config).unwrap();
         let size = FrameSize::new(scene.width_px(), scene.height_px()).unwrap();
-        let detector_config = DetectorConfig {
-            streak_model: StreakModel::Fit,
-            ..DetectorConfig::default()
-        };
-        let mut detector = Detector::new(size, detector_config).unwrap();
+        let mut detector = fit_detector(size);
         let mut bytes = vec![0u8; scene.frame_len_bytes()];
         let mut worst_px = 0.0f64;
         for index in 0..scene.frame_count().min(6) {
