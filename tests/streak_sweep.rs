@@ -38,6 +38,14 @@ const SPEED_MEDIAN_MAX: f64 = 0.03;
 const SPEED_P95_MAX: f64 = 0.10;
 /// Single-frame speed is held to its bounds on streaks at least this long.
 const SPEED_MIN_STREAK_PX: f64 = 8.0;
+/// The LED has shown motion once it is this far from where it was when it appeared (at the
+/// start of the first exposure it was seen in): a light that has stood still since it
+/// appeared is never the LED, and a blob's centre wanders by about a pixel with noise.
+const MOTION_SHOWN_PX: f64 = 2.0;
+/// The LED is reported at most this many frames after the one in which it had shown motion.
+/// A light alone in view is taken in the first frame only when it is smeared; a round one may
+/// be a lamp, and its motion is seen against the next frame: one frame.
+const ACQUIRE_MAX_FRAMES: usize = 1;
 
 /// The q-quantile by nearest rank (`None` for no values).
 fn quantile(values: &[f64], q: f64) -> Option<f64> {
@@ -56,13 +64,36 @@ struct PointScore {
     visible: usize,
     found: usize,
     false_reports: usize,
-    /// Current position, in frames after the first (the head needs a previous position).
+    /// Current position, in frames after the first found (the head needs a previous
+    /// position) and, for an LED that moves into place, once it is in place.
     head_px: Vec<f64>,
     mid_px: Vec<f64>,
     /// Relative single-frame speed errors on streaks of at least [`SPEED_MIN_STREAK_PX`].
     speed: Vec<f64>,
     /// Frames whose speed should have come from the streak but did not.
     speed_missing: usize,
+    /// The first visible frame in which the LED had shown motion (see [`MOTION_SHOWN_PX`]).
+    first_motion: Option<usize>,
+    /// The first frame in which the LED was reported.
+    acquired: Option<usize>,
+    /// Visible frames not found, by when: before the LED had shown motion (a light standing
+    /// still since it appeared is never the LED), after it had but before it was first
+    /// reported (acquisition), and after it was first reported (the LED lost: a defect).
+    missed_still: usize,
+    missed_acquiring: usize,
+    missed_tracked: usize,
+    /// Of those, frames reported `ambiguous`.
+    missed_ambiguous: usize,
+    /// Frames reported before the LED had shown motion.
+    reported_still: usize,
+}
+
+impl PointScore {
+    /// Frames from the one in which the LED had shown motion to the one it was first
+    /// reported in (`None` until both happened).
+    fn acquisition_delay(&self) -> Option<usize> {
+        Some(self.acquired?.saturating_sub(self.first_motion?))
+    }
 }
 
 fn run_point(point: &SweepPoint, model: StreakModel) -> PointScore {
@@ -90,6 +121,8 @@ fn run_point(point: &SweepPoint, model: StreakModel) -> PointScore {
     let mut s = PointScore::default();
     let period_us = (1e6 / scene.fps()) as u64;
     let frames_printed = std::env::var_os("GLINT_SWEEP_FRAMES").is_some();
+    // Where the LED was at the start of the first exposure it was seen in.
+    let mut appeared_at: Option<(f64, f64)> = None;
     for index in 0..scene.frame_count() {
         let truth = scene.render(index, &mut bytes).unwrap();
         let frame = Frame::new_checked(&bytes, size, size.row_bytes()).unwrap();
@@ -106,7 +139,30 @@ fn run_point(point: &SweepPoint, model: StreakModel) -> PointScore {
             Visibility::Partial => {}
             Visibility::Visible => {
                 s.visible += 1;
-                let Some(e) = report.position else { continue };
+                let (x, y) = (truth.x_px.unwrap(), truth.y_px.unwrap());
+                let (mx, my) = (truth.mid_x_px.unwrap(), truth.mid_y_px.unwrap());
+                // The start of a straight streak (arcs move far more than the threshold in
+                // their first frame).
+                let start = *appeared_at.get_or_insert((2.0 * mx - x, 2.0 * my - y));
+                if s.first_motion.is_none() && (x - start.0).hypot(y - start.1) > MOTION_SHOWN_PX {
+                    s.first_motion = Some(index);
+                }
+                let Some(e) = report.position else {
+                    s.missed_ambiguous += usize::from(report.ambiguous);
+                    if s.acquired.is_some() {
+                        s.missed_tracked += 1;
+                    } else if s.first_motion.is_some() {
+                        s.missed_acquiring += 1;
+                    } else {
+                        s.missed_still += 1;
+                    }
+                    if frames_printed {
+                        print_miss(index, report.ambiguous, pipeline.detector());
+                    }
+                    continue;
+                };
+                s.reported_still += usize::from(s.first_motion.is_none());
+                let acquired = *s.acquired.get_or_insert(index);
                 s.found += 1;
                 let d = |(x, y): (f32, f32), tx: Option<f64>, ty: Option<f64>| {
                     (f64::from(x) - tx.unwrap()).hypot(f64::from(y) - ty.unwrap())
@@ -115,12 +171,16 @@ fn run_point(point: &SweepPoint, model: StreakModel) -> PointScore {
                 if frames_printed {
                     print_frame(index, &truth, &e, report.detection.best.as_ref());
                 }
-                if index > 0 {
+                // The head needs a previous position. An LED moving into place is measured
+                // once in place: on its way in it speeds up and slows down within an
+                // exposure, where the streak's mean speed is not the speed at its end.
+                let measured = index > acquired && index >= point.path.settled_frame();
+                if measured {
                     s.head_px.push(d(e.position_px, truth.x_px, truth.y_px));
                 }
                 let streak_px = truth.streak_px.unwrap();
                 // The streak's speed needs its direction, which needs a previous frame.
-                if streak_px >= SPEED_MIN_STREAK_PX && index > 0 {
+                if streak_px >= SPEED_MIN_STREAK_PX && measured {
                     let true_speed = truth.vx_px_s.unwrap().hypot(truth.vy_px_s.unwrap());
                     match e.velocity_px_s {
                         Some(((vx, vy), VelocityMethod::Streak)) => s.speed.push(
@@ -133,6 +193,20 @@ fn run_point(point: &SweepPoint, model: StreakModel) -> PointScore {
         }
     }
     s
+}
+
+/// A frame in which the LED was not found (`GLINT_SWEEP_FRAMES=1`): whether it was
+/// `ambiguous`, and the candidates the tracker chose among (area, mass centre, elongation).
+fn print_miss(index: usize, ambiguous: bool, detector: Option<&Detector>) {
+    let candidates: Vec<_> = detector
+        .into_iter()
+        .flat_map(|d| d.candidates())
+        .map(|(_, b)| (b.area_px, b.mass_centre_px, b.elongation))
+        .collect();
+    eprintln!(
+        "    frame {index:>2}: not found{}, candidates {candidates:?}",
+        if ambiguous { ", ambiguous" } else { "" }
+    );
 }
 
 /// One frame's figures (`GLINT_SWEEP_FRAMES=1`), to tell the kinds of error apart: the head's
@@ -385,6 +459,9 @@ fn every_sweep_point_holds_the_bounds() {
         _ => StreakModel::Fit,
     };
     let mut failures = Vec::new();
+    let mut misses = [0usize; 4];
+    // Points acquired 0, 1, 2 and more frames after the LED had moved.
+    let mut delays = [0usize; 4];
     let (mut all_head, mut all_mid60, mut all_speed) = (Vec::new(), Vec::new(), Vec::new());
     let only: Option<Vec<usize>> = std::env::var("GLINT_SWEEP_ONLY")
         .ok()
@@ -394,10 +471,18 @@ fn every_sweep_point_holds_the_bounds() {
             continue;
         }
         let s = run_point(&point, model);
+        misses[0] += s.missed_still;
+        misses[1] += s.missed_acquiring;
+        misses[2] += s.missed_tracked;
+        misses[3] += s.missed_ambiguous;
+        let delay = s.acquisition_delay();
+        if let Some(d) = delay {
+            delays[d.min(delays.len() - 1)] += 1;
+        }
         let q = |v: &[f64], q: f64| quantile(v, q).unwrap_or(0.0);
         eprintln!(
             "{:>3} head {:.2}/{:.2} px, mid {:.2}/{:.2} px, speed {:.1}/{:.1} % ({} missing), \
-             found {}/{}: {point}",
+             found {}/{}, acquired {}: {point}",
             point.index,
             q(&s.head_px, 0.5),
             q(&s.head_px, 0.95),
@@ -408,11 +493,45 @@ fn every_sweep_point_holds_the_bounds() {
             s.speed_missing,
             s.found,
             s.visible,
+            match (s.acquired, delay) {
+                (Some(a), Some(d)) => format!("in frame {a}, {d} after it moved"),
+                (Some(a), None) => format!("in frame {a}, before it moved"),
+                (None, _) => "never".to_string(),
+            },
         );
+        if s.found != s.visible {
+            eprintln!(
+                "    not found: {} before it moved, {} while acquiring, {} lost after it was \
+                 acquired ({} of them ambiguous)",
+                s.missed_still, s.missed_acquiring, s.missed_tracked, s.missed_ambiguous,
+            );
+        }
         let mut fail =
             |what: String| failures.push(format!("point {}: {what} ({point})", point.index));
-        if s.found != s.visible || s.visible == 0 {
-            fail(format!("found {} of {} visible frames", s.found, s.visible));
+        // Every visible frame from the acquisition on is found; before it, the LED must have
+        // moved (a light standing still since it appeared is never the LED, nor reported)
+        // and be taken within ACQUIRE_MAX_FRAMES of that.
+        if s.visible == 0 || s.first_motion.is_none() {
+            fail(format!("{} visible frames, motion in none", s.visible));
+        }
+        match delay {
+            None => fail(format!("never acquired in {} visible frames", s.visible)),
+            Some(d) if d > ACQUIRE_MAX_FRAMES => {
+                fail(format!("acquired {d} frames after it moved"));
+            }
+            Some(_) => {}
+        }
+        if s.missed_tracked > 0 {
+            fail(format!(
+                "lost in {} frames after acquisition",
+                s.missed_tracked
+            ));
+        }
+        if s.reported_still > 0 {
+            fail(format!(
+                "reported in {} frames before it moved",
+                s.reported_still
+            ));
         }
         if s.false_reports > 0 {
             fail(format!("{} false reports", s.false_reports));
@@ -462,6 +581,12 @@ fn every_sweep_point_holds_the_bounds() {
         q(&all_mid60, 0.95),
         100.0 * q(&all_speed, 0.5),
         100.0 * q(&all_speed, 0.95),
+    );
+    eprintln!(
+        "visible frames not found: {} before the LED moved, {} while acquiring, {} lost after \
+         acquisition ({} of them ambiguous); acquired 0 / 1 / 2 / more frames after it moved: \
+         {:?} points",
+        misses[0], misses[1], misses[2], misses[3], delays
     );
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }

@@ -3,9 +3,10 @@
 //!
 //! Each [`SweepPoint`] is one short scene: a spot profile (disk, Gaussian, Gaussian core with a
 //! wide glow) 0.8–3 px wide, an LED from barely to strongly saturating, a tone curve of gamma
-//! 1.8–2.4, read noise up to σ 4 luma, full or studio range, and a path that is still, a
-//! straight line (3–60 px streaks) or an arc. Points are drawn from a seed, so a test can
-//! take a reproducible random subset and a benchmark the whole sweep.
+//! 1.8–2.4, read noise up to σ 4 luma, full or studio range, and a path that is still or
+//! barely moving (after moving into place: a light that never moved cannot be told from a
+//! lamp), a straight line (3–60 px streaks) or an arc. Points are drawn from a seed, so a
+//! test can take a reproducible random subset and a benchmark the whole sweep.
 
 use std::f64::consts::{PI, TAU};
 
@@ -23,6 +24,11 @@ const FPS: f64 = 90.0;
 const EXPOSURE_US: u32 = 10_000;
 /// Frames per sweep scene, unless a fast LED would leave the view sooner.
 const MAX_FRAMES: usize = 10;
+/// Frames a settling LED takes to move into place, before its [`MAX_FRAMES`] at rest.
+pub const APPROACH_FRAMES: usize = 3;
+/// How far a settling LED moves into place: its streaks are then 12, 19 and 5 px long
+/// (a raised-cosine move, peak speed twice the mean), clearly moving.
+const APPROACH_PX: f64 = 40.0;
 /// The path stays this far inside the frame.
 const MARGIN_PX: f64 = 40.0;
 /// Spot widths (disk radius, Gaussian σ).
@@ -57,6 +63,14 @@ pub enum SweepPath {
         /// Direction of travel.
         angle_rad: f64,
     },
+    /// Moves into place over [`APPROACH_FRAMES`] frames (a robot arriving where it rests),
+    /// then on along `angle_rad` at `length_px` per exposure (0: standing still).
+    Settle {
+        /// Streak length once in place.
+        length_px: f64,
+        /// Direction of the move into place and of travel after it.
+        angle_rad: f64,
+    },
     /// A circle of `radius_px`, `length_px` of arc per exposure.
     Arc {
         /// The circle's radius.
@@ -67,10 +81,21 @@ pub enum SweepPath {
 }
 
 impl SweepPath {
-    /// The streak's length.
+    /// The streak's length (once in place, for [`SweepPath::Settle`]).
     pub fn length_px(self) -> f64 {
         match self {
-            SweepPath::Line { length_px, .. } | SweepPath::Arc { length_px, .. } => length_px,
+            SweepPath::Line { length_px, .. }
+            | SweepPath::Settle { length_px, .. }
+            | SweepPath::Arc { length_px, .. } => length_px,
+        }
+    }
+
+    /// The first frame whose whole exposure comes after the LED arrived in place (0 unless
+    /// it settles).
+    pub fn settled_frame(self) -> usize {
+        match self {
+            SweepPath::Settle { .. } => APPROACH_FRAMES,
+            _ => 0,
         }
     }
 }
@@ -86,7 +111,8 @@ pub struct SweepPoint {
     pub width_px: f64,
     /// Glow σ over core σ, and glow centre over core centre (bloom only).
     pub glow: (f64, f64),
-    /// Level of the streak's core, in multiples of the clip level.
+    /// Level of the streak's core, in multiples of the clip level (for an LED that moves
+    /// into place, of its longest streak on the way in: brighter at rest).
     pub saturation: f64,
     /// The camera's tone-curve exponent.
     pub gamma: f64,
@@ -98,6 +124,23 @@ pub struct SweepPoint {
     pub path: SweepPath,
     /// Seed of the floor texture and the noise.
     pub seed: u64,
+}
+
+/// When a settling LED arrives, and how long its move into place takes: it arrives in the
+/// gap between the last approach frame's exposure and the first standing one's, and the move
+/// started half a frame before frame 0's exposure, so frame 0 already shows it moving.
+fn approach_timing() -> (f64, f64) {
+    let period_s = 1.0 / FPS;
+    let exposure_s = f64::from(EXPOSURE_US) * 1e-6;
+    let arrive_s = (APPROACH_FRAMES - 1) as f64 * period_s + 0.5 * (period_s - exposure_s);
+    (arrive_s, arrive_s + exposure_s + 0.5 * period_s)
+}
+
+/// The longest streak a settling LED can leave on its way in: an exposure at the move's peak
+/// speed (twice its mean).
+fn approach_peak_streak_px() -> f64 {
+    let (_, move_s) = approach_timing();
+    2.0 * APPROACH_PX / move_s * f64::from(EXPOSURE_US) * 1e-6
 }
 
 /// Uniform in `[lo, hi)`.
@@ -112,8 +155,9 @@ fn log_uniform(rng: &mut SplitMix64, (lo, hi): (f64, f64)) -> f64 {
 
 impl SweepPoint {
     /// Point `index` of the sweep drawn from `seed`. Indices cycle through four kinds of path
-    /// so that any run of four points covers them all: a still or barely moving LED (streaks
-    /// up to 2 px), a line of 3–20 px, a 60 px line, an arc of 8–40 px on a circle of 15–80 px.
+    /// so that any run of four points covers them all: an LED that moves into place and then
+    /// stands still or barely moves (streaks up to 2 px), a line of 3–20 px, a 60 px line, an
+    /// arc of 8–40 px on a circle of 15–80 px.
     pub fn new(seed: u64, index: usize) -> SweepPoint {
         let mut rng = SplitMix64::new(mix64(seed ^ mix64(index as u64)));
         let spot = match rng.next_u64() % 3 {
@@ -136,7 +180,7 @@ impl SweepPoint {
         };
         let angle_rad = uniform(&mut rng, (0.0, TAU));
         let path = match index % 4 {
-            0 => SweepPath::Line {
+            0 => SweepPath::Settle {
                 length_px: uniform(&mut rng, (0.0, 2.0)),
                 angle_rad,
             },
@@ -196,7 +240,13 @@ impl SweepPoint {
             SpotKind::Disk => 2.0 * self.width_px,
             _ => (TAU).sqrt() * self.width_px,
         };
-        let smear = (self.path.length_px() / core_span_px).max(1.0);
+        // A settling LED's longest streak is on its way in: that one is the point's level
+        // (brighter at rest), so that the move that shows it is the LED is seen at all.
+        let longest_px = match self.path {
+            SweepPath::Settle { length_px, .. } => length_px.max(approach_peak_streak_px()),
+            _ => self.path.length_px(),
+        };
+        let smear = (longest_px / core_span_px).max(1.0);
         Led {
             radius_px: match self.spot {
                 SpotKind::Disk => self.width_px,
@@ -258,6 +308,27 @@ impl SweepPoint {
                     frames,
                 )
             }
+            SweepPath::Settle {
+                length_px,
+                angle_rad,
+            } => {
+                let (dx, dy) = (angle_rad.cos(), angle_rad.sin());
+                let (arrive_s, move_s) = approach_timing();
+                let speed = length_px / exposure_s;
+                (
+                    Trajectory::Arrive {
+                        from_px: Point::new(
+                            centre.x - APPROACH_PX * dx,
+                            centre.y - APPROACH_PX * dy,
+                        ),
+                        to_px: centre,
+                        move_s,
+                        arrive_s,
+                        then_velocity_px_s: Point::new(speed * dx, speed * dy),
+                    },
+                    APPROACH_FRAMES + MAX_FRAMES,
+                )
+            }
             SweepPath::Arc {
                 radius_px,
                 length_px,
@@ -281,6 +352,9 @@ impl std::fmt::Display for SweepPoint {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let path = match self.path {
             SweepPath::Line { length_px, .. } => format!("line {length_px:.1} px"),
+            SweepPath::Settle { length_px, .. } => {
+                format!("moves into place, then line {length_px:.1} px")
+            }
             SweepPath::Arc {
                 radius_px,
                 length_px,
@@ -317,11 +391,32 @@ mod tests {
         let points = SweepPoint::sweep(7, 40);
         for p in &points {
             let scene = Scene::new(p.config()).unwrap_or_else(|e| panic!("{p}: {e}"));
-            assert!(scene.frame_count() >= 2);
-            let t = scene.truth(1);
+            let settled = p.path.settled_frame();
+            assert!(scene.frame_count() >= settled + 2);
+            let t = scene.truth(settled + 1);
             let length = t.streak_px.unwrap();
             assert!((length - p.path.length_px()).abs() < 1e-3, "{p}: {length}");
+            if settled > 0 {
+                // Clearly moving on the way in (streaks of 4.8 px or more), in place after.
+                for frame in 0..settled {
+                    assert!(
+                        scene.truth(frame).streak_px.unwrap() > 4.5,
+                        "{p}: frame {frame}"
+                    );
+                }
+                // In place by then: at most a frame's creep from where it arrived.
+                let arrived = scene.truth(settled);
+                let (x, y) = (arrived.x_px.unwrap(), arrived.y_px.unwrap());
+                let period_per_exposure = 1.0 / (FPS * f64::from(EXPOSURE_US) * 1e-6);
+                let creep_px = p.path.length_px() * period_per_exposure;
+                let from_place_px = (x - 320.0).hypot(y - 240.0);
+                assert!(from_place_px <= creep_px + 1e-6, "{p}: {from_place_px} px");
+            }
         }
+        assert!(
+            matches!(points[0].path, SweepPath::Settle { .. }),
+            "the still kind moves into place"
+        );
         let widths: Vec<f64> = points.iter().map(|p| p.width_px).collect();
         assert!(widths.iter().any(|&w| w < 1.2) && widths.iter().any(|&w| w > 2.6));
         assert_eq!(

@@ -118,6 +118,22 @@ pub enum Trajectory {
         /// Time at which the first move starts.
         start_s: f64,
     },
+    /// Moves into place and stays (a robot arriving at where it will rest): from `from_px` to
+    /// `to_px` in one raised-cosine move (as [`Trajectory::StopGo`]'s) that ends at
+    /// `arrive_s`, then drifts on at `then_velocity_px_s` (zero: stands still). Before the
+    /// move it stands at `from_px`.
+    Arrive {
+        /// Where the move starts.
+        from_px: Point,
+        /// Where the move ends.
+        to_px: Point,
+        /// Duration of the move.
+        move_s: f64,
+        /// Time at which the LED is at `to_px`.
+        arrive_s: f64,
+        /// Velocity after the arrival.
+        then_velocity_px_s: Point,
+    },
 }
 
 impl Trajectory {
@@ -173,6 +189,22 @@ impl Trajectory {
                 hold_s,
                 start_s,
             } => stop_go(waypoints_px, *move_s, *hold_s, t_s - start_s),
+            Trajectory::Arrive {
+                from_px,
+                to_px,
+                move_s,
+                arrive_s,
+                then_velocity_px_s,
+            } => {
+                if t_s >= *arrive_s {
+                    return Motion {
+                        position_px: to_px.add(then_velocity_px_s.scale(t_s - arrive_s)),
+                        velocity_px_s: *then_velocity_px_s,
+                    };
+                }
+                let since_start_s = (t_s - (arrive_s - move_s)).max(0.0);
+                raised_cosine_move(*from_px, *to_px, *move_s, since_start_s)
+            }
         }
     }
 
@@ -244,6 +276,20 @@ impl Trajectory {
                     && *hold_s >= 0.0
                     && start_s.is_finite()
             }
+            Trajectory::Arrive {
+                from_px,
+                to_px,
+                move_s,
+                arrive_s,
+                then_velocity_px_s,
+            } => {
+                from_px.is_finite()
+                    && to_px.is_finite()
+                    && move_s.is_finite()
+                    && *move_s > 0.0
+                    && arrive_s.is_finite()
+                    && then_velocity_px_s.is_finite()
+            }
         };
         if ok {
             Ok(())
@@ -294,6 +340,12 @@ fn stop_go(waypoints: &[Point], move_s: f64, hold_s: f64, tau_s: f64) -> Motion 
         .get((from_index + 1) % count.max(1))
         .copied()
         .unwrap_or_default();
+    raised_cosine_move(from, to, move_s, local_s)
+}
+
+/// A move from `from` to `to` in `move_s` from rest to rest (standing at `to` after it);
+/// `local_s` is the time since it started.
+fn raised_cosine_move(from: Point, to: Point, move_s: f64, local_s: f64) -> Motion {
     let span = to.sub(from);
     if local_s >= move_s {
         return Motion {
@@ -348,6 +400,13 @@ mod tests {
                 move_s: 0.5,
                 hold_s: 0.25,
                 start_s: -0.1,
+            },
+            Trajectory::Arrive {
+                from_px: Point::new(0.0, 0.0),
+                to_px: Point::new(30.0, 40.0),
+                move_s: 0.04,
+                arrive_s: 0.02,
+                then_velocity_px_s: Point::new(60.0, 0.0),
             },
         ]
     }
@@ -419,6 +478,28 @@ mod tests {
         // Peak speed of a raised-cosine move is twice the mean.
         let peak = sg.motion(-0.1 + 0.25).velocity_px_s.norm();
         assert!((peak - 2.0 * 100.0 / 0.5).abs() < 1e-9);
+    }
+
+    #[test]
+    fn arrive_moves_into_place_then_drifts_on() {
+        let arrive = &examples()[5];
+        assert_eq!(arrive.motion(-0.03).position_px, Point::new(0.0, 0.0));
+        assert_eq!(arrive.motion(-0.03).velocity_px_s, Point::default());
+        // Halfway through the move: halfway there at twice the mean speed.
+        let half = arrive.motion(0.0);
+        assert!(half.position_px.sub(Point::new(15.0, 20.0)).norm() < 1e-9);
+        assert!((half.velocity_px_s.norm() - 2.0 * 50.0 / 0.04).abs() < 1e-9);
+        // Arrived, and on at 60 px/s.
+        assert!(
+            arrive
+                .motion(0.02 - 1e-12)
+                .position_px
+                .sub(Point::new(30.0, 40.0))
+                .norm()
+                < 1e-6
+        );
+        assert_eq!(arrive.motion(0.07).position_px, Point::new(33.0, 40.0));
+        assert_eq!(arrive.motion(0.07).velocity_px_s, Point::new(60.0, 0.0));
     }
 
     #[test]
