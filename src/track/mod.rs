@@ -14,8 +14,9 @@
 //!   expires. The one thing in view is taken back (the LED turned sharply, or came back from
 //!   behind an obstacle), so a robot's other LED alone in view can still take the track.
 //! - Acquisition takes only what moved: a blob that appeared where nothing stood in the last
-//!   frame while something of that frame went away, or one that crept from where it first
-//!   appeared. Among several that moved (several LEDs on one robot), the largest. However
+//!   frame while something of that frame went away (the LED of the frame before included,
+//!   when nothing is in its gate and its velocity is not known yet), or one that crept from
+//!   where it first appeared. Among several that moved (several LEDs on one robot), the largest. However
 //!   round or elongated, a blob that has stood still since it appeared is never taken, and
 //!   when several candidates stand still the frame is `ambiguous` until one moves.
 //! - A lone candidate with nothing else in view is the LED when it appeared where nothing
@@ -319,17 +320,20 @@ impl Tracker {
         let possible = candidates.filter(|(_, b)| known(b) != Known::Cleared);
         let positions = possible.clone().map(|(_, b)| b.mass_centre_px);
         let something_went = self.statics.any_vanished(positions, frame_index);
-        let moved = |b: &Blob| {
+        let moved = |b: &Blob, went: bool| {
             let here = b.mass_centre_px;
             known(b) == Known::Fresh
                 && !self.statics.stood_still(here, frame_index)
-                && (something_went || self.statics.crept(here, frame_index))
+                && (went || self.statics.crept(here, frame_index))
         };
-        let largest_mover = possible
-            .clone()
-            .filter(|(_, b)| moved(b))
-            .max_by_key(|(_, b)| b.area_px)
-            .map(|(index, _)| (Choice::Blob(index), Acquired::Moving));
+        let largest_mover_if = |went: bool| {
+            possible
+                .clone()
+                .filter(|(_, b)| moved(b, went))
+                .max_by_key(|(_, b)| b.area_px)
+                .map(|(index, _)| (Choice::Blob(index), Acquired::Moving))
+        };
+        let largest_mover = largest_mover_if(something_went);
         // A lone candidate is the LED when it appeared (nothing stood there in the frame
         // before); in the first frame, only when it is smeared.
         let mut all = possible.clone();
@@ -375,7 +379,12 @@ impl Tracker {
                 });
             }
         }
-        if let Some(mover) = largest_mover {
+        // Here nothing is in the gate of a track seen in the frame before (whose velocity
+        // is not known yet: its first frame): the LED went, as a blob of that frame going
+        // away shows, and what moved is where. Bits of its own glow cut apart beside a
+        // 60 px streak must not make it `ambiguous`.
+        let led_went = self.previous_found && self.prediction(t_us).is_some();
+        if let Some(mover) = largest_mover_if(something_went || led_went) {
             return mover;
         }
         match (lone, possible.clone().next()) {
@@ -424,9 +433,16 @@ impl Tracker {
             }
             let exposure_s = self.config.exposure_us? as f32 * 1e-6;
             // A still path's middle jitters as much as the LED moves: its velocity is taken
-            // over a few frames, which divides that jitter.
+            // over a few frames, which divides that jitter. But an LED that has just stopped
+            // carries the frames before the stop in that mean (a head 2-5 px ahead of where
+            // it stands), while the last frame's velocity says it stopped: the slower of the
+            // two, which for an LED at rest is never the jumpier one.
+            let last = velocity_px_s.map(|(v, _)| v);
             let steady = streak.path.and_then(|_| self.steady_velocity(mid_px, t_us));
-            let (vx, vy) = steady.or(velocity_px_s.map(|(v, _)| v))?;
+            let (vx, vy) = match (steady, last) {
+                (Some(s), Some(l)) if l.0.hypot(l.1) < s.0.hypot(s.1) => l,
+                (steady, last) => steady.or(last)?,
+            };
             Some((
                 mid_px.0 + 0.5 * exposure_s * vx,
                 mid_px.1 + 0.5 * exposure_s * vy,
@@ -866,6 +882,70 @@ mod tests {
                 e.position_px
             );
         }
+    }
+
+    /// An LED that stops (a robot arriving): its first still frames' head is where it
+    /// stands, not carried on by the three frames' velocity, which still holds the move
+    /// (1.5 px ahead here; 2-5 px on the accuracy sweep's LEDs moving into place).
+    #[test]
+    fn a_stopping_led_s_head_is_where_it_stopped() {
+        let exposure_us = 10_000;
+        let mut t = Tracker::new(TrackerConfig {
+            exposure_us: Some(exposure_us),
+        });
+        // 10 px a frame, a 3 px streak in each 10 ms exposure, ending at 141.5 px.
+        for i in 0..5u64 {
+            let x = 100.0 + 10.0 * i as f32;
+            let path = Some([(x - 1.5, 100.0), (x + 1.5, 100.0)]);
+            t.update(i * FRAME_US, Some(&streak((x, 100.0), path)));
+        }
+        for i in 5..9u64 {
+            let mid = (141.5, 100.0);
+            let e = t
+                .update(i * FRAME_US, Some(&streak(mid, Some([mid, mid]))))
+                .unwrap();
+            let error_px = (e.position_px.0 - mid.0).hypot(e.position_px.1 - mid.1);
+            // The last frame's middle moved 1.5 px: a quarter of a pixel of travel.
+            assert!(
+                error_px <= 0.25 + 1e-3,
+                "frame {i}: head {:?}",
+                e.position_px
+            );
+        }
+    }
+
+    /// A smear taken in the first frame has no velocity yet: its gate is the smallest, and a
+    /// fast LED is out of it in the next frame. Bits of its glow cut apart beside it (or any
+    /// other new blob) do not make that frame `ambiguous`: the LED went, and the largest blob
+    /// that appeared where nothing stood is where it went.
+    #[test]
+    fn a_smear_taken_in_the_first_frame_is_followed_out_of_its_gate() {
+        let smear = |x: f32| Blob {
+            elongation: 20.0,
+            area_px: 3000,
+            ..blob_at(x, 100.0)
+        };
+        let mut t = Tracker::new(TrackerConfig {
+            exposure_us: Some(10_000),
+        });
+        assert_eq!(
+            t.choose([(0, smear(100.0))].into_iter(), 0, 0),
+            Choice::Blob(0)
+        );
+        t.update(0, Some(&streak((100.0, 100.0), None)));
+        let next = [
+            (0, blob_at(200.0, 110.0)),
+            (1, smear(166.0)),
+            (2, blob_at(200.0, 120.0)),
+        ];
+        assert_eq!(t.choose(next.into_iter(), 1, FRAME_US), Choice::Blob(1));
+        let e = t
+            .update(FRAME_US, Some(&streak((166.0, 100.0), None)))
+            .unwrap();
+        assert!(e.velocity_px_s.is_some(), "a velocity from the two frames");
+        // A track whose velocity is known is not replaced by something outside its gate.
+        let far = [(0, blob_at(400.0, 300.0)), (1, blob_at(420.0, 300.0))];
+        assert_eq!(t.choose(far.into_iter(), 2, 2 * FRAME_US), Choice::Nothing);
     }
 
     #[test]
