@@ -2,6 +2,11 @@
 //! noise, range, straight and curved paths), not at one renderer setting: every point of a
 //! seeded random subset of the sweep is held to the bounds.
 //!
+//! Acquisition is scored on its own: a light that has stood still since it appeared is never
+//! the LED, so the sweep's still LED first moves into place, and the LED must be reported
+//! within [`ACQUIRE_MAX_FRAMES`] of the frame in which it had moved [`MOTION_SHOWN_PX`], and
+//! in every visible frame from then on.
+//!
 //! The default run takes [`DEFAULT_POINTS`] points; `GLINT_SWEEP_POINTS=N` takes the first N
 //! of the same sweep (the README's figures use 200), and `GLINT_SWEEP_SEED` another sweep.
 //!
