@@ -329,6 +329,28 @@ fn a_still_led_reads_still_with_the_ramps() {
     assert_a_still_led_reads_still(StreakModel::Ramps);
 }
 
+/// The acquisition rules on the sweep, in the default run: an LED that moves into
+/// place (the sweep's still kind, its first three points, with the fitted model) is reported
+/// within [`ACQUIRE_MAX_FRAMES`] of the frame in which it had moved, never before, stays
+/// tracked once it stops, and its head at rest is held to the sweep's bounds (before the
+/// tracker took the slower of the three frames' and the last frame's velocity, the first
+/// frames at rest read 2-5 px ahead with the fit).
+#[test]
+fn an_led_moving_into_place_is_acquired_as_it_moves_and_kept_at_rest() {
+    for point in SweepPoint::sweep(DEFAULT_SEED, 12).into_iter().step_by(4) {
+        assert!(matches!(point.path, SweepPath::Settle { .. }), "{point}");
+        let s = run_point(&point, StreakModel::Fit);
+        let delay = s.acquisition_delay();
+        let p95 = quantile(&s.head_px, 0.95).unwrap();
+        eprintln!("{point}: acquired {delay:?} frames after it moved, head p95 {p95:.3} px");
+        assert!(delay.is_some_and(|d| d <= ACQUIRE_MAX_FRAMES), "{point}");
+        assert_eq!(s.reported_still, 0, "{point}");
+        assert_eq!(s.missed_tracked, 0, "{point}: lost once acquired");
+        assert!(s.head_px.len() >= 9, "{point}: measured at rest");
+        assert!(p95 <= HEAD_P95_MAX_PX, "{point}: head p95 {p95:.3} px");
+    }
+}
+
 /// The spot the fitted model is made of (a Gaussian of σ 1.5 px, 4× the clip, seen through
 /// gamma 2.2) swept along a 20 px line, at read noise `noise_luma`.
 fn gaussian_streak(noise_luma: f64) -> SweepPoint {
