@@ -370,11 +370,12 @@ fn the_fit_reads_a_streak_on_a_textured_floor_it_has_seen() {
 
 /// Blooms whose saturated region is wide and flat: the fit reads the spot from the border of
 /// the clipped region and the unclipped flanks, not from the clipped pixels inside, which
-/// only say "at least the clip". Before the inside pixels were left out they were most of
+/// only say "at least the clip". Before the inside pixels were left out they were much of
 /// the fitted pixels on these streaks (the body and caps subsampled among them), and a frame
 /// here or there came out 2–6 px off (points 21, 38 and 182 of the sweep, seed 11: head p95
-/// 3.08, 1.66 and 6.19 px, speed p95 11 and 18.5 %). Their middles are not held here (the
-/// fit takes the middle of the streak's light on a wide glow, README).
+/// 3.08, 1.66 and 6.19 px, speed p95 11 and 18.5 %). Their middles are not held here (README:
+/// the first frame's floor is not learned yet, and a streak whose fitted σ is the glow's takes
+/// the middle of its light).
 #[test]
 fn a_bloom_s_wide_saturated_streak_gives_its_head_and_speed() {
     for index in [21, 38, 182] {
