@@ -469,6 +469,48 @@ fn the_fit_reads_a_streak_on_a_textured_floor_it_has_seen() {
     }
 }
 
+/// Blooms whose saturated region is wide and flat: the fit reads the spot from the border of
+/// the clipped region and the unclipped flanks, not from the clipped pixels inside, which
+/// only say "at least the clip". Before the inside pixels were left out they were much of
+/// the fitted pixels on these streaks (the body and caps subsampled among them), and a frame
+/// here or there came out 2–6 px off (points 21, 38 and 182 of the sweep, seed 11: head p95
+/// 3.08, 1.66 and 6.19 px, speed p95 11 and 18.5 %). Their middles are not held here (README:
+/// the first frame's floor is not learned yet, and a streak whose fitted σ is the glow's takes
+/// the middle of its light).
+#[test]
+fn a_bloom_s_wide_saturated_streak_gives_its_head_and_speed() {
+    for index in [21, 38, 182] {
+        let point = SweepPoint::new(DEFAULT_SEED, index);
+        assert_eq!(point.spot, glint_tools::scene::SpotKind::Bloom, "{point}");
+        let s = run_point(&point, StreakModel::Fit);
+        let q = |v: &[f64], q: f64| quantile(v, q).unwrap_or(f64::NAN);
+        let (median, p95) = (q(&s.head_px, 0.5), q(&s.head_px, 0.95));
+        eprintln!(
+            "{index}: head {median:.2}/{p95:.2} px, speed p95 {:.1} %: {point}",
+            100.0 * q(&s.speed, 0.95)
+        );
+        // (Acquisition, not the fit, may miss the first frame: the head is held on the rest.)
+        assert!(
+            s.found + 1 >= s.visible,
+            "{point}: found {} of {}",
+            s.found,
+            s.visible
+        );
+        assert!(
+            median <= HEAD_MEDIAN_MAX_PX && p95 <= HEAD_P95_MAX_PX,
+            "{point}: head {median:.2}/{p95:.2} px"
+        );
+        if point.path.length_px() >= SPEED_MIN_STREAK_PX {
+            assert!(s.speed_missing * 10 <= s.visible, "{point}");
+            assert!(
+                q(&s.speed, 0.5) <= SPEED_MEDIAN_MAX && q(&s.speed, 0.95) <= SPEED_P95_MAX,
+                "{point}: speed p95 {:.1} %",
+                100.0 * q(&s.speed, 0.95)
+            );
+        }
+    }
+}
+
 fn env_or<T: std::str::FromStr>(name: &str, default: T) -> T {
     std::env::var(name)
         .ok()

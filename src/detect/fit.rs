@@ -23,8 +23,8 @@
 //!
 //! So the spot's width, brightness and tone come from the streak's own unclipped flanks, not
 //! from constants tuned on one renderer. The twelve parameters are fitted by Levenberg–Marquardt
-//! on a bounded set of pixels (both end caps in full, the body subsampled), with fixed-size
-//! matrices and no allocation. When the fit does not settle, or lands somewhere the pixels do
+//! on a bounded set of pixels (both end caps in full, the body subsampled; of the clipped
+//! pixels only the clipped region's border), with fixed-size matrices and no allocation. When the fit does not settle, or lands somewhere the pixels do
 //! not support, the caller falls back to the streak's middle.
 
 use nalgebra::{SMatrix, SVector};
@@ -537,8 +537,28 @@ fn segment_distance(a: (f32, f32), b: (f32, f32), x: f32, y: f32) -> f32 {
     (x - a.0 - t * dx).hypot(y - a.1 - t * dy)
 }
 
+/// Whether the pixel at `(x, y)` is clipped inside the clipped region, not on its border
+/// (its four neighbours are clipped too). A clipped pixel says only "at least the clip
+/// level", and for a spot whose light falls off away from its path the border says that of
+/// every pixel inside it: the inside carries nothing more. On a wide saturated streak (a
+/// bloom whose glow clips) the inside was most of the pixels the caps and body were
+/// subsampled from, and the unclipped flanks, which carry the spot's width, tone and the
+/// path's ends, got few of the fitted pixels.
+fn clipped_inside(frame: &Frame<'_>, x: usize, y: usize, clip: f32) -> bool {
+    let clipped = |x: Option<usize>, y: Option<usize>| match (x, y) {
+        (Some(x), Some(y)) => frame.luma(x, y).is_some_and(|l| f32::from(l) >= clip),
+        _ => false,
+    };
+    clipped(Some(x), Some(y))
+        && clipped(x.checked_sub(1), Some(y))
+        && clipped(x.checked_add(1), Some(y))
+        && clipped(Some(x), y.checked_sub(1))
+        && clipped(Some(x), y.checked_add(1))
+}
+
 /// The pixels around the rough streak: every pixel of both end caps, and an even subsample
-/// of the body, [`MAX_FIT_PX`] at most.
+/// of the body, [`MAX_FIT_PX`] at most. Clipped pixels inside the clipped region are left
+/// out (see [`clipped_inside`]).
 fn collect(
     frame: &Frame<'_>,
     rough: &Rough,
@@ -561,15 +581,16 @@ fn collect(
         lo(a.1.min(b.1).min(rough.mid_px.1)),
         hi(a.1.max(b.1).max(rough.mid_px.1), size.height()),
     );
-    let near = |x: f32, y: f32| distance_to_rough(rough, x, y) <= reach;
+    let near = |x: usize, y: usize| {
+        distance_to_rough(rough, x as f32, y as f32) <= reach && !clipped_inside(frame, x, y, clip)
+    };
     let in_cap = |x: f32, y: f32| dist((x, y), a) <= cap || dist((x, y), b) <= cap;
     // First pass: count both kinds of pixel, to subsample each evenly.
     let (mut caps, mut body) = (0usize, 0usize);
     for y in y0..=y1 {
         for x in x0..=x1 {
-            let (fx, fy) = (x as f32, y as f32);
-            if near(fx, fy) {
-                if in_cap(fx, fy) {
+            if near(x, y) {
+                if in_cap(x as f32, y as f32) {
                     caps += 1;
                 } else {
                     body += 1;
@@ -588,10 +609,10 @@ fn collect(
     let (mut caps_seen, mut body_seen) = (0usize, 0usize);
     for y in y0..=y1 {
         for x in x0..=x1 {
-            let (fx, fy) = (x as f32, y as f32);
-            if !near(fx, fy) {
+            if !near(x, y) {
                 continue;
             }
+            let (fx, fy) = (x as f32, y as f32);
             let (seen, stride) = if in_cap(fx, fy) {
                 (&mut caps_seen, cap_stride)
             } else {
