@@ -11,8 +11,11 @@
 //!   is never entered among the distractors). Once its velocity is known, a tracked LED lost
 //!   for a frame is not replaced by one of several things outside the gate (other LEDs of the
 //!   same robot): the frame reads `found: false` until it is back in the gate or the track
-//!   expires. The one thing in view is taken back (the LED turned sharply, or came back from
-//!   behind an obstacle), so a robot's other LED alone in view can still take the track.
+//!   expires. The one thing in view is taken back (the LED turned sharply, came back from
+//!   behind an obstacle, or jumped because the capture skipped frames), unless another light
+//!   of its body explains it better (see [`statics::Statics::continues_another`]): lights
+//!   seen beside the LED, carried on at its velocity, are never taken for it, inside the
+//!   gate or alone in view. A lone LED has no such light, so a far jump is taken back.
 //! - Acquisition takes only what moved: a blob that appeared where nothing stood in the last
 //!   frame while something of that frame went away, or one that crept from where it first
 //!   appeared. Among several that moved (several LEDs on one robot), the largest. However
@@ -196,6 +199,8 @@ pub struct Tracker {
     /// old place; the one behind only while it moves less than half their spacing a frame
     /// (beyond that its first velocity is wrong, but it is not the one that would jump).
     came_from: Option<Sample>,
+    /// The frame the track was taken in: blobs seen from then on beside it are other lights.
+    held_since_frame: u64,
 }
 
 /// How the chosen blob came to be the LED.
@@ -245,27 +250,39 @@ impl Tracker {
         frame_index: u64,
         t_us: u64,
     ) -> Choice {
+        let prediction = self.prediction(t_us);
+        let frame_us = t_us.saturating_sub(self.last_t_us);
         let (mut choice, acquired) = self.pick(candidates.clone(), frame_index, t_us);
+        let had_track = prediction.is_some();
+        if !had_track && matches!(choice, Choice::Blob(_)) {
+            self.held_since_frame = frame_index;
+        }
         self.seen_a_frame = true;
         let chosen = candidates
             .clone()
             .find(|&(index, _)| choice == Choice::Blob(index))
             .map(|(_, b)| b.mass_centre_px);
         self.came_from = match (acquired, chosen) {
-            (Acquired::Moving, Some(at)) => self.statics.came_from(at, frame_index).map(|p| {
-                let estimate = Estimate {
-                    position_px: p,
-                    position_method: PositionMethod::Mid,
-                    mid_px: p,
-                    velocity_px_s: None,
-                };
-                Sample {
-                    t_us: self.last_t_us,
-                    estimate,
-                }
-            }),
+            (Acquired::Moving, Some(at)) => {
+                let now = candidates.clone().map(|(_, b)| b.mass_centre_px);
+                self.statics.came_from(at, frame_index, now).map(|p| {
+                    let estimate = Estimate {
+                        position_px: p,
+                        position_method: PositionMethod::Mid,
+                        mid_px: p,
+                        velocity_px_s: None,
+                    };
+                    Sample {
+                        t_us: self.last_t_us,
+                        estimate,
+                    }
+                })
+            }
             _ => None,
         };
+        if let Some(origin) = self.came_from {
+            self.statics.forget(origin.estimate.mid_px);
+        }
         self.last_t_us = t_us;
         match (acquired, chosen) {
             (Acquired::Alone, Some(at)) => {
@@ -289,11 +306,16 @@ impl Tracker {
             }
             _ => {}
         }
+        // What is seen beside the LED may be another light of its body; while the LED is
+        // lost, so is what continues such a light (nothing, for a lone LED).
         let led_elsewhere = matches!(choice, Choice::Blob(_));
         for (index, blob) in candidates {
             if choice != Choice::Blob(index) {
+                let here = blob.mass_centre_px;
+                let beside_led = prediction.is_some()
+                    && self.continues_companion(&self.statics, here, frame_index, frame_us);
                 self.statics
-                    .observe(blob.mass_centre_px, frame_index, led_elsewhere);
+                    .observe(here, frame_index, led_elsewhere, beside_led);
             }
         }
         self.statics.expire(frame_index);
@@ -332,21 +354,33 @@ impl Tracker {
             .map(|(index, _)| (Choice::Blob(index), Acquired::Moving));
         // A lone candidate is the LED when it appeared (nothing stood there in the frame
         // before); in the first frame, only when it is smeared.
+        let prediction = self.prediction(t_us);
+        // A blob that another light of the frames before, carried on with the body, explains
+        // better than the LED's prediction is that light (another LED of the same robot):
+        // never the LED, above all while the LED is hidden and that light is in its gate.
+        let frame_us = t_us.saturating_sub(self.last_t_us);
+        let another = |b: &Blob| {
+            prediction.is_some_and(|(predicted, _)| {
+                let here = b.mass_centre_px;
+                self.is_another_light(&self.statics, here, predicted, frame_index, frame_us)
+            })
+        };
         let mut all = possible.clone();
         let lone = match (all.next(), all.next()) {
             (Some((index, blob)), None)
                 if known(&blob) == Known::Fresh
                     && !self.statics.stood_still(blob.mass_centre_px, frame_index)
-                    && (self.seen_a_frame || blob.elongation >= SMEARED_ELONGATION) =>
+                    && (self.seen_a_frame || blob.elongation >= SMEARED_ELONGATION)
+                    && !another(&blob) =>
             {
                 Some(index)
             }
             _ => None,
         };
-        if let Some((predicted, gate_px)) = self.prediction(t_us) {
+        if let Some((predicted, gate_px)) = prediction {
             let nearest = possible
                 .clone()
-                .filter(|(_, b)| known(b) == Known::Fresh)
+                .filter(|(_, b)| known(b) == Known::Fresh && !another(b))
                 .map(|(i, b)| (i, dist(b.mass_centre_px, predicted)))
                 .filter(|&(_, d)| d <= gate_px)
                 .min_by(|a, b| a.1.total_cmp(&b.1));
@@ -383,6 +417,51 @@ impl Tracker {
             (None, None) => (Choice::Nothing, Acquired::Tracked),
             (None, Some(_)) => (Choice::Ambiguous, Acquired::Tracked),
         }
+    }
+
+    /// How far the tracked LED's body moves in a frame interval of `frame_us`, at the LED's
+    /// last velocity (the robot's other LEDs move with it).
+    fn body_step_px(&self, frame_us: u64) -> Option<(f32, f32)> {
+        let last = self.history.recent()?;
+        let (vx, vy) = last.estimate.velocity_px_s.map_or((0.0, 0.0), |(v, _)| v);
+        let frame_s = frame_us as f32 * 1e-6;
+        Some((vx * frame_s, vy * frame_s))
+    }
+
+    /// True when a blob at `position_px` of frame `frame_index` is, for this track predicted
+    /// at `predicted_px`, more likely another light of its body than its LED: see
+    /// [`Statics::continues_another`].
+    fn is_another_light(
+        &self,
+        statics: &Statics,
+        position_px: (f32, f32),
+        predicted_px: (f32, f32),
+        frame_index: u64,
+        frame_us: u64,
+    ) -> bool {
+        self.body_step_px(frame_us).is_some_and(|step_px| {
+            statics.continues_another(
+                position_px,
+                frame_index,
+                self.held_since_frame,
+                step_px,
+                dist(position_px, predicted_px),
+            )
+        })
+    }
+
+    /// True when a blob at `position_px` of frame `frame_index`, not this track's LED,
+    /// continues a light of its body: see [`Statics::continues_companion`].
+    fn continues_companion(
+        &self,
+        statics: &Statics,
+        position_px: (f32, f32),
+        frame_index: u64,
+        frame_us: u64,
+    ) -> bool {
+        self.body_step_px(frame_us).is_some_and(|step_px| {
+            statics.continues_companion(position_px, frame_index, self.held_since_frame, step_px)
+        })
     }
 
     /// Updates the state with the frame at `t_us`: `streak` is the chosen blob's geometry, or
