@@ -13,9 +13,10 @@
 //!   same robot): the frame reads `found: false` until it is back in the gate or the track
 //!   expires. The one thing in view is taken back (the LED turned sharply, came back from
 //!   behind an obstacle, or jumped because the capture skipped frames), unless another light
-//!   of its body explains it better (see [`statics::Statics::continues_another`]): lights
-//!   seen beside the LED, carried on at its velocity, are never taken for it, inside the
-//!   gate or alone in view. A lone LED has no such light, so a far jump is taken back.
+//!   of its body explains it better (see [`body::Body::explains`]): lights shown to move
+//!   with the LED over several frames, carried on at its velocity, are never taken for it,
+//!   inside the gate or alone in view. A lone LED has no such light (a lamp, a window or a
+//!   fragment of the LED's own blob never moves with it), so a far jump is taken back.
 //! - Acquisition takes only what moved: a blob that appeared where nothing stood in the last
 //!   frame while something of that frame went away, or one that crept from where it first
 //!   appeared. Among several that moved (several LEDs on one robot), the largest. However
@@ -44,6 +45,7 @@
 //!   one frame; otherwise the velocity comes from consecutive streak middles and frame times.
 
 pub mod assign;
+pub mod body;
 pub mod marker;
 pub mod multi;
 pub mod state;
@@ -53,6 +55,7 @@ use heapless::HistoryBuf;
 
 use crate::detect::blobs::Blob;
 use crate::detect::streak::Streak;
+use body::Body;
 use statics::{Known, Statics};
 
 pub use marker::{MarkerPose, MarkerTracker};
@@ -178,6 +181,10 @@ pub struct Tracker {
     history: HistoryBuf<Sample, HISTORY_FRAMES>,
     missed_frames: u32,
     statics: Statics,
+    /// The other lights of the tracked LED's body.
+    body: Body,
+    /// While the LED is lost, where its body's lights last put it (see [`Body::follow`]).
+    followed: Option<Followed>,
     /// Whether the previous frame had the LED: the head needs the position just before.
     previous_found: bool,
     /// The track was taken as the lone candidate in view and has not moved since: it may be a
@@ -199,8 +206,19 @@ pub struct Tracker {
     /// old place; the one behind only while it moves less than half their spacing a frame
     /// (beyond that its first velocity is wrong, but it is not the one that would jump).
     came_from: Option<Sample>,
-    /// The frame the track was taken in: blobs seen from then on beside it are other lights.
+    /// The frame the track was taken in.
     held_since_frame: u64,
+}
+
+/// Where a lost LED's body put it (see [`Tracker::follow_body`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Followed {
+    /// The frame time.
+    t_us: u64,
+    /// Where the lights of its body put the LED then.
+    led_px: (f32, f32),
+    /// The body's velocity then, from where its lights put the LED in two frames.
+    velocity_px_s: (f32, f32),
 }
 
 /// How the chosen blob came to be the LED.
@@ -228,8 +246,21 @@ impl Tracker {
         self.history.oldest_ordered()
     }
 
-    /// Where the streak's middle is expected at `t_us`, and the gate radius around it.
+    /// Where the streak's middle is expected at `t_us`, and the gate radius around it: its
+    /// last middle carried on at its last velocity, and, while it is lost, moved with its
+    /// body's other lights when they show where the body went.
     pub fn prediction(&self, t_us: u64) -> Option<((f32, f32), f32)> {
+        let (straight_px, gate_px) = self.straight_prediction(t_us)?;
+        let predicted_px = self.followed.map_or(straight_px, |f| {
+            let dt_s = t_us.saturating_sub(f.t_us) as f32 * 1e-6;
+            let (vx, vy) = f.velocity_px_s;
+            (f.led_px.0 + vx * dt_s, f.led_px.1 + vy * dt_s)
+        });
+        Some((predicted_px, gate_px))
+    }
+
+    /// [`Tracker::prediction`] without the body's correction.
+    fn straight_prediction(&self, t_us: u64) -> Option<((f32, f32), f32)> {
         let last = *self.history.recent()?;
         if self.missed_frames > MAX_MISSED_FRAMES {
             return None;
@@ -250,12 +281,15 @@ impl Tracker {
         frame_index: u64,
         t_us: u64,
     ) -> Choice {
-        let prediction = self.prediction(t_us);
         let frame_us = t_us.saturating_sub(self.last_t_us);
+        let everything = candidates.clone().map(|(_, b)| b.mass_centre_px);
+        self.follow_body(frame_index, t_us, frame_us, everything);
+        let prediction = self.prediction(t_us);
         let (mut choice, acquired) = self.pick(candidates.clone(), frame_index, t_us);
         let had_track = prediction.is_some();
         if !had_track && matches!(choice, Choice::Blob(_)) {
             self.held_since_frame = frame_index;
+            self.body.clear();
         }
         self.seen_a_frame = true;
         let chosen = candidates
@@ -306,16 +340,20 @@ impl Tracker {
             }
             _ => {}
         }
-        // What is seen beside the LED may be another light of its body; while the LED is
-        // lost, so is what continues such a light (nothing, for a lone LED).
         let led_elsewhere = matches!(choice, Choice::Blob(_));
+        // What is seen beside the found LED may be another light of its body; nothing seen
+        // while it is lost changes what the body knows.
+        if let (Choice::Blob(led), Some(led_px)) = (choice, chosen) {
+            let others = candidates
+                .clone()
+                .filter(|&(index, _)| index != led)
+                .map(|(_, b)| b.mass_centre_px);
+            self.body.observe(frame_index, led_px, others);
+        }
         for (index, blob) in candidates {
             if choice != Choice::Blob(index) {
-                let here = blob.mass_centre_px;
-                let beside_led = prediction.is_some()
-                    && self.continues_companion(&self.statics, here, frame_index, frame_us);
                 self.statics
-                    .observe(here, frame_index, led_elsewhere, beside_led);
+                    .observe(blob.mass_centre_px, frame_index, led_elsewhere);
             }
         }
         self.statics.expire(frame_index);
@@ -325,6 +363,8 @@ impl Tracker {
     /// Drops the track: acquisition starts over.
     fn withdraw(&mut self) {
         self.history.clear();
+        self.body.clear();
+        self.followed = None;
         self.tentative = false;
         self.previous_found = false;
         self.missed_frames = 0;
@@ -359,10 +399,11 @@ impl Tracker {
         // better than the LED's prediction is that light (another LED of the same robot):
         // never the LED, above all while the LED is hidden and that light is in its gate.
         let frame_us = t_us.saturating_sub(self.last_t_us);
+        let everything = possible.clone().map(|(_, b)| b.mass_centre_px);
         let another = |b: &Blob| {
             prediction.is_some_and(|(predicted, _)| {
                 let here = b.mass_centre_px;
-                self.is_another_light(&self.statics, here, predicted, frame_index, frame_us)
+                self.is_another_light(here, predicted, frame_index, frame_us, everything.clone())
             })
         };
         let mut all = possible.clone();
@@ -419,48 +460,81 @@ impl Tracker {
         }
     }
 
+    /// While the LED is lost (since the frame before), moves its body with the lights seen
+    /// in frame `frame_index` at `t_us`, `frame_us` after the frame before, among blobs at
+    /// `blobs`, and where the LED is expected with it (see [`Body::follow`]).
+    fn follow_body(
+        &mut self,
+        frame_index: u64,
+        t_us: u64,
+        frame_us: u64,
+        blobs: impl Iterator<Item = (f32, f32)> + Clone,
+    ) {
+        if self.missed_frames == 0 {
+            return;
+        }
+        let (Some((_, gate_px)), Some(step_px)) =
+            (self.straight_prediction(t_us), self.body_step_px(frame_us))
+        else {
+            return;
+        };
+        let Some(led_px) = self.body.follow(frame_index, step_px, gate_px, blobs) else {
+            return;
+        };
+        // The body's velocity from where its lights put the LED now and last time: on a
+        // curve the LED's last velocity no longer says where it goes.
+        let velocity_px_s = match self.followed {
+            Some(f) if t_us > f.t_us => {
+                let dt_s = (t_us - f.t_us) as f32 * 1e-6;
+                (
+                    (led_px.0 - f.led_px.0) / dt_s,
+                    (led_px.1 - f.led_px.1) / dt_s,
+                )
+            }
+            _ => self.last_velocity_px_s(),
+        };
+        self.followed = Some(Followed {
+            t_us,
+            led_px,
+            velocity_px_s,
+        });
+    }
+
+    /// The LED's velocity in its last found frame, or none.
+    fn last_velocity_px_s(&self) -> (f32, f32) {
+        self.history
+            .recent()
+            .and_then(|s| s.estimate.velocity_px_s)
+            .map_or((0.0, 0.0), |(v, _)| v)
+    }
+
     /// How far the tracked LED's body moves in a frame interval of `frame_us`, at the LED's
-    /// last velocity (the robot's other LEDs move with it).
+    /// last velocity, or its body's while the LED is lost and its lights are followed (the
+    /// robot's other LEDs move with it).
     fn body_step_px(&self, frame_us: u64) -> Option<(f32, f32)> {
-        let last = self.history.recent()?;
-        let (vx, vy) = last.estimate.velocity_px_s.map_or((0.0, 0.0), |(v, _)| v);
+        self.history.recent()?;
+        let (vx, vy) = self
+            .followed
+            .map_or_else(|| self.last_velocity_px_s(), |f| f.velocity_px_s);
         let frame_s = frame_us as f32 * 1e-6;
         Some((vx * frame_s, vy * frame_s))
     }
 
-    /// True when a blob at `position_px` of frame `frame_index` is, for this track predicted
-    /// at `predicted_px`, more likely another light of its body than its LED: see
-    /// [`Statics::continues_another`].
+    /// True when a blob at `position_px` of frame `frame_index`, among blobs at `blobs`, is
+    /// for this track, predicted at `predicted_px`, more likely another light of its body
+    /// than its LED: see [`Body::explains`].
     fn is_another_light(
         &self,
-        statics: &Statics,
         position_px: (f32, f32),
         predicted_px: (f32, f32),
         frame_index: u64,
         frame_us: u64,
+        blobs: impl Iterator<Item = (f32, f32)> + Clone,
     ) -> bool {
         self.body_step_px(frame_us).is_some_and(|step_px| {
-            statics.continues_another(
-                position_px,
-                frame_index,
-                self.held_since_frame,
-                step_px,
-                dist(position_px, predicted_px),
-            )
-        })
-    }
-
-    /// True when a blob at `position_px` of frame `frame_index`, not this track's LED,
-    /// continues a light of its body: see [`Statics::continues_companion`].
-    fn continues_companion(
-        &self,
-        statics: &Statics,
-        position_px: (f32, f32),
-        frame_index: u64,
-        frame_us: u64,
-    ) -> bool {
-        self.body_step_px(frame_us).is_some_and(|step_px| {
-            statics.continues_companion(position_px, frame_index, self.held_since_frame, step_px)
+            let led_distance_px = dist(position_px, predicted_px);
+            self.body
+                .explains(position_px, led_distance_px, frame_index, step_px, blobs)
         })
     }
 
@@ -473,11 +547,24 @@ impl Tracker {
             self.previous_found = false;
             return None;
         };
+        // Back after its body was followed while it was lost: where the body last put it is
+        // where it was then, so that this frame has a head and a velocity, and the next one
+        // does not predict it standing still beside its other lights.
+        let followed = self.followed.take().map(|f| Sample {
+            t_us: f.t_us,
+            estimate: Estimate {
+                position_px: f.led_px,
+                position_method: PositionMethod::Mid,
+                mid_px: f.led_px,
+                velocity_px_s: None,
+            },
+        });
         let previous = self
             .history
             .recent()
             .copied()
             .filter(|_| self.previous_found)
+            .or(followed)
             .or(self.came_from.take());
         let mid_px = streak.mid_px;
         // A still path (both ends the middle: no longer than the spot is wide) has no

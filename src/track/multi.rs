@@ -144,20 +144,24 @@ impl MultiTracker {
                 break;
             }
         }
+        let previous_t_us = core::mem::replace(&mut self.last_t_us, t_us);
+        let frame_us = t_us.saturating_sub(previous_t_us);
+        let everything = self.candidates.iter().map(|(_, b)| b.mass_centre_px);
         for (slot, prediction) in self.slots.iter_mut().zip(self.predictions.iter_mut()) {
             slot.choice = TrackChoice::default();
+            slot.tracker
+                .follow_body(frame_index, t_us, frame_us, everything.clone());
             *prediction = slot.tracker.prediction(t_us);
         }
-        let previous_t_us = core::mem::replace(&mut self.last_t_us, t_us);
         self.assign(frame_index, t_us.saturating_sub(previous_t_us));
         self.mark_merged();
         self.acquire(frame_index, previous_t_us);
-        self.observe_statics(frame_index, t_us.saturating_sub(previous_t_us));
+        self.observe_statics(frame_index);
     }
 
     /// Live tracks take candidates by the global optimum of summed distances to their
     /// predictions; only blobs that may be a light (not known to stand still) are offered.
-    /// As with one LED, a blob that a light no track took, carried on with a track's body,
+    /// As with one LED, a blob that another light of a track's body, carried on with it,
     /// explains better than that track's prediction is not offered to it; nor, while a track
     /// coasts (its gate grown with its lost frames), a blob nearer another track's prediction:
     /// a hidden LED's track does not take its body's other LED from that LED's own track.
@@ -179,8 +183,9 @@ impl MultiTracker {
                 }
                 let d = dist(here, centre);
                 let tracker = &slots.get(row)?.tracker;
+                let everything = candidates.iter().map(|(_, b)| b.mass_centre_px);
                 let another =
-                    tracker.is_another_light(statics, here, centre, frame_index, frame_us);
+                    tracker.is_another_light(here, centre, frame_index, frame_us, everything);
                 let nearer_another_track = tracker.missed_frames > 0
                     && predictions.iter().take(rows).enumerate().any(|(other, p)| {
                         other != row && p.is_some_and(|(c, _)| dist(here, c) < d)
@@ -299,9 +304,10 @@ impl MultiTracker {
     }
 
     /// Blobs no track took are remembered by place; they were seen while a light was followed
-    /// elsewhere when any track took something, and beside a lost LED when they continue a
-    /// light seen beside it (see [`Statics::continues_another`]).
-    fn observe_statics(&mut self, frame_index: u64, frame_us: u64) {
+    /// elsewhere when any track took something. Each track that took its own blob (not
+    /// merged) notes every other blob beside it, its body's other lights among them (another
+    /// robot's light, which never moves with it, is never taken for one).
+    fn observe_statics(&mut self, frame_index: u64) {
         // Where a track acquired in this frame came from was its LED: never a distractor.
         for slot in &self.slots {
             if let Some(origin) = slot.tracker.came_from {
@@ -310,19 +316,28 @@ impl MultiTracker {
                 }
             }
         }
+        let candidates = &self.candidates;
+        for slot in self.slots.iter_mut() {
+            let own = slot.choice.blob.filter(|_| !slot.choice.merged);
+            let Some(led_px) = own.and_then(|index| {
+                let (_, b) = candidates.iter().find(|(i, _)| *i == index)?;
+                Some(b.mass_centre_px)
+            }) else {
+                continue;
+            };
+            let others = candidates
+                .iter()
+                .filter(|(i, _)| Some(*i) != own)
+                .map(|(_, b)| b.mass_centre_px);
+            slot.tracker.body.observe(frame_index, led_px, others);
+        }
         let led_elsewhere = self.slots.iter().any(|s| s.choice.blob.is_some());
         for (index, blob) in &self.candidates {
             if self.slots.iter().any(|s| s.choice.blob == Some(*index)) {
                 continue;
             }
-            let here = blob.mass_centre_px;
-            let beside_led = self.slots.iter().zip(&self.predictions).any(|(s, p)| {
-                p.is_some()
-                    && s.tracker
-                        .continues_companion(&self.statics, here, frame_index, frame_us)
-            });
             self.statics
-                .observe(here, frame_index, led_elsewhere, beside_led);
+                .observe(blob.mass_centre_px, frame_index, led_elsewhere);
         }
         self.statics.expire(frame_index);
     }

@@ -9,13 +9,6 @@
 //! distractor seen while the LED was tracked elsewhere is *cleared*: certainly not the LED.
 //! The tracked LED is never entered, so a robot that stops stays tracked: "not moving" alone
 //! does not make a distractor.
-//!
-//! A blob seen *beside* the tracked LED (in a frame where the LED was found elsewhere), or
-//! one that continues such a light while the LED is lost, may be another light of the LED's
-//! body: while the LED is lost, a blob that such a light, carried on with the body, explains
-//! better than the LED's prediction is that light. A blob seen only while the LED was lost
-//! and explained by no such light is not one: a lone LED that jumps far between frames (a
-//! capture that skips frames) is never taken for a companion it never had.
 
 use heapless::Vec as BoundedVec;
 
@@ -41,8 +34,6 @@ struct Static {
     seen_frames: u32,
     last_seen_frame: u64,
     cleared: bool,
-    /// Seen beside the tracked LED, or continuing a light that was: another light of its body.
-    beside_led: bool,
 }
 
 impl Static {
@@ -169,86 +160,9 @@ impl Statics {
         origin(false).or_else(|| origin(true))
     }
 
-    /// Where each light seen beside the LED (or continuing one that was) since frame
-    /// `since_frame` (from when the LED was tracked: before, the LED itself was such a blob),
-    /// in the last [`super::MAX_MISSED_FRAMES`] frames before `frame_index`, and not standing
-    /// still since it appeared (a lamp is on no body), lands when carried on by `step_px` a
-    /// frame since it was seen (the body's motion: another LED of the same robot moves with
-    /// it); and how many frames it was carried.
-    fn carried_companions(
-        &self,
-        frame_index: u64,
-        since_frame: u64,
-        step_px: (f32, f32),
-    ) -> impl Iterator<Item = ((f32, f32), f32)> + '_ {
-        self.entries
-            .iter()
-            .filter(move |e| {
-                let age = frame_index.saturating_sub(e.last_seen_frame);
-                e.beside_led
-                    && !e.standing()
-                    && (1..=u64::from(super::MAX_MISSED_FRAMES)).contains(&age)
-                    && e.last_seen_frame >= since_frame
-            })
-            .map(move |e| {
-                let frames = frame_index.saturating_sub(e.last_seen_frame) as f32;
-                let carried = (
-                    e.position_px.0 + step_px.0 * frames,
-                    e.position_px.1 + step_px.1 * frames,
-                );
-                (carried, frames)
-            })
-    }
-
-    /// True when a blob at `position_px` is more likely another light than the LED: some
-    /// light of the LED's body (seen beside it since frame `since_frame`, or continuing one
-    /// that was, in the last [`super::MAX_MISSED_FRAMES`] frames, and not standing still),
-    /// carried on by `step_px` a frame since it was seen, lands nearer `position_px` than the
-    /// LED's prediction, which lies `led_distance_px` from it. With no such light (a lone
-    /// LED, which has no companion), never.
-    pub fn continues_another(
-        &self,
-        position_px: (f32, f32),
-        frame_index: u64,
-        since_frame: u64,
-        step_px: (f32, f32),
-        led_distance_px: f32,
-    ) -> bool {
-        self.carried_companions(frame_index, since_frame, step_px)
-            .any(|(carried, _)| dist(carried, position_px) < led_distance_px)
-    }
-
-    /// True when a blob at `position_px` that is not the LED continues a light of the LED's
-    /// body (as for [`Statics::continues_another`]): it lies within such a light's gate,
-    /// carried on by `step_px` a frame (the LED's gate: [`super::GATE_MIN_PX`] plus
-    /// [`super::GATE_TRAVEL_FACTOR`] times the carried travel, so that a light on a curve is
-    /// still followed). With no such light, never.
-    pub fn continues_companion(
-        &self,
-        position_px: (f32, f32),
-        frame_index: u64,
-        since_frame: u64,
-        step_px: (f32, f32),
-    ) -> bool {
-        let step_len_px = step_px.0.hypot(step_px.1);
-        self.carried_companions(frame_index, since_frame, step_px)
-            .any(|(carried, frames)| {
-                let gate_px = super::GATE_MIN_PX + super::GATE_TRAVEL_FACTOR * step_len_px * frames;
-                dist(carried, position_px) <= gate_px
-            })
-    }
-
     /// Notes a blob that is not the LED, seen in frame `frame_index`; `led_elsewhere` when
-    /// the LED was tracked elsewhere in that frame, `beside_led` when it was, or when the blob
-    /// continues a light that was seen beside it (see [`Statics::continues_companion`]).
-    pub fn observe(
-        &mut self,
-        position_px: (f32, f32),
-        frame_index: u64,
-        led_elsewhere: bool,
-        beside_led: bool,
-    ) {
-        let beside_led = beside_led || led_elsewhere;
+    /// the LED was tracked elsewhere in that frame.
+    pub fn observe(&mut self, position_px: (f32, f32), frame_index: u64, led_elsewhere: bool) {
         if let Some(e) = self
             .entries
             .iter_mut()
@@ -260,12 +174,10 @@ impl Statics {
             } else if e.last_seen_frame != frame_index {
                 e.seen_frames = 1;
                 e.origin_px = position_px;
-                e.beside_led = false;
             }
             e.position_px = position_px;
             e.last_seen_frame = frame_index;
             e.cleared |= led_elsewhere;
-            e.beside_led |= beside_led;
             return;
         }
         let entry = Static {
@@ -274,7 +186,6 @@ impl Statics {
             seen_frames: 1,
             last_seen_frame: frame_index,
             cleared: led_elsewhere,
-            beside_led,
         };
         if let Err(entry) = self.entries.push(entry) {
             if let Some(oldest) = self.entries.iter_mut().min_by_key(|e| e.last_seen_frame) {
@@ -312,7 +223,7 @@ mod tests {
     #[test]
     fn a_blob_at_the_same_place_becomes_a_distractor_and_is_forgotten_later() {
         let mut s = Statics::default();
-        s.observe((10.0, 10.0), 0, false, false);
+        s.observe((10.0, 10.0), 0, false);
         assert_eq!(s.known((10.0, 10.0)), Known::Fresh);
         assert!(s.stood_still((10.2, 10.1), 1));
         assert!(
@@ -320,10 +231,10 @@ mod tests {
             "only the frame just before counts"
         );
         assert!(!s.stood_still((15.0, 10.0), 1));
-        s.observe((10.2, 10.1), 1, false, false);
+        s.observe((10.2, 10.1), 1, false);
         assert_eq!(s.known((10.0, 10.0)), Known::Still);
         assert_eq!(s.known((20.0, 10.0)), Known::Fresh);
-        s.observe((10.1, 10.1), 2, true, false);
+        s.observe((10.1, 10.1), 2, true);
         assert_eq!(s.known((10.0, 10.0)), Known::Cleared);
         s.expire(2 + FORGET_AFTER_FRAMES + 1);
         assert_eq!(s.known((10.0, 10.0)), Known::Fresh);
@@ -333,7 +244,7 @@ mod tests {
     fn a_blob_that_keeps_moving_never_does() {
         let mut s = Statics::default();
         for i in 0..20u64 {
-            s.observe((5.0 * i as f32, 0.0), i, false, false);
+            s.observe((5.0 * i as f32, 0.0), i, false);
         }
         assert!((0..20).all(|i| s.known((5.0 * i as f32, 0.0)) == Known::Fresh));
         assert!(s.any_vanished([(100.0, 0.0)].into_iter(), 20));
@@ -344,7 +255,7 @@ mod tests {
     fn a_blob_creeping_from_where_it_appeared_has_moved() {
         let mut s = Statics::default();
         for i in 0..10u64 {
-            s.observe((0.5 * i as f32, 0.0), i, false, false);
+            s.observe((0.5 * i as f32, 0.0), i, false);
             if i == 2 {
                 assert_eq!(s.known((1.0, 0.0)), Known::Still, "1 px from its origin");
             }
@@ -355,51 +266,11 @@ mod tests {
     }
 
     #[test]
-    fn a_light_carried_on_with_the_body_explains_a_blob_better_than_a_far_prediction() {
-        let mut s = Statics::default();
-        // Another LED 20 px beside the lost one, moving 10 px a frame right with it.
-        s.observe((120.0, 100.0), 5, true, false);
-        // Two frames on it is at (140, 100); the lost LED is predicted 20 px from there.
-        assert!(s.continues_another((140.0, 100.0), 7, 0, (10.0, 0.0), 20.0));
-        // The lost LED back 1 px from its prediction is not that light (which is 20 px off).
-        assert!(!s.continues_another((120.5, 100.0), 7, 0, (10.0, 0.0), 1.0));
-        // Nothing is carried on from the frame itself, from before the LED was tracked, nor
-        // from longer ago than a track coasts.
-        assert!(!s.continues_another((120.0, 100.0), 5, 0, (0.0, 0.0), 20.0));
-        assert!(!s.continues_another((140.0, 100.0), 7, 6, (10.0, 0.0), 20.0));
-        let long_ago = 5 + u64::from(crate::track::MAX_MISSED_FRAMES) + 1;
-        assert!(!s.continues_another((120.0, 100.0), long_ago, 0, (0.0, 0.0), 20.0));
-    }
-
-    #[test]
-    fn only_a_light_seen_beside_the_led_and_moving_is_another_light() {
-        // A blob seen only while the LED was lost (the lone LED itself, refused once) is no
-        // companion: however near it lands, it explains nothing.
-        let mut s = Statics::default();
-        s.observe((120.0, 100.0), 5, false, false);
-        assert!(!s.continues_another((140.0, 100.0), 7, 0, (10.0, 0.0), 20.0));
-        assert!(!s.continues_companion((140.0, 100.0), 7, 0, (10.0, 0.0)));
-        // One that continues a companion while the LED is lost is one.
-        s.observe((130.0, 100.0), 6, false, true);
-        assert!(s.continues_another((140.0, 100.0), 7, 0, (10.0, 0.0), 20.0));
-        // A companion is followed within its gate carried on with the body (24 px plus 2.5
-        // times the travel): 10 px a frame, seen in frame 6, so 49 px in frame 7.
-        assert!(s.continues_companion((140.0, 148.0), 7, 0, (10.0, 0.0)));
-        assert!(!s.continues_companion((140.0, 150.0), 7, 0, (10.0, 0.0)));
-        // A lamp that stood still beside the moving LED is on no body: not carried with it.
-        let mut s = Statics::default();
-        for i in 0..4u64 {
-            s.observe((300.0, 100.0), i, true, true);
-        }
-        assert!(!s.continues_another((310.0, 100.0), 4, 0, (10.0, 0.0), 50.0));
-    }
-
-    #[test]
     fn an_led_that_starts_from_rest_came_from_its_resting_place_not_from_a_lamp() {
         let mut s = Statics::default();
         for i in 0..4u64 {
-            s.observe((100.0, 100.0), i, false, false);
-            s.observe((300.0, 200.0), i, false, false);
+            s.observe((100.0, 100.0), i, false);
+            s.observe((300.0, 200.0), i, false);
         }
         // The LED leaves its place; the lamp stays on its own.
         let now = [(103.0, 100.0), (300.0, 200.0)];
@@ -408,7 +279,7 @@ mod tests {
             Some((100.0, 100.0))
         );
         // Something that moved in the frame before is the origin before any resting place.
-        s.observe((90.0, 130.0), 3, false, false);
+        s.observe((90.0, 130.0), 3, false);
         assert_eq!(
             s.came_from((103.0, 100.0), 4, now.into_iter()),
             Some((90.0, 130.0))
@@ -424,8 +295,8 @@ mod tests {
     fn a_full_table_replaces_the_oldest_entry() {
         let mut s = Statics::default();
         for i in 0..(MAX_STATICS as u64 + 1) {
-            s.observe((10.0 * i as f32, 0.0), i, false, false);
-            s.observe((10.0 * i as f32, 0.0), i + 1, false, false);
+            s.observe((10.0 * i as f32, 0.0), i, false);
+            s.observe((10.0 * i as f32, 0.0), i + 1, false);
         }
         assert_eq!(s.known((0.0, 0.0)), Known::Fresh, "the oldest made room");
         assert_eq!(s.known((10.0 * MAX_STATICS as f32, 0.0)), Known::Still);
