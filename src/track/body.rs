@@ -85,6 +85,11 @@ pub struct Body {
 }
 
 impl Body {
+    /// True when some light has been shown to move with the LED.
+    pub fn has_lights(&self) -> bool {
+        self.lights.iter().any(Light::moves_with_led)
+    }
+
     /// Forgets every light: a new track has no body yet.
     pub fn clear(&mut self) {
         self.lights.clear();

@@ -215,6 +215,8 @@ pub struct Tracker {
 struct Followed {
     /// The frame time.
     t_us: u64,
+    /// The time from the frame before.
+    frame_us: u64,
     /// Where the lights of its body put the LED then.
     led_px: (f32, f32),
     /// The body's velocity then, from where its lights put the LED in two frames.
@@ -495,9 +497,20 @@ impl Tracker {
         };
         self.followed = Some(Followed {
             t_us,
+            frame_us,
             led_px,
             velocity_px_s,
         });
+    }
+
+    /// For an LED with other lights on its body, its last found frame, when it was lost
+    /// since but its track did not expire: taken back, it moved from there in the frames it
+    /// was lost, so that a frame taken back has a head and a velocity, and the next does not
+    /// predict it standing still with another light of its body inside the gate. A lone LED
+    /// taken back starts from its middle, as it always did.
+    fn last_before_a_short_loss(&self) -> Option<Sample> {
+        let live = self.missed_frames <= MAX_MISSED_FRAMES && self.body.has_lights();
+        self.history.recent().copied().filter(|_| live)
     }
 
     /// The LED's velocity in its last found frame, or none.
@@ -550,14 +563,25 @@ impl Tracker {
         // Back after its body was followed while it was lost: where the body last put it is
         // where it was then, so that this frame has a head and a velocity, and the next one
         // does not predict it standing still beside its other lights.
-        let followed = self.followed.take().map(|f| Sample {
-            t_us: f.t_us,
-            estimate: Estimate {
-                position_px: f.led_px,
-                position_method: PositionMethod::Mid,
-                mid_px: f.led_px,
-                velocity_px_s: None,
-            },
+        // When the body was followed in this very frame, where it put the LED a frame before.
+        let followed = self.followed.take().map(|f| {
+            let (t_us, led_px) = if f.t_us < t_us {
+                (f.t_us, f.led_px)
+            } else {
+                let frame_s = f.frame_us as f32 * 1e-6;
+                let (vx, vy) = f.velocity_px_s;
+                let back_px = (f.led_px.0 - vx * frame_s, f.led_px.1 - vy * frame_s);
+                (f.t_us.saturating_sub(f.frame_us), back_px)
+            };
+            Sample {
+                t_us,
+                estimate: Estimate {
+                    position_px: led_px,
+                    position_method: PositionMethod::Mid,
+                    mid_px: led_px,
+                    velocity_px_s: None,
+                },
+            }
         });
         let previous = self
             .history
@@ -565,7 +589,8 @@ impl Tracker {
             .copied()
             .filter(|_| self.previous_found)
             .or(followed)
-            .or(self.came_from.take());
+            .or(self.came_from.take())
+            .or(self.last_before_a_short_loss());
         let mid_px = streak.mid_px;
         // A still path (both ends the middle: no longer than the spot is wide) has no
         // direction to choose; like a streak whose ends could not be measured, its head is
