@@ -209,53 +209,31 @@ impl Body {
     /// `led_px` (its blob's mass centre). Each continues the light it is carried onto by the
     /// LED's displacement since that light was seen, within half that displacement (or
     /// [`DRIFT_PX`]); the rest start anew. Lights of the body not seen now are kept, to be
-    /// carried on while they are hidden; anything else not seen now is dropped.
+    /// carried on while they are hidden; anything else not seen now is dropped. When more than
+    /// [`MAX_LIGHTS`] are seen (a window broken into specks beside the LED), the lights that
+    /// continue one and the body's are kept first, then the new ones nearest the LED.
     pub fn observe(
         &mut self,
         frame_index: u64,
         led_px: (f32, f32),
-        others: impl Iterator<Item = (f32, f32)>,
+        others: impl Iterator<Item = (f32, f32)> + Clone,
     ) {
         self.next.clear();
         // Which lights of the table were continued, by index.
         let mut continued_lights = 0u32;
-        for here in others {
-            let continued = self
-                .lights
-                .iter()
-                .enumerate()
-                .filter(|(_, l)| recent(l.seen_frame, frame_index))
-                .map(|(index, l)| {
-                    let led_step = (led_px.0 - l.led_px.0, led_px.1 - l.led_px.1);
-                    let carried = (l.position_px.0 + led_step.0, l.position_px.1 + led_step.1);
-                    let tolerance_px = DRIFT_PX.max(0.5 * led_step.0.hypot(led_step.1));
-                    (index, l, dist(carried, here), tolerance_px)
-                })
-                .filter(|&(_, _, d, tolerance_px)| d <= tolerance_px)
-                .min_by(|a, b| a.2.total_cmp(&b.2))
-                .map(|(index, l, _, _)| (index, *l));
-            let light = match continued {
-                Some((index, l)) => {
-                    continued_lights |= 1 << index;
-                    Light {
-                        position_px: here,
-                        seen_frame: frame_index,
-                        led_px,
-                        frames: l.frames.saturating_add(1),
-                        ..l
-                    }
-                }
-                None => Light {
+        for here in others.clone() {
+            if let Some((index, l)) = self.continued(frame_index, led_px, here) {
+                continued_lights |= 1 << index;
+                let light = Light {
                     position_px: here,
                     seen_frame: frame_index,
                     led_px,
-                    origin_px: here,
-                    led_origin_px: led_px,
-                    frames: 1,
-                },
-            };
-            // Beyond MAX_LIGHTS blobs beside the LED, the rest are not remembered.
-            let _ = self.next.push(light);
+                    frames: l.frames.saturating_add(1),
+                    ..l
+                };
+                // Beyond MAX_LIGHTS, the rest are not remembered.
+                let _ = self.next.push(light);
+            }
         }
         for (index, l) in self.lights.iter().enumerate() {
             let kept = continued_lights & (1 << index) == 0
@@ -265,7 +243,66 @@ impl Body {
                 let _ = self.next.push(*l);
             }
         }
+        for here in others {
+            if self.continued(frame_index, led_px, here).is_none() {
+                let light = Light {
+                    position_px: here,
+                    seen_frame: frame_index,
+                    led_px,
+                    origin_px: here,
+                    led_origin_px: led_px,
+                    frames: 1,
+                };
+                // A full table keeps the new lights nearest the LED.
+                if let Err(light) = self.next.push(light) {
+                    let farthest = self
+                        .next
+                        .iter_mut()
+                        .filter(|n| n.frames == 1)
+                        .max_by(|a, b| {
+                            dist(a.position_px, led_px).total_cmp(&dist(b.position_px, led_px))
+                        });
+                    if let Some(n) = farthest {
+                        if dist(n.position_px, led_px) > dist(here, led_px) {
+                            *n = light;
+                        }
+                    }
+                }
+            }
+        }
         core::mem::swap(&mut self.lights, &mut self.next);
+    }
+
+    /// The light (index in the table, and the light) that a blob at `here`, seen in frame
+    /// `frame_index` beside the LED at `led_px`, continues: the one the LED's displacement
+    /// since it was seen carries nearest `here`, within half that displacement (or
+    /// [`DRIFT_PX`]). None when a light stands where `here` is at least as well: a blob that
+    /// may simply have stayed (one of a row of lamps spaced like the LED's step) has not been
+    /// shown to move.
+    fn continued(
+        &self,
+        frame_index: u64,
+        led_px: (f32, f32),
+        here: (f32, f32),
+    ) -> Option<(usize, Light)> {
+        let recent_lights = || {
+            self.lights
+                .iter()
+                .enumerate()
+                .filter(|(_, l)| recent(l.seen_frame, frame_index))
+        };
+        let (index, light, carried_px) = recent_lights()
+            .map(|(index, l)| {
+                let led_step = (led_px.0 - l.led_px.0, led_px.1 - l.led_px.1);
+                let carried = (l.position_px.0 + led_step.0, l.position_px.1 + led_step.1);
+                let tolerance_px = DRIFT_PX.max(0.5 * led_step.0.hypot(led_step.1));
+                (index, l, dist(carried, here), tolerance_px)
+            })
+            .filter(|&(_, _, d, tolerance_px)| d <= tolerance_px)
+            .min_by(|a, b| a.2.total_cmp(&b.2))
+            .map(|(index, l, d, _)| (index, *l, d))?;
+        let stayed = recent_lights().any(|(_, l)| dist(l.position_px, here) <= carried_px);
+        (!stayed).then_some((index, light))
     }
 }
 
@@ -399,5 +436,35 @@ mod tests {
         let mut b = trained();
         let disagree = [turned(offsets[0]), (led(4).0, 106.0)];
         assert_eq!(b.follow(4, step, 50.0, disagree.into_iter()), None);
+    }
+    #[test]
+    fn a_row_of_lamps_spaced_like_the_led_s_step_does_not_move_with_it() {
+        let mut b = Body::default();
+        let led = |i: u64| (100.0 + 10.0 * i as f32, 100.0);
+        // Lamps every 10 px along the LED's motion: each is where the one behind it would be
+        // carried, but each also stands where it stood.
+        let lamps: Vec<(f32, f32)> = (0..6).map(|k| (300.0 + 10.0 * k as f32, 150.0)).collect();
+        for i in 0..8 {
+            seen(&mut b, i, led(i), &lamps);
+        }
+        assert!(!b.has_lights());
+    }
+
+    #[test]
+    fn specks_beside_the_led_never_crowd_out_a_light_of_its_body() {
+        let mut b = Body::default();
+        let led = |i: u64| (100.0 + 10.0 * i as f32, 100.0);
+        let other = |i: u64| (led(i).0 + 20.0, 100.0);
+        // A window broken into more specks than the table holds (in a column, across the
+        // LED's motion), seen before the light.
+        let specks: Vec<(f32, f32)> = (0..2 * MAX_LIGHTS)
+            .map(|k| (400.0, 200.0 + 5.0 * k as f32))
+            .collect();
+        for i in 0..6 {
+            let mut seen_now = specks.clone();
+            seen_now.push(other(i));
+            seen(&mut b, i, led(i), &seen_now);
+        }
+        assert!(b.explains(other(6), 20.0, 6, (10.0, 0.0), [other(6)].into_iter()));
     }
 }
