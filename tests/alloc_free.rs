@@ -18,8 +18,15 @@ static GLOBAL: Counting = Counting;
 
 /// Rendered frames of several scenes at 640×480, blank frames between them.
 fn frames() -> (FrameSize, Vec<u8>, usize) {
-    let mut bytes = Vec::new();
-    let mut count = 0;
+    // First (so that the tracker starts on its brightest LED), three LEDs on one body, the
+    // tracked one hidden for 10 frames while the other two move on: the tracker follows its
+    // body by them while it is lost.
+    let mut hidden = Scene::preset_config("three-leds").unwrap();
+    hidden.frame_count = 60;
+    let hidden_frames = 30..40;
+    hidden.led_hidden_frames = vec![hidden_frames];
+    let (mut bytes, truths) = Scene::new(hidden).unwrap().render_dump();
+    let mut count = truths.len();
     for name in [
         "glare",
         "fast-line",

@@ -11,8 +11,12 @@
 //!   is never entered among the distractors). Once its velocity is known, a tracked LED lost
 //!   for a frame is not replaced by one of several things outside the gate (other LEDs of the
 //!   same robot): the frame reads `found: false` until it is back in the gate or the track
-//!   expires. The one thing in view is taken back (the LED turned sharply, or came back from
-//!   behind an obstacle), so a robot's other LED alone in view can still take the track.
+//!   expires. The one thing in view is taken back (the LED turned sharply, came back from
+//!   behind an obstacle, or jumped because the capture skipped frames), unless another light
+//!   of its body explains it better (see [`body::Body::explains`]): lights shown to move
+//!   with the LED over several frames, carried on at its velocity, are never taken for it,
+//!   inside the gate or alone in view. A lone LED has no such light (a lamp, a window or a
+//!   fragment of the LED's own blob never moves with it), so a far jump is taken back.
 //! - Acquisition takes only what moved: a blob that appeared where nothing stood in the last
 //!   frame while something of that frame went away (the LED of the frame before included,
 //!   when nothing is in its gate and its velocity is not known yet), or one that crept from
@@ -42,6 +46,7 @@
 //!   one frame; otherwise the velocity comes from consecutive streak middles and frame times.
 
 pub mod assign;
+pub mod body;
 pub mod marker;
 pub mod multi;
 pub mod state;
@@ -51,6 +56,7 @@ use heapless::HistoryBuf;
 
 use crate::detect::blobs::Blob;
 use crate::detect::streak::Streak;
+use body::Body;
 use statics::{Known, Statics};
 
 pub use marker::{MarkerPose, MarkerTracker};
@@ -176,6 +182,10 @@ pub struct Tracker {
     history: HistoryBuf<Sample, HISTORY_FRAMES>,
     missed_frames: u32,
     statics: Statics,
+    /// The other lights of the tracked LED's body.
+    body: Body,
+    /// While the LED is lost, where its body's lights last put it (see [`Body::follow`]).
+    followed: Option<Followed>,
     /// Whether the previous frame had the LED: the head needs the position just before.
     previous_found: bool,
     /// The track was taken as the lone candidate in view and has not moved since: it may be a
@@ -197,6 +207,21 @@ pub struct Tracker {
     /// old place; the one behind only while it moves less than half their spacing a frame
     /// (beyond that its first velocity is wrong, but it is not the one that would jump).
     came_from: Option<Sample>,
+    /// The frame the track was taken in.
+    held_since_frame: u64,
+}
+
+/// Where a lost LED's body put it (see [`Tracker::follow_body`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Followed {
+    /// The frame time.
+    t_us: u64,
+    /// The time from the frame before.
+    frame_us: u64,
+    /// Where the lights of its body put the LED then.
+    led_px: (f32, f32),
+    /// The body's velocity then, from where its lights put the LED in two frames.
+    velocity_px_s: (f32, f32),
 }
 
 /// How the chosen blob came to be the LED.
@@ -224,8 +249,21 @@ impl Tracker {
         self.history.oldest_ordered()
     }
 
-    /// Where the streak's middle is expected at `t_us`, and the gate radius around it.
+    /// Where the streak's middle is expected at `t_us`, and the gate radius around it: its
+    /// last middle carried on at its last velocity, and, while it is lost, moved with its
+    /// body's other lights when they show where the body went.
     pub fn prediction(&self, t_us: u64) -> Option<((f32, f32), f32)> {
+        let (straight_px, gate_px) = self.straight_prediction(t_us)?;
+        let predicted_px = self.followed.map_or(straight_px, |f| {
+            let dt_s = t_us.saturating_sub(f.t_us) as f32 * 1e-6;
+            let (vx, vy) = f.velocity_px_s;
+            (f.led_px.0 + vx * dt_s, f.led_px.1 + vy * dt_s)
+        });
+        Some((predicted_px, gate_px))
+    }
+
+    /// [`Tracker::prediction`] without the body's correction.
+    fn straight_prediction(&self, t_us: u64) -> Option<((f32, f32), f32)> {
         let last = *self.history.recent()?;
         if self.missed_frames > MAX_MISSED_FRAMES {
             return None;
@@ -246,27 +284,42 @@ impl Tracker {
         frame_index: u64,
         t_us: u64,
     ) -> Choice {
+        let frame_us = t_us.saturating_sub(self.last_t_us);
+        let everything = candidates.clone().map(|(_, b)| b.mass_centre_px);
+        self.follow_body(frame_index, t_us, frame_us, everything);
+        let prediction = self.prediction(t_us);
         let (mut choice, acquired) = self.pick(candidates.clone(), frame_index, t_us);
+        let had_track = prediction.is_some();
+        if !had_track && matches!(choice, Choice::Blob(_)) {
+            self.held_since_frame = frame_index;
+            self.body.clear();
+        }
         self.seen_a_frame = true;
         let chosen = candidates
             .clone()
             .find(|&(index, _)| choice == Choice::Blob(index))
             .map(|(_, b)| b.mass_centre_px);
         self.came_from = match (acquired, chosen) {
-            (Acquired::Moving, Some(at)) => self.statics.came_from(at, frame_index).map(|p| {
-                let estimate = Estimate {
-                    position_px: p,
-                    position_method: PositionMethod::Mid,
-                    mid_px: p,
-                    velocity_px_s: None,
-                };
-                Sample {
-                    t_us: self.last_t_us,
-                    estimate,
-                }
-            }),
+            (Acquired::Moving, Some(at)) => {
+                let now = candidates.clone().map(|(_, b)| b.mass_centre_px);
+                self.statics.came_from(at, frame_index, now).map(|p| {
+                    let estimate = Estimate {
+                        position_px: p,
+                        position_method: PositionMethod::Mid,
+                        mid_px: p,
+                        velocity_px_s: None,
+                    };
+                    Sample {
+                        t_us: self.last_t_us,
+                        estimate,
+                    }
+                })
+            }
             _ => None,
         };
+        if let Some(origin) = self.came_from {
+            self.statics.forget(origin.estimate.mid_px);
+        }
         self.last_t_us = t_us;
         match (acquired, chosen) {
             (Acquired::Alone, Some(at)) => {
@@ -291,6 +344,15 @@ impl Tracker {
             _ => {}
         }
         let led_elsewhere = matches!(choice, Choice::Blob(_));
+        // What is seen beside the found LED may be another light of its body; nothing seen
+        // while it is lost changes what the body knows.
+        if let (Choice::Blob(led), Some(led_px)) = (choice, chosen) {
+            let others = candidates
+                .clone()
+                .filter(|&(index, _)| index != led)
+                .map(|(_, b)| b.mass_centre_px);
+            self.body.observe(frame_index, led_px, others);
+        }
         for (index, blob) in candidates {
             if choice != Choice::Blob(index) {
                 self.statics
@@ -304,6 +366,8 @@ impl Tracker {
     /// Drops the track: acquisition starts over.
     fn withdraw(&mut self) {
         self.history.clear();
+        self.body.clear();
+        self.followed = None;
         self.tentative = false;
         self.previous_found = false;
         self.missed_frames = 0;
@@ -336,21 +400,34 @@ impl Tracker {
         let largest_mover = largest_mover_if(something_went);
         // A lone candidate is the LED when it appeared (nothing stood there in the frame
         // before); in the first frame, only when it is smeared.
+        let prediction = self.prediction(t_us);
+        // A blob that another light of the frames before, carried on with the body, explains
+        // better than the LED's prediction is that light (another LED of the same robot):
+        // never the LED, above all while the LED is hidden and that light is in its gate.
+        let frame_us = t_us.saturating_sub(self.last_t_us);
+        let everything = possible.clone().map(|(_, b)| b.mass_centre_px);
+        let another = |b: &Blob| {
+            prediction.is_some_and(|(predicted, _)| {
+                let here = b.mass_centre_px;
+                self.is_another_light(here, predicted, frame_index, frame_us, everything.clone())
+            })
+        };
         let mut all = possible.clone();
         let lone = match (all.next(), all.next()) {
             (Some((index, blob)), None)
                 if known(&blob) == Known::Fresh
                     && !self.statics.stood_still(blob.mass_centre_px, frame_index)
-                    && (self.seen_a_frame || blob.elongation >= SMEARED_ELONGATION) =>
+                    && (self.seen_a_frame || blob.elongation >= SMEARED_ELONGATION)
+                    && !another(&blob) =>
             {
                 Some(index)
             }
             _ => None,
         };
-        if let Some((predicted, gate_px)) = self.prediction(t_us) {
+        if let Some((predicted, gate_px)) = prediction {
             let nearest = possible
                 .clone()
-                .filter(|(_, b)| known(b) == Known::Fresh)
+                .filter(|(_, b)| known(b) == Known::Fresh && !another(b))
                 .map(|(i, b)| (i, dist(b.mass_centre_px, predicted)))
                 .filter(|&(_, d)| d <= gate_px)
                 .min_by(|a, b| a.1.total_cmp(&b.1));
@@ -394,6 +471,95 @@ impl Tracker {
         }
     }
 
+    /// While the LED is lost (since the frame before), moves its body with the lights seen
+    /// in frame `frame_index` at `t_us`, `frame_us` after the frame before, among blobs at
+    /// `blobs`, and where the LED is expected with it (see [`Body::follow`]).
+    fn follow_body(
+        &mut self,
+        frame_index: u64,
+        t_us: u64,
+        frame_us: u64,
+        blobs: impl Iterator<Item = (f32, f32)> + Clone,
+    ) {
+        if self.missed_frames == 0 {
+            return;
+        }
+        let (Some((_, gate_px)), Some(step_px)) =
+            (self.straight_prediction(t_us), self.body_step_px(frame_us))
+        else {
+            return;
+        };
+        let Some(led_px) = self.body.follow(frame_index, step_px, gate_px, blobs) else {
+            return;
+        };
+        // The body's velocity from where its lights put the LED now and last time: on a
+        // curve the LED's last velocity no longer says where it goes.
+        let velocity_px_s = match self.followed {
+            Some(f) if t_us > f.t_us => {
+                let dt_s = (t_us - f.t_us) as f32 * 1e-6;
+                (
+                    (led_px.0 - f.led_px.0) / dt_s,
+                    (led_px.1 - f.led_px.1) / dt_s,
+                )
+            }
+            _ => self.last_velocity_px_s(),
+        };
+        self.followed = Some(Followed {
+            t_us,
+            frame_us,
+            led_px,
+            velocity_px_s,
+        });
+    }
+
+    /// For an LED with other lights on its body, its last found frame, when it was lost
+    /// since but its track did not expire: taken back, it moved from there in the frames it
+    /// was lost, so that a frame taken back has a head and a velocity, and the next does not
+    /// predict it standing still with another light of its body inside the gate. A lone LED
+    /// taken back starts from its middle, as it always did.
+    fn last_before_a_short_loss(&self) -> Option<Sample> {
+        let live = self.missed_frames <= MAX_MISSED_FRAMES && self.body.has_lights();
+        self.history.recent().copied().filter(|_| live)
+    }
+
+    /// The LED's velocity in its last found frame, or none.
+    fn last_velocity_px_s(&self) -> (f32, f32) {
+        self.history
+            .recent()
+            .and_then(|s| s.estimate.velocity_px_s)
+            .map_or((0.0, 0.0), |(v, _)| v)
+    }
+
+    /// How far the tracked LED's body moves in a frame interval of `frame_us`, at the LED's
+    /// last velocity, or its body's while the LED is lost and its lights are followed (the
+    /// robot's other LEDs move with it).
+    fn body_step_px(&self, frame_us: u64) -> Option<(f32, f32)> {
+        self.history.recent()?;
+        let (vx, vy) = self
+            .followed
+            .map_or_else(|| self.last_velocity_px_s(), |f| f.velocity_px_s);
+        let frame_s = frame_us as f32 * 1e-6;
+        Some((vx * frame_s, vy * frame_s))
+    }
+
+    /// True when a blob at `position_px` of frame `frame_index`, among blobs at `blobs`, is
+    /// for this track, predicted at `predicted_px`, more likely another light of its body
+    /// than its LED: see [`Body::explains`].
+    fn is_another_light(
+        &self,
+        position_px: (f32, f32),
+        predicted_px: (f32, f32),
+        frame_index: u64,
+        frame_us: u64,
+        blobs: impl Iterator<Item = (f32, f32)> + Clone,
+    ) -> bool {
+        self.body_step_px(frame_us).is_some_and(|step_px| {
+            let led_distance_px = dist(position_px, predicted_px);
+            self.body
+                .explains(position_px, led_distance_px, frame_index, step_px, blobs)
+        })
+    }
+
     /// Updates the state with the frame at `t_us`: `streak` is the chosen blob's geometry, or
     /// `None` when the LED was not found. Returns the estimate for a found frame.
     pub fn update(&mut self, t_us: u64, streak: Option<&Streak>) -> Option<Estimate> {
@@ -403,12 +569,37 @@ impl Tracker {
             self.previous_found = false;
             return None;
         };
+        // Back after its body was followed while it was lost: where the body last put it is
+        // where it was then, so that this frame has a head and a velocity, and the next one
+        // does not predict it standing still beside its other lights.
+        // When the body was followed in this very frame, where it put the LED a frame before.
+        let followed = self.followed.take().map(|f| {
+            let (t_us, led_px) = if f.t_us < t_us {
+                (f.t_us, f.led_px)
+            } else {
+                let frame_s = f.frame_us as f32 * 1e-6;
+                let (vx, vy) = f.velocity_px_s;
+                let back_px = (f.led_px.0 - vx * frame_s, f.led_px.1 - vy * frame_s);
+                (f.t_us.saturating_sub(f.frame_us), back_px)
+            };
+            Sample {
+                t_us,
+                estimate: Estimate {
+                    position_px: led_px,
+                    position_method: PositionMethod::Mid,
+                    mid_px: led_px,
+                    velocity_px_s: None,
+                },
+            }
+        });
         let previous = self
             .history
             .recent()
             .copied()
             .filter(|_| self.previous_found)
-            .or(self.came_from.take());
+            .or(followed)
+            .or(self.came_from.take())
+            .or(self.last_before_a_short_loss());
         let mid_px = streak.mid_px;
         // A still path (both ends the middle: no longer than the spot is wide) has no
         // direction to choose; like a streak whose ends could not be measured, its head is

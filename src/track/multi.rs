@@ -31,7 +31,7 @@ use crate::detect::streak::Streak;
 
 use super::assign::Assignment;
 use super::statics::{Known, Statics};
-use super::{dist, Estimate, PositionMethod, TrackState, Tracker, TrackerConfig};
+use super::{dist, Estimate, PositionMethod, Sample, TrackState, Tracker, TrackerConfig};
 
 /// The most robots one run can follow: every per-robot table is sized for this many.
 pub const MAX_ROBOTS: usize = 16;
@@ -84,6 +84,8 @@ pub struct MultiTracker {
     candidates: BoundedVec<(usize, Blob), MAX_BLOBS>,
     /// Predicted middle and gate radius of each slot this frame, when live.
     predictions: [Option<((f32, f32), f32)>; MAX_ROBOTS],
+    /// The time of the last frame chosen in.
+    last_t_us: u64,
 }
 
 impl MultiTracker {
@@ -107,6 +109,7 @@ impl MultiTracker {
             assignment: Assignment::default(),
             candidates: BoundedVec::new(),
             predictions: [None; MAX_ROBOTS],
+            last_t_us: 0,
         })
     }
 
@@ -141,22 +144,32 @@ impl MultiTracker {
                 break;
             }
         }
+        let previous_t_us = core::mem::replace(&mut self.last_t_us, t_us);
+        let frame_us = t_us.saturating_sub(previous_t_us);
+        let everything = self.candidates.iter().map(|(_, b)| b.mass_centre_px);
         for (slot, prediction) in self.slots.iter_mut().zip(self.predictions.iter_mut()) {
             slot.choice = TrackChoice::default();
+            slot.tracker
+                .follow_body(frame_index, t_us, frame_us, everything.clone());
             *prediction = slot.tracker.prediction(t_us);
         }
-        self.assign();
+        self.assign(frame_index, t_us.saturating_sub(previous_t_us));
         self.mark_merged();
-        self.acquire(frame_index);
+        self.acquire(frame_index, previous_t_us);
         self.observe_statics(frame_index);
     }
 
     /// Live tracks take candidates by the global optimum of summed distances to their
     /// predictions; only blobs that may be a light (not known to stand still) are offered.
-    fn assign(&mut self) {
+    /// As with one LED, a blob that another light of a track's body, carried on with it,
+    /// explains better than that track's prediction is not offered to it; nor, while a track
+    /// coasts (its gate grown with its lost frames), a blob nearer another track's prediction:
+    /// a hidden LED's track does not take its body's other LED from that LED's own track.
+    fn assign(&mut self, frame_index: u64, frame_us: u64) {
         let statics = &self.statics;
         let candidates = &self.candidates;
         let predictions = &self.predictions;
+        let slots = &self.slots;
         let rows = self.slots.len();
         self.assignment.solve(
             rows,
@@ -164,11 +177,20 @@ impl MultiTracker {
             |row, column| {
                 let ((centre, gate_px), (_, blob)) =
                     (predictions.get(row).copied()??, candidates.get(column)?);
-                if statics.known(blob.mass_centre_px) != Known::Fresh {
+                let here = blob.mass_centre_px;
+                if statics.known(here) != Known::Fresh {
                     return None;
                 }
-                let d = dist(blob.mass_centre_px, centre);
-                (d <= gate_px).then_some(d)
+                let d = dist(here, centre);
+                let tracker = &slots.get(row)?.tracker;
+                let everything = candidates.iter().map(|(_, b)| b.mass_centre_px);
+                let another =
+                    tracker.is_another_light(here, centre, frame_index, frame_us, everything);
+                let nearer_another_track = tracker.missed_frames > 0
+                    && predictions.iter().take(rows).enumerate().any(|(other, p)| {
+                        other != row && p.is_some_and(|(c, _)| dist(here, c) < d)
+                    });
+                (d <= gate_px && !another && !nearer_another_track).then_some(d)
             },
             |row| predictions.get(row).copied().flatten().map_or(0.0, |p| p.1),
         );
@@ -178,8 +200,10 @@ impl MultiTracker {
         }
     }
 
-    /// A live track that took nothing while another track's blob lies in its gate: one blob
-    /// where two tracks predict.
+    /// A live track that took nothing while another track's blob lies in its gate and covers
+    /// its prediction: one blob where two tracks predict. A blob beside the prediction is
+    /// another light (a hidden LED's track, its gate grown while it coasts, does not claim
+    /// its robot's other LED).
     fn mark_merged(&mut self) {
         for row in 0..self.slots.len() {
             let Some((centre, gate_px)) = self.predictions.get(row).copied().flatten() else {
@@ -191,7 +215,8 @@ impl MultiTracker {
             let shared = (0..self.slots.len()).find_map(|other| {
                 let index = self.slots.get(other)?.choice.blob?;
                 let (_, blob) = self.candidates.iter().find(|(i, _)| *i == index)?;
-                (dist(blob.mass_centre_px, centre) <= gate_px).then_some((other, index))
+                (covers(blob, centre) && dist(blob.mass_centre_px, centre) <= gate_px)
+                    .then_some((other, index))
             });
             if let Some((other, index)) = shared {
                 if let Some(s) = self.slots.get_mut(row) {
@@ -207,8 +232,11 @@ impl MultiTracker {
         }
     }
 
-    /// Free slots (no live track, nothing taken) take blobs that moved, the largest first.
-    fn acquire(&mut self, frame_index: u64) {
+    /// Free slots (no live track, nothing taken) take blobs that moved, the largest first. A
+    /// track starts from where its blob came from (in the frame before, at `previous_t_us`),
+    /// as the single tracker's does: its first frame has a velocity, so that its second does
+    /// not predict it standing still and take another LED of its robot.
+    fn acquire(&mut self, frame_index: u64, previous_t_us: u64) {
         let statics = &self.statics;
         let possible = self
             .candidates
@@ -254,6 +282,19 @@ impl MultiTracker {
                 return;
             };
             slot.tracker = Tracker::new(self.config);
+            slot.tracker.held_since_frame = frame_index;
+            let now = self.candidates.iter().map(|(_, b)| b.mass_centre_px);
+            slot.tracker.came_from = statics
+                .came_from(blob.mass_centre_px, frame_index, now)
+                .map(|p| Sample {
+                    t_us: previous_t_us,
+                    estimate: Estimate {
+                        position_px: p,
+                        position_method: PositionMethod::Mid,
+                        mid_px: p,
+                        velocity_px_s: None,
+                    },
+                });
             slot.used = true;
             slot.choice = TrackChoice {
                 blob: Some(index),
@@ -263,14 +304,40 @@ impl MultiTracker {
     }
 
     /// Blobs no track took are remembered by place; they were seen while a light was followed
-    /// elsewhere when any track took something.
+    /// elsewhere when any track took something. Each track that took its own blob (not
+    /// merged) notes every other blob beside it, its body's other lights among them (another
+    /// robot's light, which never moves with it, is never taken for one).
     fn observe_statics(&mut self, frame_index: u64) {
+        // Where a track acquired in this frame came from was its LED: never a distractor.
+        for slot in &self.slots {
+            if let Some(origin) = slot.tracker.came_from {
+                if slot.tracker.held_since_frame == frame_index {
+                    self.statics.forget(origin.estimate.mid_px);
+                }
+            }
+        }
+        let candidates = &self.candidates;
+        for slot in self.slots.iter_mut() {
+            let own = slot.choice.blob.filter(|_| !slot.choice.merged);
+            let Some(led_px) = own.and_then(|index| {
+                let (_, b) = candidates.iter().find(|(i, _)| *i == index)?;
+                Some(b.mass_centre_px)
+            }) else {
+                continue;
+            };
+            let others = candidates
+                .iter()
+                .filter(|(i, _)| Some(*i) != own)
+                .map(|(_, b)| b.mass_centre_px);
+            slot.tracker.body.observe(frame_index, led_px, others);
+        }
         let led_elsewhere = self.slots.iter().any(|s| s.choice.blob.is_some());
         for (index, blob) in &self.candidates {
-            if !self.slots.iter().any(|s| s.choice.blob == Some(*index)) {
-                self.statics
-                    .observe(blob.mass_centre_px, frame_index, led_elsewhere);
+            if self.slots.iter().any(|s| s.choice.blob == Some(*index)) {
+                continue;
             }
+            self.statics
+                .observe(blob.mass_centre_px, frame_index, led_elsewhere);
         }
         self.statics.expire(frame_index);
     }
@@ -302,6 +369,16 @@ impl MultiTracker {
     }
 }
 
+/// True when `point_px` lies on `blob`: inside its bounding box, grown by the distance
+/// within which a blob counts as at the same place ([`super::statics::DRIFT_PX`]).
+fn covers(blob: &Blob, point_px: (f32, f32)) -> bool {
+    let b = &blob.bbox;
+    let margin_px = super::statics::DRIFT_PX;
+    let inside =
+        |v: f32, lo: usize, hi: usize| v >= lo as f32 - margin_px && v <= hi as f32 + margin_px;
+    inside(point_px.0, b.x_min_px, b.x_max_px) && inside(point_px.1, b.y_min_px, b.y_max_px)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -309,14 +386,16 @@ mod tests {
 
     const FRAME_US: u64 = 33_333;
 
+    /// A round blob of 30 px (about 3 px in radius) at `(x, y)`.
     fn blob_at((x, y): (f32, f32)) -> Blob {
+        let (x0, y0) = ((x - 3.0).max(0.0) as usize, (y - 3.0).max(0.0) as usize);
         Blob {
             area_px: 30,
             bbox: BoundingBox {
-                x_min_px: 0,
-                y_min_px: 0,
-                x_max_px: 1,
-                y_max_px: 1,
+                x_min_px: x0,
+                y_min_px: y0,
+                x_max_px: x0 + 6,
+                y_max_px: y0 + 6,
             },
             mass_centre_px: (x, y),
             elongation: 1.0,

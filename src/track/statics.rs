@@ -40,6 +40,11 @@ impl Static {
     fn drifted(&self) -> bool {
         dist(self.origin_px, self.position_px) > DRIFT_PX
     }
+
+    /// It has stood still since it appeared: a lamp, not a light moving with a body.
+    fn standing(&self) -> bool {
+        self.seen_frames >= STATIC_FRAMES && !self.drifted()
+    }
 }
 
 /// What the table knows of a blob at some place.
@@ -104,14 +109,55 @@ impl Statics {
         })
     }
 
-    /// Where the blob of the frame before `frame_index` nearest `position_px` was, when one
-    /// was there and is not at `position_px` now: the place a blob that moved came from.
-    pub fn came_from(&self, position_px: (f32, f32), frame_index: u64) -> Option<(f32, f32)> {
-        self.entries
-            .iter()
-            .filter(|e| e.last_seen_frame + 1 == frame_index && !near(e.position_px, position_px))
-            .map(|e| e.position_px)
-            .min_by(|a, b| dist(*a, position_px).total_cmp(&dist(*b, position_px)))
+    /// Where a blob now at `position_px` that moved came from: a blob of the frame before
+    /// `frame_index` that is not at `position_px` now and was not standing still. Of those, the
+    /// one whose displacement to `position_px` carries most of that frame's blobs onto blobs
+    /// of this frame (`now`), within [`DRIFT_PX`]: LEDs on one robot move together, so the
+    /// right origin explains the others' motion too, where the nearest may be another LED of
+    /// the row when the robot moves more than half their spacing a frame. Among equals, the
+    /// nearest. Failing any, the same choice among blobs that stood still and are gone now:
+    /// an LED that starts from rest leaves such a place, while a lamp still stands on its own.
+    pub fn came_from(
+        &self,
+        position_px: (f32, f32),
+        frame_index: u64,
+        now: impl Iterator<Item = (f32, f32)> + Clone,
+    ) -> Option<(f32, f32)> {
+        let now = &now;
+        let before = move |resting: bool| {
+            self.entries
+                .iter()
+                .filter(move |e| {
+                    let gone = || !now.clone().any(|p| near(e.position_px, p));
+                    e.last_seen_frame + 1 == frame_index
+                        && if resting {
+                            e.standing() && gone()
+                        } else {
+                            !e.standing()
+                        }
+                })
+                .map(|e| e.position_px)
+        };
+        let explained = |origin: (f32, f32), resting: bool| {
+            let d = (position_px.0 - origin.0, position_px.1 - origin.1);
+            before(resting)
+                .filter(|b| {
+                    let carried = (b.0 + d.0, b.1 + d.1);
+                    now.clone().any(|p| dist(p, carried) <= DRIFT_PX)
+                })
+                .count()
+        };
+        let origin = |resting: bool| {
+            before(resting)
+                .filter(|&origin| !near(origin, position_px))
+                .map(|origin| {
+                    let count = explained(origin, resting);
+                    (origin, count, dist(origin, position_px))
+                })
+                .max_by(|a, b| a.1.cmp(&b.1).then(b.2.total_cmp(&a.2)))
+                .map(|(origin, _, _)| origin)
+        };
+        origin(false).or_else(|| origin(true))
     }
 
     /// Notes a blob that is not the LED, seen in frame `frame_index`; `led_elsewhere` when
@@ -146,6 +192,13 @@ impl Statics {
                 *oldest = entry;
             }
         }
+    }
+
+    /// Forgets the blob at `position_px`: it was the LED (the place a track was acquired
+    /// from), and the LED is never a distractor, so that it is taken again when it comes
+    /// back there.
+    pub fn forget(&mut self, position_px: (f32, f32)) {
+        self.entries.retain(|e| !near(e.position_px, position_px));
     }
 
     /// Forgets blobs unseen for a long time.
@@ -210,6 +263,32 @@ mod tests {
         // 0.5 px a frame never breaks the match, but 4.5 px from its origin it has moved.
         assert_eq!(s.known((4.5, 0.0)), Known::Fresh);
         assert!(!s.stood_still((5.0, 0.0), 10));
+    }
+
+    #[test]
+    fn an_led_that_starts_from_rest_came_from_its_resting_place_not_from_a_lamp() {
+        let mut s = Statics::default();
+        for i in 0..4u64 {
+            s.observe((100.0, 100.0), i, false);
+            s.observe((300.0, 200.0), i, false);
+        }
+        // The LED leaves its place; the lamp stays on its own.
+        let now = [(103.0, 100.0), (300.0, 200.0)];
+        assert_eq!(
+            s.came_from((103.0, 100.0), 4, now.into_iter()),
+            Some((100.0, 100.0))
+        );
+        // Something that moved in the frame before is the origin before any resting place.
+        s.observe((90.0, 130.0), 3, false);
+        assert_eq!(
+            s.came_from((103.0, 100.0), 4, now.into_iter()),
+            Some((90.0, 130.0))
+        );
+        // The LED's resting place, forgotten, is no distractor when it comes back there.
+        assert_eq!(s.known((100.0, 100.0)), Known::Still);
+        s.forget((100.0, 100.0));
+        assert_eq!(s.known((100.0, 100.0)), Known::Fresh);
+        assert_eq!(s.known((300.0, 200.0)), Known::Still, "the lamp is kept");
     }
 
     #[test]

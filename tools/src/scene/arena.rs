@@ -299,6 +299,7 @@ impl Arena {
                 glare: Vec::new(),
                 static_lights: Vec::new(),
                 companions: Vec::new(),
+                led_hidden_frames: Vec::new(),
                 occluders: Vec::new(),
                 floor: Floor {
                     mean: FLOOR_MEAN,

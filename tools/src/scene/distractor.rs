@@ -167,6 +167,11 @@ pub struct Companion {
     pub offset_px: Point,
     /// Its disk and glow.
     pub led: Led,
+    /// Frames in which it flickers: it shines at `dim_peak` instead of its own peak (a
+    /// failing LED, or one turned away, below the detector's level).
+    pub dim_frames: Vec<core::ops::Range<usize>>,
+    /// Its radiance (clip units) in `dim_frames`.
+    pub dim_peak: f64,
 }
 
 impl Companion {
@@ -177,6 +182,17 @@ impl Companion {
             && self.led.peak.is_finite()
             && self.led.peak >= 0.0
             && self.led.glow_peak == 0.0
+            && self.dim_peak.is_finite()
+            && self.dim_peak >= 0.0
+    }
+
+    /// Its disk during frame `frame`: dimmed in its `dim_frames`.
+    pub(crate) fn led_in(&self, frame: usize) -> Led {
+        let dim = self.dim_frames.iter().any(|r| r.contains(&frame));
+        Led {
+            peak: if dim { self.dim_peak } else { self.led.peak },
+            ..self.led.clone()
+        }
     }
 }
 
@@ -192,7 +208,7 @@ pub(crate) fn add_swept_disk(patch: &mut Patch, positions: &[Point], offset_px: 
 
 #[cfg(test)]
 mod tests {
-    use crate::scene::{Scene, StaticLight};
+    use crate::scene::{Scene, StaticLight, Visibility};
 
     fn luma(scene: &Scene, frame: usize, x: usize, y: usize) -> u8 {
         let mut out = vec![0u8; scene.frame_len_bytes()];
@@ -237,5 +253,34 @@ mod tests {
         }
         let between = (x + 20.0, y - 20.0);
         assert!(luma(&scene, 0, between.0 as usize, between.1 as usize) < 200);
+    }
+
+    #[test]
+    fn a_hidden_led_sends_no_light_and_a_dimmed_companion_is_dim() {
+        let mut config = Scene::preset_config("three-leds").unwrap();
+        let hidden = 3..5;
+        config.led_hidden_frames = vec![hidden.clone()];
+        config.companions[0].dim_frames = vec![hidden];
+        config.companions[0].dim_peak = 0.3;
+        let scene = Scene::new(config).unwrap();
+        for frame in 2..6 {
+            let truth = scene.truth(frame);
+            let at = scene.config().trajectory.motion(truth.t_s).position_px;
+            let (x, y) = (at.x.round() as usize, at.y.round() as usize);
+            let offset = scene.config().companions[0].offset_px;
+            let (cx, cy) = ((at.x + offset.x) as usize, (at.y + offset.y) as usize);
+            if (3..5).contains(&frame) {
+                assert_eq!(truth.visible, Visibility::Hidden, "frame {frame}");
+                assert!(
+                    luma(&scene, frame, x, y) < 200,
+                    "frame {frame}: the LED is dark"
+                );
+                assert!(luma(&scene, frame, cx, cy) < 200, "frame {frame}: dimmed");
+            } else {
+                assert_eq!(truth.visible, Visibility::Visible, "frame {frame}");
+                assert_eq!(luma(&scene, frame, x, y), 255, "frame {frame}");
+                assert_eq!(luma(&scene, frame, cx, cy), 255, "frame {frame}");
+            }
+        }
     }
 }

@@ -91,6 +91,10 @@ pub struct SceneConfig {
     pub static_lights: Vec<StaticLight>,
     /// Further LEDs on the tracked LED's rigid body.
     pub companions: Vec<Companion>,
+    /// Frames in which the LED is hidden by something that hides it alone (a part of the
+    /// robot, a hand), while its companions stay in view: it sends no light and its truth
+    /// reads hidden.
+    pub led_hidden_frames: Vec<core::ops::Range<usize>>,
     /// Opaque rectangles drawn over everything, the LED included.
     pub occluders: Vec<Occluder>,
     /// The floor's texture.
@@ -353,13 +357,17 @@ impl Scene {
         let times = [start_s, exposure.end_s]
             .into_iter()
             .chain(exposure.sample_times(steps));
-        let visible = occlusion::classify(
-            times.map(|t| self.picture_px(trajectory.motion(t).position_px, frame)),
-            self.config.led.radius_px,
-            self.config.width_px,
-            self.config.height_px,
-            &self.config.occluders,
-        );
+        let visible = if self.led_hidden(frame) {
+            Visibility::Hidden
+        } else {
+            occlusion::classify(
+                times.map(|t| self.picture_px(trajectory.motion(t).position_px, frame)),
+                self.config.led.radius_px,
+                self.config.width_px,
+                self.config.height_px,
+                &self.config.occluders,
+            )
+        };
         let end = trajectory.motion(exposure.end_s);
         let mid = trajectory
             .motion(exposure.end_s - 0.5 * exposure.duration_s)
@@ -404,6 +412,14 @@ impl Scene {
         }
     }
 
+    /// Whether frame `frame` is one of [`SceneConfig::led_hidden_frames`].
+    fn led_hidden(&self, frame: usize) -> bool {
+        self.config
+            .led_hidden_frames
+            .iter()
+            .any(|r| r.contains(&frame))
+    }
+
     /// Where a scene pixel is seen in the picture at `frame` (itself without a view).
     fn picture_px(&self, p: Point, frame: usize) -> Point {
         match &self.config.view {
@@ -430,6 +446,9 @@ impl Scene {
         let exposure = self.exposure(frame);
         let trajectory = &self.config.trajectory;
         let led = &self.config.led;
+        if self.led_hidden(frame) {
+            return Patch::around(Point::default(), Point::default(), 0.0, 0, 0);
+        }
         let streak_px =
             trajectory.path_length_px(exposure.end_s - exposure.duration_s, exposure.end_s);
         let disk_steps = Exposure::steps_for(streak_px, MAX_DISK_STEP_PX);
@@ -525,7 +544,8 @@ impl Scene {
             let mut patch =
                 Patch::around(shift(min), shift(max), c.led.radius_px + 1.0, width, height);
             if !patch.values.is_empty() {
-                distractor::add_swept_disk(&mut patch, &positions, c.offset_px, &c.led);
+                let led = c.led_in(frame);
+                distractor::add_swept_disk(&mut patch, &positions, c.offset_px, &led);
             }
             patch
         })

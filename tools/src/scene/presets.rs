@@ -115,6 +115,7 @@ pub(crate) fn base(
         glare: Vec::new(),
         static_lights: Vec::new(),
         companions: Vec::new(),
+        led_hidden_frames: Vec::new(),
         occluders: Vec::new(),
         floor: Floor {
             mean: FLOOR_MEAN,
@@ -549,10 +550,14 @@ pub(crate) fn config(name: &str) -> Option<SceneConfig> {
                 Companion {
                     offset_px: Point::new(70.0, 0.0),
                     led: companion_led(6.0),
+                    dim_frames: Vec::new(),
+                    dim_peak: 0.0,
                 },
                 Companion {
                     offset_px: Point::new(35.0, 60.0),
                     led: companion_led(2.0),
+                    dim_frames: Vec::new(),
+                    dim_peak: 0.0,
                 },
             ];
             config
