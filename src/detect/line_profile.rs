@@ -289,6 +289,10 @@ fn end_offset(ln_light: f32, sigma: f32, path_px: f32) -> f32 {
     let mut u = -sigma * quantile_of_ln(ln_light);
     for _ in 0..2 {
         let lost = normal_cdf(-(u + path_px) / sigma);
+        // A long streak's far end is out of reach: nothing to add.
+        if lost <= 0.0 {
+            break;
+        }
         // ln(light + lost), without forming a light too small to hold.
         let ln_total = ln_light + (lost * (-ln_light).min(MAX_LN_RATIO).exp()).ln_1p();
         u = -sigma * quantile_of_ln(ln_total);
