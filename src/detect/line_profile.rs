@@ -29,6 +29,7 @@
 //! of `ℓ`, and past an end the light lost off the far end is `P · Φ(−(u + ℓ)/σ)`; both are in
 //! the pairing, with `ℓ` from the ends found without them.
 
+use super::tips::luma_at;
 use crate::frame::Frame;
 
 /// The brightness levels the profiles are cut at, as fractions of the way from the floor to
@@ -56,12 +57,13 @@ const STEP_PX: f32 = 0.1;
 /// The floor is the darkest sample over this much of a ray's far part.
 const FLOOR_SPAN_PX: f32 = 2.0;
 
-/// The widths the fit searches, in pixels: a spot narrower than a pixel's sampling to a glow
-/// wider than the profile's reach.
+/// The widths the fit searches at most, in pixels: a spot narrower than a pixel's sampling to
+/// a glow wider than the profile's reach.
 const SIGMA_RANGE_PX: (f32, f32) = (0.3, 8.0);
 
-/// Golden-section steps on ln σ: the bracket shrinks to 0.618^24 of ln(8/0.3), under 0.1 %.
-const SEARCH_STEPS: usize = 24;
+/// Golden-section steps on ln σ: the gamma range's bracket (ln √(2.6/1.6) ≈ 0.24 wide)
+/// shrinks to 0.618^12 of that, σ to within 0.1 %.
+const SEARCH_STEPS: usize = 12;
 
 /// Body cross-sections read: at the middle and this far to either side along the chord.
 const BODY_OFFSETS_PX: [f32; 3] = [-1.0, 0.0, 1.0];
@@ -370,19 +372,6 @@ fn crossings(
         prev = v;
     }
     found
-}
-
-/// Bilinearly interpolated luma at `(x, y)`; `None` outside the frame.
-fn luma_at(frame: &Frame<'_>, x: f32, y: f32) -> Option<f32> {
-    if x < 0.0 || y < 0.0 {
-        return None;
-    }
-    let (x0, y0) = (x.floor() as usize, y.floor() as usize);
-    let (fx, fy) = (x - x0 as f32, y - y0 as f32);
-    let p = |xx: usize, yy: usize| frame.luma(xx, yy).map(f32::from);
-    let top = p(x0, y0)? * (1.0 - fx) + p(x0 + 1, y0)? * fx;
-    let bottom = p(x0, y0 + 1)? * (1.0 - fx) + p(x0 + 1, y0 + 1)? * fx;
-    Some(top * (1.0 - fy) + bottom * fy)
 }
 
 /// The standard normal cumulative distribution (Abramowitz & Stegun 7.1.26, error < 2e-7).

@@ -382,7 +382,7 @@ fn ramp_along(frame: &Frame<'_>, start: (f32, f32), d: (f32, f32), clip: f32) ->
 }
 
 /// Bilinearly interpolated luma at `(x, y)`; `None` outside the frame.
-fn luma_at(frame: &Frame<'_>, x: f32, y: f32) -> Option<f32> {
+pub(super) fn luma_at(frame: &Frame<'_>, x: f32, y: f32) -> Option<f32> {
     if x < 0.0 || y < 0.0 {
         return None;
     }
