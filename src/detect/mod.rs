@@ -10,6 +10,7 @@ pub mod bitimage;
 pub mod blobs;
 pub mod fit;
 pub mod floor_bg;
+pub mod line_profile;
 pub mod moments;
 pub mod morph;
 pub mod skeleton;

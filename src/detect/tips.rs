@@ -28,6 +28,7 @@
 //! about a pixel), and subtracting them instead doubled the head error on the 1280×720 scene.
 
 use super::bitimage::{BitImage, Window};
+use super::line_profile;
 use crate::frame::Frame;
 
 /// The two ramp levels, as fractions of the way from the local floor to the clip level. The
@@ -135,7 +136,16 @@ pub fn refine(
             origins[i].1 + back * dirs[i].1,
         )
     };
-    let tips = [tip(0), tip(1)];
+    let mut tips = [tip(0), tip(1)];
+    // A Gaussian-like spot's ends are where its line profile across puts them (the ramps'
+    // rule is a disk's): the pairing needs the path's length, which the rule above gives.
+    let path_px = dist(tips[0], mid) + dist(mid, tips[1]);
+    if let Some(end_px) = line_profile::place_ends(frame, mid, n, origins, dirs, path_px, clip_luma)
+    {
+        for ((tip, o), (d, e)) in tips.iter_mut().zip(origins).zip(dirs.iter().zip(end_px)) {
+            *tip = (o.0 + e * d.0, o.1 + e * d.1);
+        }
+    }
     // Each end's cap outline at the low level gives the spot's own extent along the axis
     // there, measured as deep as the outline is the spot's: no deeper than the spot is wide,
     // nor than half the footprint (a still spot's two caps meet in its middle).
@@ -372,7 +382,7 @@ fn ramp_along(frame: &Frame<'_>, start: (f32, f32), d: (f32, f32), clip: f32) ->
 }
 
 /// Bilinearly interpolated luma at `(x, y)`; `None` outside the frame.
-fn luma_at(frame: &Frame<'_>, x: f32, y: f32) -> Option<f32> {
+pub(super) fn luma_at(frame: &Frame<'_>, x: f32, y: f32) -> Option<f32> {
     if x < 0.0 || y < 0.0 {
         return None;
     }
