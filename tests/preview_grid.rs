@@ -11,7 +11,7 @@ mod common;
 use std::time::Duration;
 
 use common::live::get;
-use common::view::{fit_first_frame, meta_at_30_fps};
+use common::view::{fit_first_frame, meta_at_30_fps, rendered};
 use glint::detect::aruco::Dictionary;
 use glint::frame::{Frame, FrameSize};
 use glint::geometry::recheck::MarkerRecheck;
@@ -78,11 +78,6 @@ fn the_floor_grid_reprojects_onto_the_true_floor_before_and_after_a_knock() {
     let knock = view.knock.unwrap().frame;
     let scene = Scene::new(config).unwrap();
     let size = FrameSize::new(scene.width_px(), scene.height_px()).unwrap();
-    let render = |i: usize| {
-        let mut bytes = vec![0u8; scene.frame_len_bytes()];
-        scene.render(i, &mut bytes).unwrap();
-        bytes
-    };
 
     // The camera as glint fits it to the first frame's six markers.
     let (map, fit) = fit_first_frame(&scene, &view);
@@ -98,7 +93,7 @@ fn the_floor_grid_reprojects_onto_the_true_floor_before_and_after_a_knock() {
         .with_floor_camera(fit.camera);
     let addr = preview.local_addr();
     let mut feed = |i: usize| {
-        let bytes = render(i);
+        let bytes = rendered(&scene, i);
         let frame = Frame::new_checked(&bytes, size, size.row_bytes()).unwrap();
         let meta = meta_at_30_fps(i);
         let report = pipeline.process(&frame, meta);

@@ -6,7 +6,7 @@
 mod common;
 
 use common::alloc::{allocations_on_every_thread_during, Counting};
-use common::view::{fit_first_frame, meta_at_30_fps};
+use common::view::{fit_first_frame, meta_at_30_fps, rendered};
 
 use glint::detect::aruco::Dictionary;
 use glint::frame::{Frame, FrameSize};
@@ -32,11 +32,6 @@ fn the_recheck_worker_and_the_tracking_thread_allocate_nothing_per_frame() {
     });
     let scene = Scene::new(config).unwrap();
     let size = FrameSize::new(scene.width_px(), scene.height_px()).unwrap();
-    let render = |i: usize| {
-        let mut bytes = vec![0u8; scene.frame_len_bytes()];
-        scene.render(i, &mut bytes).unwrap();
-        bytes
-    };
     // The camera as glint fits it to the first frame's six markers.
     let (map, fit) = fit_first_frame(&scene, &view);
     let recheck =
@@ -51,7 +46,9 @@ fn the_recheck_worker_and_the_tracking_thread_allocate_nothing_per_frame() {
     // frames (a check finds no marker around where the pose puts them, nor in the whole frame).
     let (period, lag) = (RECHECK_PERIOD_FRAMES as usize, VERDICT_LAG_FRAMES as usize);
     let start = knock - 2 * period;
-    let mut frames: Vec<(usize, Vec<u8>)> = (start..=knock + lag).map(|i| (i, render(i))).collect();
+    let mut frames: Vec<(usize, Vec<u8>)> = (start..=knock + lag)
+        .map(|i| (i, rendered(&scene, i)))
+        .collect();
     let end = frames.len() + start;
     frames.extend((end..end + 2 * period).map(|i| (i, vec![0u8; scene.frame_len_bytes()])));
     let mut found = 0usize;
