@@ -24,12 +24,14 @@
 //! So the spot's width, brightness and tone come from the streak's own unclipped flanks, not
 //! from constants tuned on one renderer. The twelve parameters are fitted by Levenberg–Marquardt
 //! on a bounded set of pixels (both end caps in full, the body subsampled; of the clipped
-//! pixels only the clipped region's border), with fixed-size matrices and no allocation. When the fit does not settle, or lands somewhere the pixels do
-//! not support, the caller falls back to the streak's middle.
+//! pixels only the clipped region's border), with fixed-size matrices and no allocation. When
+//! the fit does not settle, or lands somewhere the pixels do not support, the caller falls
+//! back to the streak's middle.
 
 use nalgebra::{SMatrix, SVector};
 
 use super::floor_bg::FloorBackground;
+use super::normal::normal_cdf;
 use crate::frame::Frame;
 
 /// Pixels the fit uses at most: both end caps and a subsample of the body.
@@ -395,27 +397,6 @@ impl Path {
 }
 
 const SQRT_TAU: f32 = 2.506_628_3;
-
-/// The standard normal cumulative distribution (Abramowitz & Stegun 7.1.26, error < 2e-7).
-fn normal_cdf(z: f32) -> f32 {
-    if z > 5.5 {
-        return 1.0;
-    }
-    if z < -5.5 {
-        return 0.0;
-    }
-    let x = z.abs() * core::f32::consts::FRAC_1_SQRT_2;
-    let t = 1.0 / (1.0 + 0.327_591_1 * x);
-    let poly = t
-        * (0.254_829_6
-            + t * (-0.284_496_74 + t * (1.421_413_7 + t * (-1.453_152_1 + t * 1.061_405_4))));
-    let erfc = poly * (-x * x).exp();
-    if z >= 0.0 {
-        1.0 - 0.5 * erfc
-    } else {
-        0.5 * erfc
-    }
-}
 
 /// The floor in the model's linear light: where known, the measured one seen through the
 /// fitted tone curve plus the fitted pedestal, else the fitted flat floor.

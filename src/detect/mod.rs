@@ -13,6 +13,7 @@ pub mod floor_bg;
 pub mod line_profile;
 pub mod moments;
 pub mod morph;
+mod normal;
 pub mod skeleton;
 pub mod spot_shape;
 pub mod streak;
