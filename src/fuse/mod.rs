@@ -4,9 +4,10 @@
 //! # Input
 //!
 //! The fuser takes messages: a camera (an index into the names it was made with), its capture
-//! time when the transport carries one, and the camera's report line ([`line`](mod@line)). Where they
-//! come from is not its business: [`feed::FileFeed`] reads recorded JSON lines and hands them
-//! over in capture-time order; a network subscription hands them over as they arrive.
+//! time when the transport carries one, and the camera's report line ([`line`](mod@line)).
+//! Where they come from is not its business: [`feed::FileFeed`] reads recorded JSON lines and
+//! hands them over in capture-time order; a network subscription hands them over as they
+//! arrive.
 //!
 //! A live feed calls [`line::parse`] with the transport's capture time (or `None`: the line's
 //! own `t`) and [`Fuser::push`] for each message as it arrives, or [`Fuser::push_line`] for

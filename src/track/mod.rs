@@ -20,9 +20,10 @@
 //! - Acquisition takes only what moved: a blob that appeared where nothing stood in the last
 //!   frame while something of that frame went away (the LED of the frame before included,
 //!   when nothing is in its gate and its velocity is not known yet), or one that crept from
-//!   where it first appeared. Among several that moved (several LEDs on one robot), the largest. However
-//!   round or elongated, a blob that has stood still since it appeared is never taken, and
-//!   when several candidates stand still the frame is `ambiguous` until one moves.
+//!   where it first appeared. Among several that moved (several LEDs on one robot), the
+//!   largest. However round or elongated, a blob that has stood still since it appeared is
+//!   never taken, and when several candidates stand still the frame is `ambiguous` until one
+//!   moves.
 //! - A lone candidate with nothing else in view is the LED when it appeared where nothing
 //!   stood in the frame before (the LED coming back after the track expired, or coming into
 //!   view). In the first frame of a run nothing has appeared: there a lone candidate is taken

@@ -464,9 +464,10 @@ impl View {
         }
     }
 
-    /// Static picture `image` (see [`View::image_at`]): each output pixel is the average of the scene over
-    /// the pixel's area as seen through the lens (corners mapped exactly; inside a pixel the
-    /// mapping is bilinear, which the lens is to far below a thousandth of a pixel).
+    /// Static picture `image` (see [`View::image_at`]): each output pixel is the average of
+    /// the scene over the pixel's area as seen through the lens (corners mapped exactly; inside
+    /// a pixel the mapping is bilinear, which the lens is to far below a thousandth of a
+    /// pixel).
     pub(crate) fn render_static(
         &self,
         floor: &Floor,
