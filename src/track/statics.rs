@@ -41,6 +41,15 @@ impl Static {
         dist(self.origin_px, self.position_px) > DRIFT_PX
     }
 
+    /// The blob of the last frame, now at `position_px`, has not drifted from where it first
+    /// appeared, as of the last frame nor now: a blob that crosses [`DRIFT_PX`] in this
+    /// frame has moved in this frame, not in the next one.
+    fn still_at(&self, position_px: (f32, f32)) -> bool {
+        !self.drifted()
+            && dist(self.origin_px, position_px) <= DRIFT_PX
+            && near(self.position_px, position_px)
+    }
+
     /// It has stood still since it appeared: a lamp, not a light moving with a body.
     fn standing(&self) -> bool {
         self.seen_frames >= STATIC_FRAMES && !self.drifted()
@@ -68,9 +77,10 @@ pub struct Statics {
 impl Statics {
     /// What is known of a blob at `position_px`.
     pub fn known(&self, position_px: (f32, f32)) -> Known {
-        let entry = self.entries.iter().find(|e| {
-            e.seen_frames >= STATIC_FRAMES && !e.drifted() && near(e.position_px, position_px)
-        });
+        let entry = self
+            .entries
+            .iter()
+            .find(|e| e.seen_frames >= STATIC_FRAMES && e.still_at(position_px));
         match entry {
             None => Known::Fresh,
             Some(e) if e.cleared => Known::Cleared,
@@ -79,11 +89,11 @@ impl Statics {
     }
 
     /// True when a blob stood at `position_px` in the frame before `frame_index` too, and
-    /// has not drifted from where it first appeared.
+    /// has not drifted from where it first appeared, then or now.
     pub fn stood_still(&self, position_px: (f32, f32), frame_index: u64) -> bool {
-        self.entries.iter().any(|e| {
-            e.last_seen_frame + 1 == frame_index && !e.drifted() && near(e.position_px, position_px)
-        })
+        self.entries
+            .iter()
+            .any(|e| e.last_seen_frame + 1 == frame_index && e.still_at(position_px))
     }
 
     /// True when a blob at `position_px` continues one of the frame before `frame_index` that
@@ -263,6 +273,22 @@ mod tests {
         // 0.5 px a frame never breaks the match, but 4.5 px from its origin it has moved.
         assert_eq!(s.known((4.5, 0.0)), Known::Fresh);
         assert!(!s.stood_still((5.0, 0.0), 10));
+    }
+
+    #[test]
+    fn a_creeping_blob_has_moved_in_the_frame_it_crosses_the_drift() {
+        let mut s = Statics::default();
+        for i in 0..5u64 {
+            s.observe((0.5 * i as f32, 0.0), i, false);
+        }
+        // Last seen 2.0 px from its origin, now 2.5 px: it moved in this frame.
+        let here = (2.5, 0.0);
+        assert!(s.crept(here, 5));
+        assert_eq!(s.known(here), Known::Fresh);
+        assert!(!s.stood_still(here, 5));
+        // Where it was last seen, it still stands.
+        assert_eq!(s.known((2.0, 0.0)), Known::Still);
+        assert!(s.stood_still((2.0, 0.0), 5));
     }
 
     #[test]
