@@ -96,7 +96,8 @@ pub struct PathFit {
     pub mid_px: (f32, f32),
     /// Length of the path.
     pub path_length_px: f32,
-    /// The spot's fitted standard deviation, as the camera shows it (tone included).
+    /// The spot's fitted standard deviation, in the model's linear light (before the fitted tone
+    /// curve, through which a Gaussian shows `1/√k` times wider).
     pub spot_sigma_px: f32,
     /// One standard deviation of the ends' positions (the larger of the two), from the fit's
     /// residual and its curvature: a frame whose model does not match its pixels shows here.

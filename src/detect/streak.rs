@@ -46,8 +46,13 @@ const FWHM_PER_SIGMA: f32 = 2.354_82;
 /// A path within this many of the fit's standard deviations of the spot's width is still.
 const STILL_UNCERTAINTIES: f32 = 2.0;
 
-/// A streak at most this many spot widths long takes its middle from the light's centre.
+/// A streak at most this many spot widths long takes its middle from the light's centre...
 const SHORT_STREAK_SPOTS: f32 = 3.0;
+
+/// ... unless the fit measured its path to within this fraction of its length (one standard
+/// deviation of its ends): the goal for the single-frame speed, the path's length over
+/// the exposure, is 3 % (median).
+const MEASURED_PATH_FRACTION: f32 = 0.03;
 
 /// Skeleton pixels the walk to the ends may visit; more belong to no LED.
 pub const MAX_SKELETON_PX: usize = 2048;
@@ -358,16 +363,22 @@ fn fitted_path(
         return (mid_px, None);
     };
     let spot_width_px = FWHM_PER_SIGMA * f.spot_sigma_px;
+    // No longer than the spot is wide, within the fit's uncertainty: still, and both ends
+    // are the middle.
+    let still = f.path_length_px <= spot_width_px + STILL_UNCERTAINTIES * f.uncertainty_px;
     // On a streak a few spots long, the light's symmetric centre is a steadier middle than
-    // the fitted path's, which trades length against the spot's width.
-    let mid = if f.path_length_px <= SHORT_STREAK_SPOTS * spot_width_px {
+    // the fitted path's, which trades length against the spot's width; unless the fit pinned
+    // the moving path's ends to a small fraction of its length, so that the trade did not
+    // happen. That is the case of a long streak whose core is buried in a saturated glow: the
+    // fitted spot is the glow, a few glows make a 60 px streak "short", and its light's centre,
+    // read over a wide glow on a floor whose texture lifts one flank more than the other, was
+    // 0.5-1.3 px off where the fitted middle is within a few tenths.
+    let measured = !still && f.uncertainty_px <= MEASURED_PATH_FRACTION * f.path_length_px;
+    let mid = if f.path_length_px <= SHORT_STREAK_SPOTS * spot_width_px && !measured {
         mid_px
     } else {
         f.mid_px
     };
-    // No longer than the spot is wide, within the fit's uncertainty: still, and both ends
-    // are the middle.
-    let still = f.path_length_px <= spot_width_px + STILL_UNCERTAINTIES * f.uncertainty_px;
     let path = StreakPath {
         ends_px: if still { [mid; 2] } else { f.ends_px },
         path_length_px: f.path_length_px,
