@@ -140,7 +140,7 @@ echo "glint_done_s $(cut -d' ' -f1 /proc/uptime)" >>"$OUT/timing"
 #    output and capture agree. The output is set to the format; glint itself asks the capture
 #    node for it (`--format-in`). A fast LED (streaks of 13-40 px) is fed, `glint record`
 #    records it, then `glint track --device` runs until FAST_TRACK_REPORTS lines are out.
-FAST_RECORD_FRAMES=12
+FAST_RECORD_FRAMES=24
 FAST_TRACK_REPORTS=5
 for format in grey uyvy; do
     fourcc=$(echo "$format" | tr a-z A-Z)
