@@ -3,8 +3,10 @@
 
 mod common;
 
-use common::glint;
+use common::{glint, repack};
+use glint::frame::{FrameSize, PixelFormat};
 use glint::geometry::Point;
+use glint::source::sidecar::{FrameTiming, Sidecar};
 use glint_tools::markers::{reference_camera, MarkerScene, PlacedMarker};
 
 fn marker(id: u16, x_cm: f64, y_cm: f64) -> PlacedMarker {
@@ -215,4 +217,73 @@ fn malformed_marker_arguments_are_usage_errors() {
     assert!(String::from_utf8_lossy(&run.stderr).contains("named more than once"));
     let run = calibrate(&path, &out, &["23:20"]);
     assert!(String::from_utf8_lossy(&run.stderr).contains("holds no whole frame"));
+}
+
+#[test]
+fn a_mono_camera_s_grey_dump_calibrates_as_its_yuyv_does() {
+    let scene = MarkerScene::new(
+        reference_camera(),
+        vec![marker(23, 0.0, 0.0), marker(101, 55.0, 45.0)],
+    );
+    let (dir, yuyv) = dump(&scene, 3);
+    let markers = ["23:20", "101:20@55,45", "--lens", "ideal"];
+    let written = |run: std::process::Output, out: &std::path::Path| {
+        assert!(
+            run.status.success(),
+            "{}",
+            String::from_utf8_lossy(&run.stderr)
+        );
+        std::fs::read_to_string(out).unwrap()
+    };
+    let out = dir.path().join("yuyv.toml");
+    let reference = written(calibrate(&yuyv, &out, &markers), &out);
+    let grey = dir.path().join("markers.grey");
+    std::fs::write(
+        &grey,
+        repack(&std::fs::read(&yuyv).unwrap(), PixelFormat::Grey),
+    )
+    .unwrap();
+
+    // The same luma, read in place from GREY: the same calibration, to the last digit.
+    let out = dir.path().join("grey.toml");
+    let with_format = [&markers[..], &["--format-in", "grey"]].concat();
+    assert_eq!(
+        written(calibrate(&grey, &out, &with_format), &out),
+        reference
+    );
+
+    // Read as YUYV, three GREY frames are a frame and a half.
+    let run = calibrate(&grey, &out, &markers);
+    assert!(!run.status.success());
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(
+        stderr.contains(
+            "921600 bytes is not a whole number of 640x480 frames (614400 bytes each as yuyv)"
+        ),
+        "{stderr}"
+    );
+
+    // A dump `glint record` wrote says its format in its sidecar: no --format-in needed, and
+    // one that contradicts it is refused.
+    let size = FrameSize::new(640, 480).unwrap();
+    let timings = (0..3)
+        .map(|i| FrameTiming {
+            seq: i,
+            t_us: i * 33_333,
+        })
+        .collect();
+    let sidecar = Sidecar::new(size, 640, timings).with_format(PixelFormat::Grey);
+    let mut text = Vec::new();
+    sidecar.write(&mut text).unwrap();
+    std::fs::write(Sidecar::path_for(&grey), text).unwrap();
+    let out = dir.path().join("sidecar.toml");
+    assert_eq!(written(calibrate(&grey, &out, &markers), &out), reference);
+    let with_yuyv = [&markers[..], &["--format-in", "yuyv"]].concat();
+    let run = calibrate(&grey, &out, &with_yuyv);
+    assert!(!run.status.success());
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(
+        stderr.contains("says the frames are grey, but --format-in is yuyv"),
+        "{stderr}"
+    );
 }

@@ -7,22 +7,12 @@ mod common;
 use std::path::{Path, PathBuf};
 use std::process::Output;
 
-use common::{glint, parse_jsonl, render, Rendered};
+use common::{glint, parse_jsonl, render, repack, Rendered};
 use glint::frame::{FrameSize, PixelFormat};
 use glint::source::sidecar::{FrameTiming, Sidecar};
 
 /// Frames of each scene replayed.
 const KEPT: usize = 45;
-
-/// The first frames of the YUYV dump, repacked as `format`.
-fn repack(yuyv: &[u8], format: PixelFormat) -> Vec<u8> {
-    match format {
-        PixelFormat::Yuyv => yuyv.to_vec(),
-        // `Y0 U Y1 V` → `U Y0 V Y1`.
-        PixelFormat::Uyvy => yuyv.chunks_exact(2).flat_map(|p| [p[1], p[0]]).collect(),
-        PixelFormat::Grey => yuyv.iter().step_by(2).copied().collect(),
-    }
-}
 
 fn size_of(r: &Rendered) -> FrameSize {
     FrameSize::new(r.scene.width_px(), r.scene.height_px()).unwrap()

@@ -18,6 +18,7 @@ use std::process::Command;
 use std::sync::OnceLock;
 use std::time::Instant;
 
+use glint::frame::PixelFormat;
 use glint_tools::scene::{Scene, Truth};
 use serde_json::Value;
 
@@ -44,6 +45,35 @@ const MID_MAX_ERROR_PX: f64 = 0.5;
 const HEAD_MAX_ERROR_PX: f64 = 1.5;
 /// Frames `glint record` records in the guest.
 const RECORD_FRAMES: usize = 12;
+/// The fast LED scene fed as a mono camera's GREY and as UYVY: every `FAST_STEP`-th frame of
+/// the preset from `FAST_FIRST` on, streaks 13 to 40 px long, on one straight line, their heads
+/// 53 to 106 px apart, so that each report matches one fed frame and the frames before it on
+/// the path lie behind its streak (30 px behind its tail at least).
+const FAST_SCENE: &str = "speed-ramp";
+const FAST_FIRST: usize = 11;
+const FAST_STEP: usize = 2;
+const FAST_FRAMES: u8 = 8;
+/// The formats the fast scene is fed in, as `--format-in` names them.
+const FAST_FORMATS: [PixelFormat; 2] = [PixelFormat::Grey, PixelFormat::Uyvy];
+/// The middle of a streak whose LED speeds up or brakes is not where the LED was at the middle
+/// of the exposure (the truth's middle): the two differ by the acceleration times the
+/// exposure squared over 8, 0.49 px at most in the fast scene. Middles are held to the
+/// accuracy bound plus that.
+const FAST_MID_MAX_ERROR_PX: f64 = MID_MAX_ERROR_PX + 0.5;
+/// Frames `glint record` records of the fast scene, per format. It nearly keeps up with
+/// vivid's 60 fps in the guest, so its frames come in the fed order, with repeats when the
+/// feeder is late (see [`check_fast_run`]).
+const FAST_RECORD_FRAMES: usize = 24;
+/// Reports `glint track --device` gives on the fast scene, per format, at least (the guest
+/// stops it after these).
+const FAST_TRACK_REPORTS: usize = 5;
+/// Frames of the recordings whose head is checked (see [`check_fast_run`]), over both formats,
+/// at least. `glint track --device`'s few reports are checked wherever their frames come in
+/// order, but no number of them is: its first frames are vivid's next few (the buffers fill
+/// while glint starts), repeats included, and its later ones whichever fed frame is showing;
+/// one to six heads in a run here. The frames are byte-identical to the recorded ones, so
+/// the recordings' replays hold the heads of the same pixels.
+const MIN_RECORDED_HEADS_CHECKED: usize = 6;
 
 /// The scenario outputs, read once.
 struct Suite {
@@ -118,30 +148,64 @@ fn scene_frame_id(k: u8) -> u32 {
     u32::from_le_bytes([0x20 + k, 0x31, 0x42, 0x53])
 }
 
-/// The id in the first four luma bytes of a frame.
-fn luma_id(frame: &[u8]) -> u32 {
-    u32::from_le_bytes([frame[0], frame[2], frame[4], frame[6]])
+/// Frame id of fast scene frame `k`.
+fn fast_frame_id(k: u8) -> u32 {
+    u32::from_le_bytes([0x60 + k, 0x71, 0x82, 0x93])
 }
 
-/// The scene frames fed through the loop, with their ids written in, and their truths.
-fn scene_feed() -> (Vec<u8>, Vec<Truth>) {
-    let scene = Scene::preset(SCENE).expect("scene preset");
+/// The id in the first four luma bytes of a YUYV frame.
+fn luma_id(frame: &[u8]) -> u32 {
+    luma_id_as(frame, PixelFormat::Yuyv)
+}
+
+/// The id in the first four luma bytes of a frame of `format`.
+fn luma_id_as(frame: &[u8], format: PixelFormat) -> u32 {
+    let luma = |i: usize| frame[i * format.bytes_per_pixel() + format.luma_offset()];
+    u32::from_le_bytes([luma(0), luma(1), luma(2), luma(3)])
+}
+
+/// `count` frames of preset `name`, every `step`-th from `first` on, as YUYV with their ids
+/// (`id(k)`) written into the first luma bytes, and their truths.
+fn feed(
+    name: &str,
+    first: usize,
+    step: usize,
+    count: u8,
+    id: fn(u8) -> u32,
+) -> (Vec<u8>, Vec<Truth>) {
+    let scene = Scene::preset(name).expect("scene preset");
     assert_eq!((scene.width_px(), scene.height_px()), (640, 480));
     let mut bytes = Vec::new();
     let mut truths = Vec::new();
     let mut frame = vec![0u8; scene.frame_len_bytes()];
-    for k in 0..SCENE_FRAMES {
+    for k in 0..count {
         truths.push(
             scene
-                .render(usize::from(k) * SCENE_STEP, &mut frame)
+                .render(first + usize::from(k) * step, &mut frame)
                 .expect("render"),
         );
-        for (i, b) in scene_frame_id(k).to_le_bytes().into_iter().enumerate() {
+        for (i, b) in id(k).to_le_bytes().into_iter().enumerate() {
             frame[2 * i] = b;
         }
         bytes.extend_from_slice(&frame);
     }
     (bytes, truths)
+}
+
+/// The slow scene frames fed through the loop as YUYV, and their truths.
+fn scene_feed() -> (Vec<u8>, Vec<Truth>) {
+    feed(SCENE, 0, SCENE_STEP, SCENE_FRAMES, scene_frame_id)
+}
+
+/// The fast scene frames (YUYV, to be repacked), and their truths.
+fn fast_feed() -> (Vec<u8>, Vec<Truth>) {
+    feed(
+        FAST_SCENE,
+        FAST_FIRST,
+        FAST_STEP,
+        FAST_FRAMES,
+        fast_frame_id,
+    )
 }
 
 /// The fed scene frame whose truth lies nearest to a report's streak middle, and how far.
@@ -163,6 +227,12 @@ fn nearest_truth(report: &Value, truths: &[Truth]) -> (usize, f64) {
 
 /// A found report's streak middle and head are where the fed frame's truth puts them.
 fn assert_on_truth(report: &Value, truth: &Truth) {
+    assert_near_truth(report, truth, MID_MAX_ERROR_PX, true);
+}
+
+/// A found report's streak middle is within `mid_max_px` of the fed frame's truth, and, when
+/// `check_head`, its head within [`HEAD_MAX_ERROR_PX`]; returns the head's distance.
+fn assert_near_truth(report: &Value, truth: &Truth, mid_max_px: f64, check_head: bool) -> f64 {
     let at = |x: &str, y: &str| {
         (
             report[x]
@@ -177,17 +247,18 @@ fn assert_on_truth(report: &Value, truth: &Truth) {
     let mid_px =
         (mid_x - truth.mid_x_px.expect("visible")).hypot(mid_y - truth.mid_y_px.expect("visible"));
     assert!(
-        mid_px <= MID_MAX_ERROR_PX,
+        mid_px <= mid_max_px,
         "{report}: middle {mid_px:.3} px from scene frame {}'s",
         truth.frame
     );
     let (x, y) = at("x", "y");
     let head_px = (x - truth.x_px.expect("visible")).hypot(y - truth.y_px.expect("visible"));
     assert!(
-        head_px <= HEAD_MAX_ERROR_PX,
+        !check_head || head_px <= HEAD_MAX_ERROR_PX,
         "{report}: head {head_px:.3} px from scene frame {}'s",
         truth.frame
     );
+    head_px
 }
 
 /// The probe's frame hash: FNV-1a 64 over the unpadded rows.
@@ -234,6 +305,14 @@ fn run_suite() -> Result<Suite, String> {
     let input: Vec<u8> = (0..LOOP_FRAMES).flat_map(loop_frame).collect();
     fs::write(share.join("in/loop.yuv"), input).map_err(|e| e.to_string())?;
     fs::write(share.join("in/scene.yuv"), scene_feed().0).map_err(|e| e.to_string())?;
+    let fast = fast_feed().0;
+    for format in FAST_FORMATS {
+        fs::write(
+            share.join(format!("in/fast.{format}")),
+            common::repack(&fast, format),
+        )
+        .map_err(|e| e.to_string())?;
+    }
 
     let started = Instant::now();
     let prepare = Command::new(repo().join("tests/vm/prepare.sh"))
@@ -782,5 +861,229 @@ fn glint_devices_lists_the_loop_capture_node() {
     assert!(
         !list.contains("/dev/video1:"),
         "output nodes are not cameras: {list}"
+    );
+}
+
+/// The fast scene's frames as a camera of `format` sends them, and how many bytes each takes.
+fn fast_pictures(format: PixelFormat) -> (Vec<u8>, usize) {
+    let size = glint::frame::FrameSize::new(WIDTH_PX as u32, HEIGHT_PX as u32).expect("size");
+    (
+        common::repack(&fast_feed().0, format),
+        size.frame_bytes_as(format),
+    )
+}
+
+fn fourcc(format: PixelFormat) -> String {
+    String::from_utf8_lossy(&format.fourcc()).into_owned()
+}
+
+/// Holds one run on the fast scene to its truths: `pictures[i]` is the fed frame report `i`
+/// shows. Every found report's middle is checked; its head is checked when the report before
+/// it found the LED in an earlier fed frame. The head is the streak's end farther from where
+/// the LED was in the frame before (src/track), and a camera's frames come in the order of
+/// the exposures. vivid's loop does not keep that order: a slow guest's capture takes
+/// whichever fed frame is showing when it asks, so the LED may seem to jump back along its
+/// path, or a frame may come twice, and then the streak's far end is its tail, the way no
+/// camera's frames show it. Returns the checked heads' distances from the truth.
+fn check_fast_run(reports: &[Value], pictures: &[Option<usize>], truths: &[Truth]) -> Vec<f64> {
+    let mut heads_px = Vec::new();
+    let mut previous = None;
+    for (report, picture) in reports.iter().zip(pictures) {
+        let Some(k) = picture.filter(|_| report["found"] == true) else {
+            previous = None;
+            continue;
+        };
+        let in_order = previous.is_some_and(|p| p < k);
+        let head_px = assert_near_truth(report, &truths[k], FAST_MID_MAX_ERROR_PX, in_order);
+        if in_order {
+            heads_px.push(head_px);
+        }
+        previous = Some(k);
+    }
+    heads_px
+}
+
+/// The LED is found in at least half of a short run on the fast scene. A streak is taken in
+/// the first frame it shows, but the guest's capture makes the LED jump back and forth along
+/// its path, and a light far from the prediction is not taken at once (see the slow scene's
+/// test, whose longer run is held to three frames in four).
+fn assert_mostly_found(reports: &[Value], what: &dyn std::fmt::Display) {
+    let found = reports.iter().filter(|r| r["found"] == true).count();
+    assert!(
+        found * 2 >= reports.len() && reports.first().is_some_and(|r| r["found"] == true),
+        "{what}: the LED is found in {found} of {} frames",
+        reports.len()
+    );
+}
+
+/// The checked heads' worst and 95th percentile, on standard error for the README's figures,
+/// and enough of them checked.
+fn report_heads(what: &str, heads_px: &[f64], min_checked: usize) {
+    assert!(
+        heads_px.len() >= min_checked,
+        "{what}: only {} heads checked",
+        heads_px.len()
+    );
+    if heads_px.is_empty() {
+        eprintln!("{what}: no frame in order, no head checked");
+        return;
+    }
+    eprintln!(
+        "{what}: {} heads checked, worst {:.3} px, p95 {:.3} px, median {:.3} px",
+        heads_px.len(),
+        common::quantile(heads_px, 1.0),
+        common::quantile(heads_px, 0.95),
+        common::quantile(heads_px, 0.5),
+    );
+}
+
+#[test]
+fn glint_records_grey_and_uyvy_cameras_byte_exact_and_the_records_replay() {
+    let Some(suite) = suite() else { return };
+    let (_, truths) = fast_feed();
+    let mut heads_px = Vec::new();
+    for format in FAST_FORMATS {
+        let name = format!("record_{format}");
+        let log = suite.log(&name);
+        assert_eq!(suite.status(&name), "0", "{log}");
+        assert!(
+            log.contains(&format!("recorded {FAST_RECORD_FRAMES} frames")),
+            "{log}"
+        );
+        let (fed, frame_bytes) = fast_pictures(format);
+        let row_bytes = WIDTH_PX * format.bytes_per_pixel();
+        let dump_path = suite.out.join(format!("fast-{format}.raw"));
+        let dump = fs::read(&dump_path).expect("the recorded dump");
+        assert_eq!(dump.len(), FAST_RECORD_FRAMES * frame_bytes, "{format}");
+        let sidecar: Value = serde_json::from_str(&suite.file(&format!("fast-{format}.raw.json")))
+            .expect("the sidecar is JSON");
+        assert_eq!(sidecar["format"], fourcc(format));
+        assert_eq!(sidecar["stride"].as_u64(), Some(row_bytes as u64));
+        assert!(sidecar["driver_stride"].as_u64() >= Some(row_bytes as u64));
+
+        // Each recorded frame is one fed frame, byte for byte: the driver's buffers were read
+        // as `format`, and written without their padding.
+        let pictures: Vec<Option<usize>> = dump
+            .chunks_exact(frame_bytes)
+            .map(|frame| {
+                let k = fed.chunks_exact(frame_bytes).position(|p| p == frame);
+                assert!(
+                    k.is_some(),
+                    "{format}: a recorded frame (id {:#x}) is none of the fed ones",
+                    luma_id_as(frame, format)
+                );
+                k
+            })
+            .collect();
+
+        // Replayed on the host without --format-in: the sidecar says what the frames are.
+        let out = common::glint()
+            .args(["track", "--input"])
+            .arg(&dump_path)
+            .args(["--size", "640x480"])
+            .output()
+            .expect("run glint");
+        assert!(
+            out.status.success(),
+            "{format}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let reports = common::parse_jsonl(&out.stdout);
+        assert_eq!(reports.len(), FAST_RECORD_FRAMES, "{format}");
+        assert_report_timeline(&reports);
+        assert_mostly_found(&reports, &format);
+        heads_px.extend(check_fast_run(&reports, &pictures, &truths));
+
+        // vivid repeats a fed frame for as long as the feeder is late (a loaded guest's feeder
+        // runs at 15-40 fps), and after a repeat the far end is the tail (see
+        // `check_fast_run`). A camera never sends one exposure twice: the recording without
+        // its repeats is replayed too, so that the heads of more frames are checked.
+        let mut once = Vec::new();
+        let mut shown = Vec::new();
+        for (frame, &k) in dump.chunks_exact(frame_bytes).zip(&pictures) {
+            if shown.last() != Some(&k) {
+                once.extend_from_slice(frame);
+                shown.push(k);
+            }
+        }
+        let once_path = suite.out.join(format!("fast-{format}-once.raw"));
+        fs::write(&once_path, once).expect("write the frames without repeats");
+        let out = common::glint()
+            .args(["track", "--input"])
+            .arg(&once_path)
+            .args(["--size", "640x480", "--format-in", format.name()])
+            .output()
+            .expect("run glint");
+        assert!(
+            out.status.success(),
+            "{format}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let reports = common::parse_jsonl(&out.stdout);
+        assert_eq!(reports.len(), shown.len(), "{format}");
+        heads_px.extend(check_fast_run(&reports, &shown, &truths));
+    }
+    report_heads(
+        "fast scene recorded as GREY and UYVY, replayed",
+        &heads_px,
+        MIN_RECORDED_HEADS_CHECKED,
+    );
+}
+
+#[test]
+fn glint_track_follows_a_fast_led_from_grey_and_uyvy_cameras() {
+    let Some(suite) = suite() else { return };
+    let (_, truths) = fast_feed();
+    let mut heads_px = Vec::new();
+    for format in FAST_FORMATS {
+        let name = format!("track_{format}");
+        let log = suite.log(&name);
+        assert_eq!(
+            suite.status(&name),
+            "0",
+            "SIGTERM ends glint cleanly: {log}"
+        );
+        assert!(!log.contains("panicked"), "{log}");
+        let row_bytes = WIDTH_PX * format.bytes_per_pixel();
+        assert!(
+            log.contains(&format!(
+                "{} 640x480 with rows {row_bytes} bytes apart",
+                fourcc(format)
+            )),
+            "{log}"
+        );
+        let reports = suite.reports(&name);
+        assert!(
+            reports.len() >= FAST_TRACK_REPORTS,
+            "{format}: {} reports; log: {log}",
+            reports.len()
+        );
+        assert_report_timeline(&reports);
+        // A smeared light alone in view is taken in the first frame it shows.
+        let waited = reports
+            .iter()
+            .take_while(|r| r["found"] != true && r["ambiguous"] == true)
+            .count();
+        assert!(
+            waited <= MAX_ACQUIRE_FRAMES,
+            "{format}: ambiguous for {waited} frames"
+        );
+        let counted = &reports[waited..];
+        assert_mostly_found(counted, &format);
+        let pictures: Vec<Option<usize>> = counted
+            .iter()
+            .map(|r| (r["found"] == true).then(|| nearest_truth(r, &truths).0))
+            .collect();
+        let distinct: std::collections::HashSet<_> = pictures.iter().flatten().collect();
+        assert!(
+            distinct.len() >= 2,
+            "{format}: the loop advances through the fed frames: {pictures:?}"
+        );
+        heads_px.extend(check_fast_run(counted, &pictures, &truths));
+    }
+    report_heads(
+        "fast scene through glint track --device, GREY and UYVY",
+        &heads_px,
+        0,
     );
 }

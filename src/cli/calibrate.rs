@@ -1,6 +1,6 @@
-//! `glint calibrate`: find ArUco markers at known floor positions in a raw YUYV dump, fit the
-//! camera (lens and pose over the floor) to them, and write the calibration as a documented
-//! TOML file (version 2, see `glint::geometry::calibration_file`).
+//! `glint calibrate`: find ArUco markers at known floor positions in a raw dump (YUYV, UYVY or
+//! a mono camera's GREY), fit the camera (lens and pose over the floor) to them, and write the
+//! calibration as a documented TOML file (version 2, see `glint::geometry::calibration_file`).
 //!
 //! Each named marker's corners are averaged over every frame of a dump it is seen in (noise
 //! falls with the square root of the frame count: within one dump the camera and the markers
@@ -16,7 +16,7 @@ use std::collections::BTreeSet;
 use std::fmt::Write as _;
 use std::fs::File;
 use std::io::{self, Read, Write as _};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::str::FromStr;
 
@@ -25,7 +25,7 @@ use clap::Args;
 
 use glint::budget::{self, MemoryPlan};
 use glint::detect::aruco::{Detector, DetectorConfig, Dictionary};
-use glint::frame::FrameSize;
+use glint::frame::{FrameSize, PixelFormat};
 use glint::geometry::camera_fit::{LENS_UNDETERMINED_PX, LENS_WEAK_PX, MAX_VIEWS};
 use glint::geometry::lens_file;
 use glint::geometry::{
@@ -34,6 +34,7 @@ use glint::geometry::{
 };
 use glint::small_file;
 use glint::source::dump::{DumpError, DumpSource};
+use glint::source::sidecar::{Sidecar, SidecarError};
 use glint::source::FrameSource;
 
 use super::memory::MemoryArgs;
@@ -43,7 +44,8 @@ const NOMINAL_FPS: f64 = 30.0;
 
 #[derive(Debug, Args)]
 pub struct CalibrateArgs {
-    /// A raw YUYV dump, or `-` for standard input. Repeat (up to 4) for several views of the
+    /// A raw dump (YUYV unless --format-in or its sidecar says otherwise), or `-` for
+    /// standard input. Repeat (up to 4) for several views of the
     /// floor fitted with one lens and a pose each: a board of markers moved to other parts of
     /// the picture between them. All views are dumps of --size.
     #[arg(long, value_name = "PATH|-", required = true)]
@@ -73,6 +75,12 @@ pub struct CalibrateArgs {
     /// the pose is then fitted alone).
     #[arg(long, value_name = "fit|ideal|FILE", default_value = "fit")]
     lens: LensArg,
+
+    /// Pixel format of the dumps: yuyv, uyvy or grey (8-bit luma, as mono cameras such as
+    /// the OV9281 send). Default: the format a dump's sidecar records (`glint record` writes
+    /// one), else yuyv.
+    #[arg(long, value_name = "yuyv|uyvy|grey")]
+    format_in: Option<PixelFormat>,
 
     /// Where to write the calibration.
     #[arg(long, value_name = "FILE")]
@@ -162,9 +170,42 @@ struct Views<'a> {
     each: &'a [String],
 }
 
+/// The pixel format of view `input`: `--format-in` when given, else what the dump's sidecar
+/// records, else YUYV. A sidecar that contradicts `--format-in`, or one that does not fit its
+/// dump, is refused, as `glint track` refuses it.
+fn view_format(input: &str, size: FrameSize, given: Option<PixelFormat>) -> Result<PixelFormat> {
+    let dump = Path::new(input);
+    // Standard input has no sidecar, and a missing dump is reported when it is opened.
+    let Some(dump_bytes) = (input != "-")
+        .then(|| dump.metadata().ok())
+        .flatten()
+        .filter(|m| m.is_file())
+        .map(|m| m.len())
+    else {
+        return Ok(given.unwrap_or_default());
+    };
+    let path = Sidecar::path_for(dump);
+    let recorded = match Sidecar::load_for(&path, size, dump_bytes) {
+        Ok(sidecar) => sidecar
+            .pixel_format()
+            .with_context(|| path.display().to_string())?,
+        Err(SidecarError::Io(e)) if e.kind() == io::ErrorKind::NotFound => {
+            return Ok(given.unwrap_or_default())
+        }
+        Err(e) => bail!("{}: {e}", path.display()),
+    };
+    match given {
+        Some(given) if given != recorded => bail!(
+            "the sidecar of {input} says the frames are {recorded}, but --format-in is {given}"
+        ),
+        _ => Ok(recorded),
+    }
+}
+
 /// Opens a dump for reading: `-` is standard input; a regular file's length must be a whole
-/// number of frames of `size`, or it is a dump of another size (or a cut one).
-fn open_dump(input: &str, size: FrameSize) -> Result<Box<dyn Read>> {
+/// number of `format` frames of `size`, or it is a dump of another size or format (or a cut
+/// one).
+fn open_dump(input: &str, size: FrameSize, format: PixelFormat) -> Result<Box<dyn Read>> {
     if input == "-" {
         return Ok(Box::new(io::stdin().lock()));
     }
@@ -173,12 +214,12 @@ fn open_dump(input: &str, size: FrameSize) -> Result<Box<dyn Read>> {
     if meta.as_ref().is_some_and(|m| m.is_dir()) {
         bail!("{input} is a directory, not a dump");
     }
-    let frame_bytes = budget::frame_bytes(size) as u64;
+    let frame_bytes = size.frame_bytes_as(format) as u64;
     if let Some(len) = meta.filter(|m| m.is_file()).map(|m| m.len()) {
         if len > 0 && frame_bytes > 0 && len % frame_bytes != 0 {
             bail!(
                 "{input}: {len} bytes is not a whole number of {size} frames ({frame_bytes} \
-                 bytes each); every view must be a dump of --size {size}"
+                 bytes each as {format}); every view must be a dump of --size {size}"
             );
         }
     }
@@ -190,10 +231,13 @@ fn open_dump(input: &str, size: FrameSize) -> Result<Box<dyn Read>> {
 fn read_view(
     input: &str,
     size: FrameSize,
+    format_in: Option<PixelFormat>,
     detector: &mut Detector,
     placements: &[MarkerPlacement],
 ) -> Result<View> {
-    let mut source = DumpSource::try_new(open_dump(input, size)?, size, NOMINAL_FPS)?;
+    let format = view_format(input, size, format_in)?;
+    let mut source =
+        DumpSource::try_with_format(open_dump(input, size, format)?, size, NOMINAL_FPS, format)?;
     let mut sums = vec![CornerSums::default(); placements.len()];
     let mut seen_ids = BTreeSet::new();
     let mut frames = 0u64;
@@ -351,7 +395,7 @@ pub fn run(args: CalibrateArgs) -> Result<ExitCode> {
     for (i, input) in args.input.iter().enumerate() {
         // Name the view only when there are several: one dump reads as it always has.
         let name = (count > 1).then(|| format!("view {} ({input})", i + 1));
-        let read = read_view(input, args.size, &mut detector, &placements);
+        let read = read_view(input, args.size, args.format_in, &mut detector, &placements);
         let view = match &name {
             Some(name) => read.with_context(|| name.clone())?,
             None => read?,

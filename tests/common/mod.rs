@@ -12,6 +12,7 @@ pub mod view;
 use std::path::PathBuf;
 use std::process::{Command, Output};
 
+use glint::frame::PixelFormat;
 use glint_tools::scene::{Scene, Truth, Visibility};
 use serde_json::Value;
 
@@ -32,6 +33,17 @@ pub fn skipped(var: &str, what: &str) -> bool {
         return true;
     }
     false
+}
+
+/// Packed YUYV frames repacked as `format`: the same luma, in UYVY's odd bytes or alone as
+/// GREY (what mono cameras send).
+pub fn repack(yuyv: &[u8], format: PixelFormat) -> Vec<u8> {
+    match format {
+        PixelFormat::Yuyv => yuyv.to_vec(),
+        // `Y0 U Y1 V` → `U Y0 V Y1`.
+        PixelFormat::Uyvy => yuyv.chunks_exact(2).flat_map(|p| [p[1], p[0]]).collect(),
+        PixelFormat::Grey => yuyv.iter().step_by(2).copied().collect(),
+    }
 }
 
 /// A rendered scene written to a temporary dump file.

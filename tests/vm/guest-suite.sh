@@ -1,7 +1,8 @@
 # The vivid checks, run inside the test VM by /init as /mnt/guest.sh (busybox sh).
-# Inputs: /mnt/capture_probe, /mnt/glint, /mnt/in/loop.yuv, /mnt/in/scene.yuv. Outputs:
-# /mnt/out/<check>.jsonl (the probe's or glint's JSON lines), <check>.err (its log),
-# <check>.status (its exit status), and glint record's rec.yuv + rec.yuv.json. The host-side
+# Inputs: /mnt/capture_probe, /mnt/glint, /mnt/in/loop.yuv, /mnt/in/scene.yuv, and the fast
+# scene as /mnt/in/fast.grey and fast.uyvy. Outputs: /mnt/out/<check>.jsonl (the probe's or
+# glint's JSON lines), <check>.err (its log), <check>.status (its exit status), and glint
+# record's rec.yuv + rec.yuv.json, fast-grey.raw + .json and fast-uyvy.raw + .json. The host-side
 # test (tests/vivid.rs) asserts on them; this script only drives the driver.
 # Run the programs from RAM: loading them through 9p at every start is slow under TCG.
 cp /mnt/capture_probe /tmp/capture_probe
@@ -134,4 +135,30 @@ kill $feeder
 wait $feeder 2>/dev/null
 "$GLINT" devices >"$OUT/devices.txt" 2>&1
 echo "glint_done_s $(cut -d' ' -f1 /proc/uptime)" >>"$OUT/timing"
+
+# 5. A mono camera's GREY and a UYVY camera: vivid loops both formats byte-exact when its
+#    output and capture agree. The output is set to the format; glint itself asks the capture
+#    node for it (`--format-in`). A fast LED (streaks of 13-40 px) is fed, `glint record`
+#    records it, then `glint track --device` runs until FAST_TRACK_REPORTS lines are out.
+FAST_RECORD_FRAMES=24
+FAST_TRACK_REPORTS=5
+for format in grey uyvy; do
+    fourcc=$(echo "$format" | tr a-z A-Z)
+    v4l2-ctl -d /dev/video1 --set-fmt-video-out=width=640,height=480,pixelformat="$fourcc"
+    feed "/mnt/in/fast.$format"
+    "$GLINT" record --device /dev/video0 --size 640x480 --format-in "$format" \
+        --frames "$FAST_RECORD_FRAMES" --out "$OUT/fast-$format.raw" \
+        >"$OUT/record_$format.out" 2>"$OUT/record_$format.err"
+    echo $? >"$OUT/record_$format.status"
+    "$GLINT" track --device /dev/video0 --size 640x480 --format-in "$format" \
+        >"$OUT/track_$format.jsonl" 2>"$OUT/track_$format.err" &
+    pid=$!
+    wait_output "track_$format" "$FAST_TRACK_REPORTS" "mmap buffers"
+    kill -TERM $pid
+    wait $pid
+    echo $? >"$OUT/track_$format.status"
+    kill $feeder
+    wait $feeder 2>/dev/null
+    echo "${format}_done_s $(cut -d' ' -f1 /proc/uptime)" >>"$OUT/timing"
+done
 exit 0

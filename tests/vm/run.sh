@@ -7,7 +7,8 @@
 #   off. The kernel's console goes to SHARE_DIR/console.log.
 #
 # Exits with the guest script's status; 124 when the VM outlives GLINT_VM_TIMEOUT seconds
-# (default 90), 125 when the VM ends without the guest script having run.
+# (default 180: the vivid suite takes 60-70 s on an idle machine under TCG, and up to 140 s here
+# with other work on both cores), 125 when the VM ends without the guest script having run.
 # GLINT_VM_QEMU_EXTRA adds qemu arguments (split at spaces), e.g. "-serial pty" for a second
 # UART (the guest's /dev/ttyS1) on a host pty, named in SHARE_DIR/qemu.log.
 #
@@ -17,7 +18,7 @@ set -eu
 
 HERE=$(cd "$(dirname "$0")" && pwd)
 share=$(cd "${1:?usage: run.sh SHARE_DIR}" && pwd)
-timeout_s=${GLINT_VM_TIMEOUT:-90}
+timeout_s=${GLINT_VM_TIMEOUT:-180}
 [ -f "$share/guest.sh" ] || { echo "run: $share/guest.sh is missing" >&2; exit 2; }
 
 parts=$("$HERE/prepare.sh")

@@ -16,6 +16,7 @@ use glint::detect::aruco::Dictionary;
 pub(crate) const NAMES: &[&str] = &[
     "slow-line",
     "fast-line",
+    "speed-ramp",
     "circles",
     "figure-eight",
     "stop-go",
@@ -256,6 +257,25 @@ pub(crate) fn config(name: &str) -> Option<SceneConfig> {
                     b_px: Point::new(576.0, 432.0),
                     speed_px_s: 2400.0,
                     at_a_s: 0.5 * gap_s,
+                },
+            )
+        }
+        "speed-ramp" => {
+            // One raised-cosine move of 640 px in 0.8 s (mean 800 px/s, peak 1600 px/s): at
+            // 25 ms the streaks grow from nothing to 40 px and shrink again, on one straight
+            // line, so that every streak between 10 and 40 px long is in the scene and the
+            // head is the end farther along the line.
+            base(
+                name,
+                "LED speeding up and braking on a 640 px diagonal (raised cosine, peak 1600 px/s), 25 ms exposure (streaks up to 40 px)",
+                25_000,
+                60,
+                Trajectory::Arrive {
+                    from_px: Point::new(64.0, 432.0),
+                    to_px: Point::new(576.0, 48.0),
+                    move_s: 0.8,
+                    arrive_s: 1.0,
+                    then_velocity_px_s: Point::new(0.0, 0.0),
                 },
             )
         }

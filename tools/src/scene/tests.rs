@@ -61,7 +61,7 @@ fn render(scene: &Scene, frame: usize) -> Vec<u8> {
 
 #[test]
 fn presets_have_stable_names_and_sane_sizes() {
-    assert_eq!(Scene::names().len(), 20);
+    assert_eq!(Scene::names().len(), 21);
     for &name in Scene::names() {
         let scene = Scene::preset(name).unwrap_or_else(|| panic!("preset {name} must build"));
         assert_eq!(scene.name(), name);
