@@ -731,3 +731,45 @@ fn the_ramps_read_a_gaussian_streak_s_speed() {
         100.0 * median
     );
 }
+
+/// A 60 px streak in a glow bright enough to clip on its own (its line profile across the
+/// body, `saturation × glow width × glow ratio` of the clip, at least 1): the streak's edges
+/// are the glow's, which carries the light 20–40 px out. The ramps and the line profile cut
+/// their levels from the floor where that light has died (`src/detect/ray_floor.rs`); with the
+/// floor read 14 px out, on the glow, every level was lifted towards the clip and these
+/// streaks' speed read 16–17 % short. On the default run's points of the sweep (seed 11:
+/// points 14 and 22) the pooled single-frame speed is within the bounds. NOT YET HELD further on: point 38 (seed 11) reads 5.7 %
+/// short in the median, and points 30 and 34, whose glows are wider still, get no path.
+#[test]
+fn the_ramps_read_a_streak_s_speed_in_a_wide_glow() {
+    let points: Vec<SweepPoint> = SweepPoint::sweep(DEFAULT_SEED, DEFAULT_POINTS)
+        .into_iter()
+        .filter(|p| {
+            p.spot == SpotKind::Bloom
+                && p.path.length_px() == MIDDLE_STREAK_PX
+                && p.saturation * p.glow.0 * p.glow.1 >= 1.0
+        })
+        .collect();
+    let mut speed = Vec::new();
+    for point in &points {
+        let s = run_point(point, StreakModel::Ramps);
+        eprintln!("{}: speed {:?}: {point}", point.index, s.speed);
+        speed.extend(s.speed);
+    }
+    assert!(
+        speed.len() >= 4,
+        "speeds were read on {} frames",
+        speed.len()
+    );
+    let (median, p95) = (
+        quantile(&speed, 0.5).unwrap(),
+        quantile(&speed, 0.95).unwrap(),
+    );
+    eprintln!("pooled {:.2} / {:.2} %", 100.0 * median, 100.0 * p95);
+    assert!(
+        median <= SPEED_MEDIAN_MAX && p95 <= SPEED_P95_MAX,
+        "pooled {:.2} / {:.2} %",
+        100.0 * median,
+        100.0 * p95
+    );
+}

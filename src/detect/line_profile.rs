@@ -30,6 +30,7 @@
 //! the pairing, with `ℓ` from the ends found without them.
 
 use super::normal::{normal_cdf, quantile_of_ln};
+use super::ray_floor;
 use super::tips::luma_at;
 use crate::frame::Frame;
 
@@ -49,14 +50,8 @@ const FOOT_LEVEL: f32 = 0.15;
 /// are left to the ramps' rule.
 const FOOT_MIN_RATIO: f32 = 0.75;
 
-/// How far out a profile is read, in pixels.
-const MAX_REACH_PX: f32 = 14.0;
-
 /// Profile sampling step.
 const STEP_PX: f32 = 0.1;
-
-/// The floor is the darkest sample over this much of a ray's far part.
-const FLOOR_SPAN_PX: f32 = 2.0;
 
 /// The widths the fit searches at most, in pixels: a spot narrower than a pixel's sampling to
 /// a glow wider than the profile's reach.
@@ -89,11 +84,20 @@ pub fn place_ends(
 ) -> Option<[f32; 2]> {
     let clip = f32::from(clip_luma);
     let along = (across.1, -across.0);
-    // The floor: the brightest of the body rays' far parts, so that every level stands
-    // clear of the floor on both sides.
+    // The floor: the brighter of the floors the body's rays reach on its two sides, so that
+    // every level stands clear of the floor on both sides; the profiles are read as far out
+    // as any of the rays, the ends' included, found the light still falling.
     let mut floor = f32::NEG_INFINITY;
+    let mut reach_px = 0.0f32;
     for side in [across, (-across.0, -across.1)] {
-        floor = floor.max(ray_floor(frame, mid, side)?);
+        let f = ray_floor::along(frame, mid, side)?;
+        floor = floor.max(f.luma);
+        reach_px = reach_px.max(f.reach_px);
+    }
+    for (&o, &d) in origins.iter().zip(&outward) {
+        if let Some(f) = ray_floor::along(frame, o, d) {
+            reach_px = reach_px.max(f.reach_px);
+        }
     }
     let span = clip - floor;
     if span < 1.0 {
@@ -108,8 +112,8 @@ pub fn place_ends(
     let mut width_count = [0u32; LEVELS.len()];
     for offset in BODY_OFFSETS_PX {
         let centre = (mid.0 + offset * along.0, mid.1 + offset * along.1);
-        let a = crossings(frame, centre, across, &levels);
-        let b = crossings(frame, centre, (-across.0, -across.1), &levels);
+        let a = crossings(frame, centre, across, &levels, reach_px);
+        let b = crossings(frame, centre, (-across.0, -across.1), &levels, reach_px);
         for k in 0..LEVELS.len() {
             if let (Some(a), Some(b)) = (a[k], b[k]) {
                 width_sum[k] += 0.5 * (a + b);
@@ -124,8 +128,8 @@ pub fn place_ends(
         }
     }
     let ends = [
-        crossings(frame, origins[0], outward[0], &levels),
-        crossings(frame, origins[1], outward[1], &levels),
+        crossings(frame, origins[0], outward[0], &levels, reach_px),
+        crossings(frame, origins[1], outward[1], &levels, reach_px),
     ];
     for end in &ends {
         let paired = widths
@@ -306,26 +310,15 @@ fn end_offset(ln_light: f32, sigma: f32, path_px: f32) -> f32 {
 /// The largest `ln(lost / light)` formed: beyond it the far end's share is all there is.
 const MAX_LN_RATIO: f32 = 80.0;
 
-/// The darkest sample over the far [`FLOOR_SPAN_PX`] of a ray of [`MAX_REACH_PX`] from
-/// `start` along `d`.
-fn ray_floor(frame: &Frame<'_>, start: (f32, f32), d: (f32, f32)) -> Option<f32> {
-    let mut floor = f32::INFINITY;
-    let mut u = MAX_REACH_PX - FLOOR_SPAN_PX;
-    while u <= MAX_REACH_PX {
-        floor = floor.min(luma_at(frame, start.0 + u * d.0, start.1 + u * d.1)?);
-        u += STEP_PX;
-    }
-    Some(floor)
-}
-
-/// Walks from `start` along unit vector `d` and records where the brightness first falls
-/// through each of `levels` (descending), having been above it. A level the start is not
-/// above, or the ray never falls through, is `None`.
+/// Walks from `start` along unit vector `d`, out to `reach_px`, and records where the
+/// brightness first falls through each of `levels` (descending), having been above it. A level
+/// the start is not above, or the ray never falls through, is `None`.
 fn crossings(
     frame: &Frame<'_>,
     start: (f32, f32),
     d: (f32, f32),
     levels: &[f32; LEVELS.len()],
+    reach_px: f32,
 ) -> Crossings {
     let mut found: Crossings = [None; LEVELS.len()];
     let Some(mut prev) = luma_at(frame, start.0, start.1) else {
@@ -336,8 +329,8 @@ fn crossings(
     for (a, &level) in above.iter_mut().zip(levels) {
         *a = prev >= level;
     }
-    const SAMPLES: usize = (MAX_REACH_PX / STEP_PX) as usize;
-    for i in 1..=SAMPLES {
+    let samples = (reach_px.min(ray_floor::MAX_REACH_PX) / STEP_PX) as usize;
+    for i in 1..=samples {
         let u = i as f32 * STEP_PX;
         let Some(v) = luma_at(frame, start.0 + u * d.0, start.1 + u * d.1) else {
             break;

@@ -14,6 +14,7 @@ pub mod line_profile;
 pub mod moments;
 pub mod morph;
 mod normal;
+mod ray_floor;
 pub mod skeleton;
 pub mod spot_shape;
 pub mod streak;

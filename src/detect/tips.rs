@@ -29,6 +29,7 @@
 
 use super::bitimage::{BitImage, Window};
 use super::line_profile;
+use super::ray_floor;
 use crate::frame::Frame;
 
 /// The two ramp levels, as fractions of the way from the local floor to the clip level. The
@@ -37,9 +38,6 @@ use crate::frame::Frame;
 /// holds to a few tenths.
 const LEVEL_LOW: f32 = 0.4;
 const LEVEL_HIGH: f32 = 0.8;
-
-/// How far past a skeleton end the ramp is searched, in pixels.
-const MAX_REACH_PX: f32 = 14.0;
 
 /// Profile sampling step.
 const STEP_PX: f32 = 0.1;
@@ -337,19 +335,16 @@ struct Ramp {
 }
 
 /// Walks from `start` along unit vector `d`, and measures where the brightness falls through
-/// the high and the low level between the clip level and the local floor (the darkest sample
-/// of the ray's far part).
+/// the high and the low level between the clip level and the floor the ray reaches
+/// ([`ray_floor`]: where the LED's light, its glow included, has died away).
 fn ramp_along(frame: &Frame<'_>, start: (f32, f32), d: (f32, f32), clip: f32) -> Option<Ramp> {
-    const SAMPLES: usize = (MAX_REACH_PX / STEP_PX) as usize;
     let at = |i: usize| {
         let u = i as f32 * STEP_PX;
         luma_at(frame, start.0 + u * d.0, start.1 + u * d.1)
     };
-    // The floor: the darkest of the last two pixels of the ray.
-    let mut floor = f32::INFINITY;
-    for i in SAMPLES - (2.0 / STEP_PX) as usize..=SAMPLES {
-        floor = floor.min(at(i)?);
-    }
+    let floor = ray_floor::along(frame, start, d)?;
+    let samples = (floor.reach_px / STEP_PX) as usize;
+    let floor = floor.luma;
     let span = clip - floor;
     if span < 1.0 {
         return None;
@@ -357,7 +352,7 @@ fn ramp_along(frame: &Frame<'_>, start: (f32, f32), d: (f32, f32), clip: f32) ->
     let level = |v: f32| (v - floor) / span;
     let mut prev = level(at(0)?);
     let (mut high, mut low) = (None, None);
-    for i in 1..=SAMPLES {
+    for i in 1..=samples {
         let t = level(at(i)?);
         let cross = |target: f32| {
             let frac = (prev - target) / (prev - t);
