@@ -659,13 +659,14 @@ fn normal_equations(
     (jtr.iter().all(|v| v.is_finite())).then_some((jtj, jtr))
 }
 
-/// Distance from `(x, y)` to the polyline `a → mid → b`.
-fn distance_to_rough(rough: &Rough, x: f32, y: f32) -> f32 {
+/// Squared distance from `(x, y)` to the polyline `a → mid → b` (squared, so that the
+/// collection's two passes over the streak's box take no square root per pixel).
+fn distance2_to_rough(rough: &Rough, x: f32, y: f32) -> f32 {
     let [a, b] = rough.ends_px;
-    segment_distance(a, rough.mid_px, x, y).min(segment_distance(rough.mid_px, b, x, y))
+    segment_distance2(a, rough.mid_px, x, y).min(segment_distance2(rough.mid_px, b, x, y))
 }
 
-fn segment_distance(a: (f32, f32), b: (f32, f32), x: f32, y: f32) -> f32 {
+fn segment_distance2(a: (f32, f32), b: (f32, f32), x: f32, y: f32) -> f32 {
     let (dx, dy) = (b.0 - a.0, b.1 - a.1);
     let l2 = dx * dx + dy * dy;
     let t = if l2 > 0.0 {
@@ -673,7 +674,11 @@ fn segment_distance(a: (f32, f32), b: (f32, f32), x: f32, y: f32) -> f32 {
     } else {
         0.0
     };
-    (x - a.0 - t * dx).hypot(y - a.1 - t * dy)
+    distance2((a.0 + t * dx, a.1 + t * dy), (x, y))
+}
+
+fn distance2(a: (f32, f32), b: (f32, f32)) -> f32 {
+    (a.0 - b.0) * (a.0 - b.0) + (a.1 - b.1) * (a.1 - b.1)
 }
 
 /// Whether the pixel at `(x, y)` is clipped inside the clipped region, not on its border
@@ -721,9 +726,11 @@ fn collect(
         hi(a.1.max(b.1).max(rough.mid_px.1), size.height()),
     );
     let near = |x: usize, y: usize| {
-        distance_to_rough(rough, x as f32, y as f32) <= reach && !clipped_inside(frame, x, y, clip)
+        distance2_to_rough(rough, x as f32, y as f32) <= reach * reach
+            && !clipped_inside(frame, x, y, clip)
     };
-    let in_cap = |x: f32, y: f32| dist((x, y), a) <= cap || dist((x, y), b) <= cap;
+    let in_cap =
+        |x: f32, y: f32| distance2((x, y), a) <= cap * cap || distance2((x, y), b) <= cap * cap;
     // First pass: count both kinds of pixel, to subsample each evenly.
     let (mut caps, mut body) = (0usize, 0usize);
     for y in y0..=y1 {
