@@ -31,7 +31,7 @@
 use nalgebra::{SMatrix, SVector};
 
 use super::floor_bg::FloorBackground;
-use super::normal::normal_cdf;
+use super::normal::{normal_cdf, normal_cdf_and_density};
 use crate::frame::Frame;
 
 /// Pixels the fit uses at most: both end caps and a subsample of the body.
@@ -305,6 +305,11 @@ struct Path {
     /// Components whose light is drawn: the core alone while the glow is left out (the
     /// first stage), which halves that stage's cost.
     components: usize,
+    /// The chord's unit direction from start to end, its length and the sagitta: what the
+    /// pieces' corners are made of, for the derivatives.
+    chord_unit: (f32, f32),
+    chord_px: f32,
+    sagitta_px: f32,
 }
 
 #[derive(Clone, Copy, Default)]
@@ -357,6 +362,9 @@ impl Path {
             mid,
             sigmas: [p[5].exp(), p[6].exp()],
             components: if glow { 2 } else { 1 },
+            chord_unit: (dx / len, dy / len),
+            chord_px: len,
+            sagitta_px: p[4],
         }
     }
 
@@ -370,19 +378,19 @@ impl Path {
         let mut out = [0.0f32; 2];
         for (light, &sigma) in out.iter_mut().zip(&self.sigmas).take(self.components) {
             let inv = 1.0 / sigma;
-            if self.length < 1e-3 * sigma {
+            if self.length < STILL_PATH_SIGMAS * sigma {
                 let (dx, dy) = (x - self.mid.0, y - self.mid.1);
                 *light = (-0.5 * (dx * dx + dy * dy) * inv * inv).exp();
                 continue;
             }
             let mut sum = 0.0;
             for piece in &self.pieces {
-                if piece.length < 1e-6 {
+                if piece.length < MIN_PIECE_PX {
                     continue;
                 }
                 let (px, py) = (x - piece.start.0, y - piece.start.1);
                 let across = (px * -piece.unit.1 + py * piece.unit.0) * inv;
-                if across.abs() > 5.0 {
+                if across.abs() > ACROSS_REACH_SIGMAS {
                     continue;
                 }
                 let along = (px * piece.unit.0 + py * piece.unit.1) * inv;
@@ -395,7 +403,159 @@ impl Path {
         }
         (out[0], out[1])
     }
+
+    /// The light of [`Path::light2`] with its derivatives in the path's parameters and in
+    /// each component's `ln σ`, in closed form: one evaluation of each piece gives all
+    /// of them, where differencing took a model evaluation per parameter.
+    fn lights(&self, x: f32, y: f32) -> [Light; 2] {
+        let mut out = [Light::default(); 2];
+        for (light, &sigma) in out.iter_mut().zip(&self.sigmas).take(self.components) {
+            *light = if self.length < STILL_PATH_SIGMAS * sigma {
+                self.still_light(x, y, sigma)
+            } else {
+                self.swept_light(x, y, sigma)
+            };
+        }
+        out
+    }
+
+    /// A still spot at the middle, `exp(−r²/2σ²)`: its slope in the middle is `r/σ² ·` that.
+    fn still_light(&self, x: f32, y: f32, sigma: f32) -> Light {
+        let inv2 = 1.0 / (sigma * sigma);
+        let (dx, dy) = (x - self.mid.0, y - self.mid.1);
+        let r2 = (dx * dx + dy * dy) * inv2;
+        let value = (-0.5 * r2).exp();
+        // The middle is the arc's point at half time.
+        let mut at_corners = [(0.0f32, 0.0f32); PIECES + 1];
+        if let Some(mid) = at_corners.get_mut(PIECES / 2) {
+            *mid = (value * dx * inv2, value * dy * inv2);
+        }
+        let path = self.path_gradient(&at_corners);
+        Light {
+            value,
+            d_path: path,
+            d_ln_sigma: value * r2,
+        }
+    }
+
+    /// The swept spot. For one piece from `S` to `E` (length `L`, direction `d`, normal `n`),
+    /// at a pixel `t` along it and `c` across it, the light is
+    /// `I = e^(−c²/2σ²) σ√(2π) (Φ(t/σ) − Φ((t−L)/σ))`, whose slopes in `t`, `c`, `L` and `σ`
+    /// are closed forms in the same normal densities; `t`, `c` and `L` move with the corners
+    /// as `∂I/∂E = (I_t c/L − I_c t/L) n + I_L d` and `∂I/∂S = −∂I/∂X − ∂I/∂E`, with
+    /// `∂I/∂X = I_t d + I_c n` (moving the pixel is moving the piece the other way).
+    fn swept_light(&self, x: f32, y: f32, sigma: f32) -> Light {
+        let inv = 1.0 / sigma;
+        let (mut sum, mut d_sigma_sum) = (0.0f32, 0.0f32);
+        // ∂(Σ I)/∂ corner, and the path's length per corner (∂L/∂E = d, ∂L/∂S = −d).
+        let mut at_corners = [(0.0f32, 0.0f32); PIECES + 1];
+        let mut length_at_corners = [(0.0f32, 0.0f32); PIECES + 1];
+        for (k, piece) in self.pieces.iter().enumerate() {
+            let d = piece.unit;
+            if let Some(s) = length_at_corners.get_mut(k) {
+                *s = (s.0 - d.0, s.1 - d.1);
+            }
+            if let Some(e) = length_at_corners.get_mut(k + 1) {
+                *e = (e.0 + d.0, e.1 + d.1);
+            }
+            if piece.length < MIN_PIECE_PX {
+                continue;
+            }
+            let n = (-d.1, d.0);
+            let (px, py) = (x - piece.start.0, y - piece.start.1);
+            let across = (px * n.0 + py * n.1) * inv;
+            if across.abs() > ACROSS_REACH_SIGMAS {
+                continue;
+            }
+            let along = (px * d.0 + py * d.1) * inv;
+            let length = piece.length * inv;
+            let (cdf_s, density_s) = normal_cdf_and_density(along);
+            let (cdf_e, density_e) = normal_cdf_and_density(along - length);
+            let span = cdf_s - cdf_e;
+            if span <= 0.0 {
+                continue;
+            }
+            // e^(−c²/2σ²) √(2π): the densities' constant folded in.
+            let across_weight = (-0.5 * across * across).exp() * SQRT_TAU;
+            let i = across_weight * sigma * span;
+            let i_t = across_weight * (density_s - density_e);
+            let i_l = across_weight * density_e;
+            let i_c = -across * inv * i;
+            sum += i;
+            d_sigma_sum += i * (across * across + 1.0) * inv
+                + across_weight * ((along - length) * density_e - along * density_s);
+            let bend = (i_t * across - i_c * along) / length;
+            let at_end = (bend * n.0 + i_l * d.0, bend * n.1 + i_l * d.1);
+            let at_pixel = (i_t * d.0 + i_c * n.0, i_t * d.1 + i_c * n.1);
+            if let Some(s) = at_corners.get_mut(k) {
+                *s = (s.0 - at_pixel.0 - at_end.0, s.1 - at_pixel.1 - at_end.1);
+            }
+            if let Some(e) = at_corners.get_mut(k + 1) {
+                *e = (e.0 + at_end.0, e.1 + at_end.1);
+            }
+        }
+        // The light is Σ I / length: its slope is (∂ΣI − light ∂length) / length.
+        let inv_length = 1.0 / self.length;
+        let value = sum * inv_length;
+        for (g, l) in at_corners.iter_mut().zip(&length_at_corners) {
+            *g = (
+                (g.0 - value * l.0) * inv_length,
+                (g.1 - value * l.1) * inv_length,
+            );
+        }
+        Light {
+            value,
+            d_path: self.path_gradient(&at_corners),
+            d_ln_sigma: sigma * d_sigma_sum * inv_length,
+        }
+    }
+
+    /// A gradient in the pieces' corners, carried to the path's parameters (start x, y, end
+    /// x, y, sagitta). The corner at time `τ` is `α a + β b + γ s N`, the quadratic Bézier of
+    /// [`Path::new`] with `α = (1−τ)² + τ(1−τ)`, `β = τ² + τ(1−τ)`, `γ = 4τ(1−τ)`, and the
+    /// chord's normal `N` turns with the ends: `∂N/∂b = −D Nᵀ / |b − a| = −∂N/∂a`.
+    fn path_gradient(&self, at_corners: &[(f32, f32); PIECES + 1]) -> [f32; PATH_PARAMS] {
+        let d = self.chord_unit;
+        let n = (-d.1, d.0);
+        let turn = self.sagitta_px / self.chord_px;
+        let mut out = [0.0f32; PATH_PARAMS];
+        for (i, g) in at_corners.iter().enumerate() {
+            let tau = i as f32 / PIECES as f32;
+            let half_bend = tau * (1.0 - tau);
+            let (alpha, beta, gamma) = (
+                (1.0 - tau) * (1.0 - tau) + half_bend,
+                tau * tau + half_bend,
+                4.0 * half_bend,
+            );
+            let swing = gamma * turn * (d.0 * g.0 + d.1 * g.1);
+            out[0] += alpha * g.0 + swing * n.0;
+            out[1] += alpha * g.1 + swing * n.1;
+            out[2] += beta * g.0 - swing * n.0;
+            out[3] += beta * g.1 - swing * n.1;
+            out[4] += gamma * (n.0 * g.0 + n.1 * g.1);
+        }
+        out
+    }
 }
+
+/// One component's light at a pixel and its slopes.
+#[derive(Clone, Copy, Default)]
+struct Light {
+    value: f32,
+    /// In the path's parameters: start x, y, end x, y, sagitta.
+    d_path: [f32; PATH_PARAMS],
+    /// In the component's `ln σ`.
+    d_ln_sigma: f32,
+}
+
+/// The path's parameters lead the parameter vector.
+const PATH_PARAMS: usize = 5;
+/// A path shorter than this many σ is drawn as a still spot at its middle.
+const STILL_PATH_SIGMAS: f32 = 1e-3;
+/// A piece shorter than this draws nothing.
+const MIN_PIECE_PX: f32 = 1e-6;
+/// Pixels farther than this many σ across a piece get none of its light.
+const ACROSS_REACH_SIGMAS: f32 = 5.0;
 
 const SQRT_TAU: f32 = 2.506_628_3;
 
@@ -447,46 +607,39 @@ fn cost_of(s: &Samples, p: &Params, clip: f32, active: &[bool; PARAMS]) -> Optio
     cost.is_finite().then_some(cost)
 }
 
-/// `JᵀJ` and `Jᵀr` at `p`: numeric derivatives for the path and σ, analytic ones for the
-/// amplitude, exponent and floor. Derivatives of parameters not `active` are left zero
-/// (not computed: each numeric one costs a model evaluation per pixel).
+/// `JᵀJ` and `Jᵀr` at `p`, with the model's derivatives in closed form (see
+/// [`Path::lights`]). Derivatives of parameters not `active` are left zero.
 fn normal_equations(
     s: &Samples,
     p: &Params,
     clip: f32,
     active: &[bool; PARAMS],
 ) -> Option<(Normal, Params)> {
-    const NUMERIC: usize = 7;
-    const STEP: [f32; NUMERIC] = [1e-2, 1e-2, 1e-2, 1e-2, 1e-2, 1e-3, 1e-3];
-    let base = Path::new(p, active[GLOW_RATIO]);
-    let shifted: [(Path, Params); NUMERIC] = core::array::from_fn(|i| {
-        let mut q = *p;
-        q[i] += STEP[i];
-        (Path::new(&q, active[GLOW_RATIO]), q)
-    });
+    let path = Path::new(p, active[GLOW_RATIO]);
+    let ratio = p[GLOW_RATIO].max(0.0);
     let mut jtj = Normal::zeros();
     let mut jtr = Params::zeros();
-    for ((&xy, &luma), &floor_ln) in s.xy.iter().zip(&s.luma).zip(&s.floor_ln).take(s.len) {
-        let (m, (q, glow)) = model(&base, p, xy, floor_ln, clip);
-        let r = residual(luma, m, clip);
+    for ((&(x, y), &luma), &floor_ln) in s.xy.iter().zip(&s.luma).zip(&s.floor_ln).take(s.len) {
+        let [core, glow] = path.lights(x, y);
+        let q = core.value + ratio * glow.value;
+        let floor = floor_of(p, floor_ln);
+        let v = (floor + p[7] * q).max(1e-6);
+        let m = clip * (p[9] * v.ln()).exp();
         // A clipped pixel the model already reaches carries no gradient.
         if luma >= clip && m >= clip {
             continue;
         }
-        let mut row = Params::zeros();
-        for (i, ((path, shifted_p), _)) in shifted
-            .iter()
-            .zip(active)
-            .enumerate()
-            .filter(|(_, (_, &on))| on)
-        {
-            row[i] = (model(path, shifted_p, xy, floor_ln, clip).0 - m) / STEP[i];
-        }
-        let floor = floor_of(p, floor_ln);
-        let v = (floor + p[7] * q).max(1e-6);
+        let r = residual(luma, m, clip);
         let slope = p[9] * m / v;
+        let light_slope = slope * p[7];
+        let mut row = Params::zeros();
+        for (j, (c, g)) in core.d_path.iter().zip(&glow.d_path).enumerate() {
+            row[j] = light_slope * (c + ratio * g);
+        }
+        row[5] = light_slope * core.d_ln_sigma;
+        row[6] = light_slope * ratio * glow.d_ln_sigma;
         row[7] = slope * q;
-        row[8] = slope * p[7] * glow;
+        row[8] = slope * p[7] * glow.value;
         row[9] = m * v.ln();
         match floor_ln {
             // A measured floor moves with the tone curve: d floor / dk = -floor · l / k².
@@ -496,19 +649,25 @@ fn normal_equations(
             }
             None => row[10] = slope,
         }
+        for (value, &on) in row.iter_mut().zip(active) {
+            if !on {
+                *value = 0.0;
+            }
+        }
         jtj += row * row.transpose();
         jtr += row * r;
     }
     (jtr.iter().all(|v| v.is_finite())).then_some((jtj, jtr))
 }
 
-/// Distance from `(x, y)` to the polyline `a → mid → b`.
-fn distance_to_rough(rough: &Rough, x: f32, y: f32) -> f32 {
+/// Squared distance from `(x, y)` to the polyline `a → mid → b` (squared, so that the
+/// collection's two passes over the streak's box take no square root per pixel).
+fn distance2_to_rough(rough: &Rough, x: f32, y: f32) -> f32 {
     let [a, b] = rough.ends_px;
-    segment_distance(a, rough.mid_px, x, y).min(segment_distance(rough.mid_px, b, x, y))
+    segment_distance2(a, rough.mid_px, x, y).min(segment_distance2(rough.mid_px, b, x, y))
 }
 
-fn segment_distance(a: (f32, f32), b: (f32, f32), x: f32, y: f32) -> f32 {
+fn segment_distance2(a: (f32, f32), b: (f32, f32), x: f32, y: f32) -> f32 {
     let (dx, dy) = (b.0 - a.0, b.1 - a.1);
     let l2 = dx * dx + dy * dy;
     let t = if l2 > 0.0 {
@@ -516,7 +675,11 @@ fn segment_distance(a: (f32, f32), b: (f32, f32), x: f32, y: f32) -> f32 {
     } else {
         0.0
     };
-    (x - a.0 - t * dx).hypot(y - a.1 - t * dy)
+    distance2((a.0 + t * dx, a.1 + t * dy), (x, y))
+}
+
+fn distance2(a: (f32, f32), b: (f32, f32)) -> f32 {
+    (a.0 - b.0) * (a.0 - b.0) + (a.1 - b.1) * (a.1 - b.1)
 }
 
 /// Whether the pixel at `(x, y)` is clipped inside the clipped region, not on its border
@@ -564,9 +727,11 @@ fn collect(
         hi(a.1.max(b.1).max(rough.mid_px.1), size.height()),
     );
     let near = |x: usize, y: usize| {
-        distance_to_rough(rough, x as f32, y as f32) <= reach && !clipped_inside(frame, x, y, clip)
+        distance2_to_rough(rough, x as f32, y as f32) <= reach * reach
+            && !clipped_inside(frame, x, y, clip)
     };
-    let in_cap = |x: f32, y: f32| dist((x, y), a) <= cap || dist((x, y), b) <= cap;
+    let in_cap =
+        |x: f32, y: f32| distance2((x, y), a) <= cap * cap || distance2((x, y), b) <= cap * cap;
     // First pass: count both kinds of pixel, to subsample each evenly.
     let (mut caps, mut body) = (0usize, 0usize);
     for y in y0..=y1 {
@@ -652,4 +817,160 @@ fn low_percentile(s: &Samples) -> f32 {
         }
     }
     0.0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Parameters of a path from `a` to `b` with sagitta `sagitta`, core σ `sigma`, a glow
+    /// three times wider at a tenth of the light, a 2.2 tone and both floors.
+    fn params(a: (f32, f32), b: (f32, f32), sagitta: f32, sigma: f32) -> Params {
+        Params::from_column_slice(&[
+            a.0,
+            a.1,
+            b.0,
+            b.1,
+            sagitta,
+            sigma.ln(),
+            (3.0 * sigma).ln(),
+            1.5,
+            0.1,
+            0.45,
+            0.08,
+            0.02,
+        ])
+    }
+
+    /// Straight, bent, short and still paths, and a wide spot on a short bent one.
+    fn paths() -> [Params; 5] {
+        [
+            params((10.0, 12.0), (40.0, 20.0), 0.0, 1.2),
+            params((10.0, 12.0), (35.0, 30.0), 6.0, 0.9),
+            params((20.0, 20.0), (21.2, 20.5), 0.3, 1.5),
+            params((20.0, 20.0), (20.0, 20.0), 0.0, 1.5),
+            params((15.0, 25.0), (24.0, 18.0), -3.0, 3.0),
+        ]
+    }
+
+    /// Pixels on, beside and beyond the ends of the path of `p`.
+    fn pixels_around(p: &Params) -> impl Iterator<Item = (f32, f32)> {
+        let (a, b) = ((p[0], p[1]), (p[2], p[3]));
+        let path = Path::new(p, true);
+        let mid = path.mid;
+        let spread = 2.0 * p[5].exp();
+        [a, b, mid, (0.5 * (a.0 + mid.0), 0.5 * (a.1 + mid.1))]
+            .into_iter()
+            .flat_map(move |(x, y)| {
+                [
+                    (0.0, 0.0),
+                    (0.7, -0.4),
+                    (-1.1, 0.9),
+                    (1.6, 1.3),
+                    (-0.3, -2.1),
+                ]
+                .into_iter()
+                .map(move |(dx, dy)| (x + dx * spread, y + dy * spread))
+            })
+    }
+
+    #[test]
+    fn the_lights_slopes_are_those_of_its_values() {
+        for p in paths() {
+            let path = Path::new(&p, true);
+            // A still path stays still under the step: f32 cannot resolve the light of a
+            // path a few thousandths of a pixel long, which is why that is drawn as a spot.
+            let path_h = if path.length < 0.1 { 5e-4 } else { 2e-3 };
+            for (x, y) in pixels_around(&p) {
+                let lights = path.lights(x, y);
+                let (core, glow) = path.light2(x, y);
+                assert!((lights[0].value - core).abs() < 1e-6, "{p:?} at {x}, {y}");
+                assert!((lights[1].value - glow).abs() < 1e-6, "{p:?} at {x}, {y}");
+                for j in 0..PATH_PARAMS + 2 {
+                    let h = if j < PATH_PARAMS { path_h } else { 1e-3 };
+                    let light_at = |delta: f32| {
+                        let mut q = p;
+                        q[j] += delta;
+                        Path::new(&q, true).light2(x, y)
+                    };
+                    let (plus, minus) = (light_at(h), light_at(-h));
+                    let numeric = [
+                        (plus.0 - minus.0) / (2.0 * h),
+                        (plus.1 - minus.1) / (2.0 * h),
+                    ];
+                    let analytic = match j {
+                        5 => [lights[0].d_ln_sigma, 0.0],
+                        6 => [0.0, lights[1].d_ln_sigma],
+                        _ => [lights[0].d_path[j], lights[1].d_path[j]],
+                    };
+                    for (n, a) in numeric.iter().zip(&analytic) {
+                        assert!(
+                            (n - a).abs() < 2e-3 + 1e-2 * n.abs(),
+                            "parameter {j} of {p:?} at ({x}, {y}): differences {n}, closed form {a}"
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    /// Samples around the path of `truth`, its model's luma with a deterministic ripple, a
+    /// few clipped; every third pixel's floor unmeasured.
+    fn samples_of(truth: &Params, clip: f32) -> Samples {
+        let mut s = Samples {
+            xy: [(0.0, 0.0); MAX_FIT_PX],
+            luma: [0.0; MAX_FIT_PX],
+            floor_ln: [None; MAX_FIT_PX],
+            len: 0,
+        };
+        let path = Path::new(truth, true);
+        for (k, xy) in pixels_around(truth).enumerate() {
+            let floor_ln = (k % 3 != 0)
+                .then_some((40.0 + (k % 7) as f32) / clip)
+                .map(f32::ln);
+            let ripple = 6.0 * ((k as f32) * 1.7).sin();
+            let luma = (model(&path, truth, xy, floor_ln, clip).0 + ripple).min(clip);
+            s.xy[s.len] = xy;
+            s.luma[s.len] = luma;
+            s.floor_ln[s.len] = floor_ln;
+            s.len += 1;
+        }
+        s
+    }
+
+    #[test]
+    fn the_normal_equations_descend_the_cost() {
+        let clip = 250.0;
+        let all = [true; PARAMS];
+        for truth in paths() {
+            let s = samples_of(&truth, clip);
+            // Away from the truth, so that every residual and slope is in play.
+            let mut p = truth;
+            for (j, shift) in [
+                0.4, -0.3, 0.2, 0.5, 0.3, 0.1, -0.1, 0.3, 0.05, 0.04, 0.02, 0.01,
+            ]
+            .into_iter()
+            .enumerate()
+            {
+                p[j] += shift;
+            }
+            let (_, jtr) = normal_equations(&s, &p, clip, &all).expect("finite");
+            let scale = jtr.amax();
+            for j in 0..PARAMS {
+                let h = 1e-3;
+                let cost_at = |delta: f32| {
+                    let mut q = p;
+                    q[j] += delta;
+                    cost_of(&s, &q, clip, &all).expect("finite")
+                };
+                // The cost is Σ r², so its slope is −2 Jᵀr.
+                let numeric = -(cost_at(h) - cost_at(-h)) / (4.0 * h);
+                assert!(
+                    (numeric - jtr[j]).abs() < 1e-2 * scale,
+                    "parameter {j} of {truth:?}: differences {numeric}, closed form {}",
+                    jtr[j]
+                );
+            }
+        }
+    }
 }

@@ -21,7 +21,9 @@ use crate::frame::{Frame, FrameSize};
 
 /// The mean follows the last this many observations of a pixel (then it is an exponential
 /// mean with this time constant, so a floor that changes slowly is followed).
-const MEAN_FRAMES: u16 = 16;
+const MEAN_FRAMES: u8 = 16;
+// The steady mean's step is a shift (see `learn_steady_pixel`).
+const _: () = assert!(MEAN_FRAMES.is_power_of_two());
 /// A pixel more than this many noise deviations off its mean is light arriving (brighter) or
 /// leaving (darker).
 const GATE_DEVIATIONS: f32 = 4.0;
@@ -112,9 +114,13 @@ impl FloorBackground {
             }
             any_lit = true;
         }
-        let (mut deviation_sum, mut deviations) = (0.0f32, 0u32);
+        // The gate in the mean's fixed point: a deviation `d` (×256, an integer) is beyond
+        // the gate exactly when it is beyond its floor.
+        let gate_fixed = (gate * MEAN_SCALE).floor() as i32;
+        let (mut deviation_sum, mut deviations) = (0u64, 0u64);
         let width = self.size.width();
         let step = frame.luma_step();
+        let mut luma = [0u8; RUN_PX];
         for (y, row) in frame.luma_rows().enumerate() {
             let lit_row = self.lit.row(y);
             let start = y * width;
@@ -124,49 +130,148 @@ impl FloorBackground {
             ) else {
                 continue;
             };
-            for (x, ((&luma, mean), count)) in row
-                .iter()
-                .step_by(step)
-                .zip(means.iter_mut())
-                .zip(counts.iter_mut())
-                .enumerate()
-            {
-                let lit = lit_row
-                    .get(x / 64)
-                    .is_some_and(|word| word >> (x % 64) & 1 == 1);
-                if lit {
+            // One run of pixels per word of the light's mask: a run wholly lit is skipped.
+            let runs = means.chunks_mut(RUN_PX).zip(counts.chunks_mut(RUN_PX));
+            for (k, (means, counts)) in runs.enumerate() {
+                let lit = lit_row.get(k).copied().unwrap_or(0);
+                if lit == u64::MAX {
                     continue;
                 }
-                let value = f32::from(luma);
-                if *count == 0 {
-                    *mean = (value * MEAN_SCALE) as u16;
-                    *count = 1;
-                    continue;
+                let pixels = row.iter().skip(k * RUN_PX * step).step_by(step);
+                let mut got = 0;
+                for (dst, &src) in luma.iter_mut().zip(pixels) {
+                    *dst = src;
+                    got += 1;
                 }
-                let deviation = value - f32::from(*mean) / MEAN_SCALE;
-                if deviation > gate {
-                    continue;
-                }
-                if deviation < -gate {
-                    *mean = (value * MEAN_SCALE) as u16;
-                    *count = 1;
-                    continue;
-                }
-                deviation_sum += deviation.abs();
-                deviations += 1;
-                let n = (u16::from(*count) + 1).min(MEAN_FRAMES);
-                let next = f32::from(*mean) + deviation * MEAN_SCALE / f32::from(n);
-                *mean = next.clamp(0.0, f32::from(u16::MAX)) as u16;
-                *count = n as u8;
+                let got = got.min(means.len());
+                // A row shorter than the frame says (never, for a checked frame) is not learned
+                // from stale bytes.
+                let (means, counts) = (
+                    means.get_mut(..got).unwrap_or_default(),
+                    counts.get_mut(..got).unwrap_or_default(),
+                );
+                let (sum, n) = learn_run(&luma, means, counts, lit, gate_fixed);
+                deviation_sum += sum;
+                deviations += n;
             }
         }
         if deviations > 0 {
-            self.noise_luma = deviation_sum / deviations as f32 / MAD_PER_SIGMA;
+            self.noise_luma = deviation_sum as f32 / MEAN_SCALE / deviations as f32 / MAD_PER_SIGMA;
         }
         if any_lit {
             self.lit.clear_all();
         }
     }
+}
+
+/// Pixels learned together: one word of the light's mask.
+const RUN_PX: usize = 64;
+
+/// Learns one run of at most [`RUN_PX`] pixels (`luma`, the means and counts, and the `lit`
+/// bits of the run's mask word) with the gate `gate_fixed` in the mean's fixed point. This is
+/// every pixel of every frame: a whole run with no light in it (nearly all of them) is
+/// learned on fixed-size arrays, without a branch per pixel and with integer sums, which the
+/// compiler turns into vector code. Returns the sum of the learned deviations (fixed point)
+/// and their count, for the noise.
+fn learn_run(
+    luma: &[u8; RUN_PX],
+    means: &mut [u16],
+    counts: &mut [u8],
+    lit: u64,
+    gate_fixed: i32,
+) -> (u64, u64) {
+    let (mut sum, mut n) = (0u32, 0u32);
+    match (
+        lit,
+        <&mut [u16; RUN_PX]>::try_from(&mut *means),
+        <&mut [u8; RUN_PX]>::try_from(&mut *counts),
+    ) {
+        // Seen often enough everywhere: the mean moves by a power-of-two share of the
+        // deviation, a shift, and the whole run is integer arithmetic.
+        (0, Ok(means), Ok(counts))
+            if counts
+                .iter()
+                .fold(true, |all, &count| all & (count == MEAN_FRAMES)) =>
+        {
+            for i in 0..RUN_PX {
+                let (deviation, learned) =
+                    learn_steady_pixel(luma[i], &mut means[i], &mut counts[i], gate_fixed);
+                sum += deviation;
+                n += u32::from(learned);
+            }
+        }
+        _ => {
+            let pixels = luma.iter().zip(means.iter_mut()).zip(counts.iter_mut());
+            for (i, ((&luma, mean), count)) in pixels.enumerate() {
+                let lit = (lit >> i) & 1 == 1;
+                let (deviation, learned) = learn_pixel(luma, mean, count, lit, gate_fixed);
+                sum += deviation;
+                n += u32::from(learned);
+            }
+        }
+    }
+    (u64::from(sum), u64::from(n))
+}
+
+/// [`learn_pixel`] for a pixel not lit and seen [`MEAN_FRAMES`] times: its mean moves by
+/// `deviation / MEAN_FRAMES` (then truncated, as there), which is an arithmetic shift.
+#[inline(always)]
+fn learn_steady_pixel(luma: u8, mean: &mut u16, count: &mut u8, gate_fixed: i32) -> (u32, bool) {
+    const SHIFT: u32 = MEAN_FRAMES.trailing_zeros();
+    let value = i32::from(luma) << 8;
+    let old = i32::from(*mean);
+    let deviation = value - old;
+    let restart = deviation < -gate_fixed;
+    let learned = !restart & (deviation <= gate_fixed);
+    let new_mean = if learned {
+        old + (deviation >> SHIFT)
+    } else if restart {
+        value
+    } else {
+        old
+    };
+    *mean = new_mean as u16;
+    *count = if restart { 1 } else { MEAN_FRAMES };
+    let learned_deviation = if learned { deviation.unsigned_abs() } else { 0 };
+    (learned_deviation, learned)
+}
+
+/// Learns one pixel, unless `lit`. Returns its absolute deviation from the mean (fixed
+/// point) if it was learned into the mean (not lit, not light arriving, not restarted), else
+/// zero, and whether it was.
+#[inline(always)]
+fn learn_pixel(
+    luma: u8,
+    mean: &mut u16,
+    count: &mut u8,
+    lit: bool,
+    gate_fixed: i32,
+) -> (u32, bool) {
+    let value = i32::from(luma) << 8;
+    let old = i32::from(*mean);
+    let frames_seen = i32::from(*count);
+    let deviation = value - old;
+    let known = frames_seen > 0;
+    // Under the light, or light arriving: left alone.
+    let keep = lit | (known & (deviation > gate_fixed));
+    // Never seen, or light that was there when it was learned has left: start again.
+    let restart = !known | (deviation < -gate_fixed);
+    let frames = (frames_seen + 1).min(i32::from(MEAN_FRAMES));
+    // Between the old mean and the value, so within 0..=u16::MAX.
+    let stepped = (old as f32 + deviation as f32 / frames as f32) as i32;
+    let learned = !keep & !restart;
+    let restarted = !keep & restart;
+    let (new_mean, new_count) = if learned {
+        (stepped, frames)
+    } else if restarted {
+        (value, 1)
+    } else {
+        (old, frames_seen)
+    };
+    *mean = new_mean as u16;
+    *count = new_count as u8;
+    let learned_deviation = if learned { deviation.unsigned_abs() } else { 0 };
+    (learned_deviation, learned)
 }
 
 impl FloorBackground {
@@ -278,5 +383,47 @@ mod tests {
         );
         bg.clear();
         assert_eq!(bg.luma(30, 5), None);
+    }
+
+    #[test]
+    fn a_learned_floor_follows_slowly_and_restarts_where_light_left() {
+        // 100 px wide: a whole run of the mask's words and a partial one.
+        let size = FrameSize::new(100, 8).unwrap();
+        let floor = |x: usize, y: usize| (60 + (x * 7 + y * 13) % 40) as u8;
+        let mut bg = FloorBackground::new(size);
+        let still = yuyv(100, 8, floor);
+        let frame = Frame::new_checked(&still, size, size.row_bytes()).unwrap();
+        for _ in 0..2 * MEAN_FRAMES {
+            bg.update(&frame, core::iter::empty(), |_| 0);
+        }
+        assert_eq!(bg.noise_luma(), 0.0);
+        // Everything 2 brighter (within the gate), light arriving at x 10 and 80, and light
+        // that was there when learned leaving x 30 and 70.
+        let next = yuyv(100, 8, |x, y| match x {
+            10 | 80 => floor(x, y) + 40,
+            30 | 70 => floor(x, y) - 30,
+            _ => floor(x, y) + 2,
+        });
+        let frame = Frame::new_checked(&next, size, size.row_bytes()).unwrap();
+        bg.update(&frame, core::iter::empty(), |_| 0);
+        let step = 2.0 / f32::from(MEAN_FRAMES);
+        for x in [0, 20, 63, 64, 75, 99] {
+            assert_eq!(bg.luma(x, 5), Some(f32::from(floor(x, 5)) + step), "x {x}");
+        }
+        for x in [10, 80] {
+            assert_eq!(
+                bg.luma(x, 5),
+                Some(f32::from(floor(x, 5))),
+                "x {x}: light arriving"
+            );
+        }
+        for x in [30, 70] {
+            assert_eq!(
+                bg.luma(x, 5),
+                Some(f32::from(floor(x, 5) - 30)),
+                "x {x}: restarted"
+            );
+        }
+        assert!((bg.noise_luma() - 2.0 / MAD_PER_SIGMA).abs() < 1e-5);
     }
 }
