@@ -76,11 +76,14 @@ build() {
 }
 
 check() {
-    local target
+    local target target_args=()
     for target in "$@"; do
         ensure_rustup_target "$target"
-        cargo check --locked --target "$target" -p glint --lib --bins
+        target_args+=(--target "$target")
     done
+    # One cargo for every target: the second target's crates fill the cores while the first one
+    # waits on a single long crate (Zenoh's), where two cargos in turn would each leave a core idle.
+    cargo check --locked "${target_args[@]}" -p glint --lib --bins
 }
 
 run_tests() {
