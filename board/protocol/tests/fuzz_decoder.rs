@@ -236,15 +236,27 @@ proptest! {
         msgs in messages(10),
         garbage in prop::collection::vec(1u8..=255, 0..100),
     ) {
-        // A 23-byte decoder (positions only) drops longer frames and keeps going.
-        let mut decoder = Decoder::<23>::with_capacity();
+        // A 23-byte decoder (one robot's positions) drops longer frames (a robot-tagged
+        // position, an update with its age) as overflows and keeps going.
+        const CAPACITY: usize = 23;
+        let mut decoder = Decoder::<CAPACITY>::with_capacity();
         let mut stream = garbage;
         stream.push(0);
         for m in &msgs {
             stream.extend(frame(m));
         }
         let events: Vec<_> = decoder.feed(&stream).collect();
-        let tail: Vec<_> = msgs.iter().map(ok).collect();
+        let tail: Vec<_> = msgs
+            .iter()
+            .map(|m| {
+                let encoded_len = frame(m).iter().filter(|&&b| b != 0).count();
+                if encoded_len > CAPACITY {
+                    Err(DecodeError::Overflow)
+                } else {
+                    ok(m)
+                }
+            })
+            .collect();
         prop_assert_eq!(&events[events.len() - tail.len()..], &tail[..]);
     }
 }
