@@ -628,6 +628,24 @@ fn the_reopening_source_resumes_after_the_device_returns() {
     assert!(end.num("reopens") >= 1);
 }
 
+/// The reports of `glint track` replaying the 640×480 dump at `path` on the host, with `args`;
+/// the run must succeed (`label` names the case in the message).
+fn replay_on_host(path: &Path, args: &[&str], label: &str) -> Vec<Value> {
+    let out = common::glint()
+        .args(["track", "--input"])
+        .arg(path)
+        .args(["--size", "640x480"])
+        .args(args)
+        .output()
+        .expect("run glint");
+    assert!(
+        out.status.success(),
+        "{label}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    common::parse_jsonl(&out.stdout)
+}
+
 /// glint's reports: frames numbered from 0, time from 0 and rising, sequence numbers stepping
 /// by one plus the drops reported.
 fn assert_report_timeline(reports: &[Value]) {
@@ -785,18 +803,7 @@ fn glint_record_writes_a_dump_and_sidecar_that_replays_with_the_real_timing() {
     assert_eq!(timing.len(), RECORD_FRAMES);
 
     // Replayed on the host, the dump carries the capture's times, sequence numbers and drops.
-    let out = common::glint()
-        .args(["track", "--input"])
-        .arg(&dump_path)
-        .args(["--size", "640x480"])
-        .output()
-        .expect("run glint");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let reports = common::parse_jsonl(&out.stdout);
+    let reports = replay_on_host(&dump_path, &[], "YUYV");
     assert_eq!(reports.len(), RECORD_FRAMES);
     assert_report_timeline(&reports);
     let (_, truths) = scene_feed();
@@ -977,18 +984,7 @@ fn glint_records_grey_and_uyvy_cameras_byte_exact_and_the_records_replay() {
             .collect();
 
         // Replayed on the host without --format-in: the sidecar says what the frames are.
-        let out = common::glint()
-            .args(["track", "--input"])
-            .arg(&dump_path)
-            .args(["--size", "640x480"])
-            .output()
-            .expect("run glint");
-        assert!(
-            out.status.success(),
-            "{format}: {}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        let reports = common::parse_jsonl(&out.stdout);
+        let reports = replay_on_host(&dump_path, &[], &format.to_string());
         assert_eq!(reports.len(), FAST_RECORD_FRAMES, "{format}");
         assert_report_timeline(&reports);
         assert_mostly_found(&reports, &format);
@@ -1008,18 +1004,11 @@ fn glint_records_grey_and_uyvy_cameras_byte_exact_and_the_records_replay() {
         }
         let once_path = suite.out.join(format!("fast-{format}-once.raw"));
         fs::write(&once_path, once).expect("write the frames without repeats");
-        let out = common::glint()
-            .args(["track", "--input"])
-            .arg(&once_path)
-            .args(["--size", "640x480", "--format-in", format.name()])
-            .output()
-            .expect("run glint");
-        assert!(
-            out.status.success(),
-            "{format}: {}",
-            String::from_utf8_lossy(&out.stderr)
+        let reports = replay_on_host(
+            &once_path,
+            &["--format-in", format.name()],
+            &format.to_string(),
         );
-        let reports = common::parse_jsonl(&out.stdout);
         assert_eq!(reports.len(), shown.len(), "{format}");
         heads_px.extend(check_fast_run(&reports, &shown, &truths));
     }
