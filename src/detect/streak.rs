@@ -9,7 +9,7 @@
 //! intensity centre of the streak's cross-section there.
 //!
 //! The rim's weights fall to nothing at the floor, and the floor is measured around the blob
-//! (its mean plus [`FLOOR_DEVIATIONS`] deviations) where it is brighter than a fixed fraction
+//! (its mean plus `FLOOR_DEVIATIONS` deviations) where it is brighter than a fixed fraction
 //! of the threshold: a bright, textured floor beside a streak otherwise carries weight and
 //! pulls its centroid by tenths of a pixel (over the 200 sweep points the 60 px streaks'
 //! middle went from 0.347 / 0.964 px to 0.217 / 0.664 px, median / p95).

@@ -3,7 +3,7 @@
 //!
 //! Every [`RECHECK_PERIOD_FRAMES`] frames the tracking thread copies the frame's luma into a
 //! buffer allocated at start and hands it, with the pose in force, to a worker thread made at
-//! start ([`worker`]), which finds the markers in the copy and judges them ([`judge`]: a marker
+//! start (`worker`), which finds the markers in the copy and judges them ([`judge`]: a marker
 //! is searched in the region around where the pose puts it, refined to sub-pixel only when its
 //! unrefined centre does not already say it is steady, and the pose confirmed, refitted, or
 //! kept with a moved marker left out). Checking the six markers of a map costs a millisecond or
