@@ -278,8 +278,9 @@ impl FloorBackground {
     /// How far the light of the blob in `b` reaches beyond its box, measured on the frame:
     /// walking out from the box's middle in the four directions, the distance at which the
     /// luma is back within `gate` of the learned floor (where it is not known yet, of the luma
-    /// [`MAX_GLOW_PX`] out, or at the frame's edge). A glow too faint to be clipped still lights the floor around a
-    /// blob, and learning it as floor would make the fit count it twice.
+    /// [`MAX_GLOW_PX`] out, or at the frame's edge). A glow too faint to be clipped still
+    /// lights the floor around a blob, and learning it as floor would make the fit count it
+    /// twice.
     fn glow_px(&self, frame: &Frame<'_>, b: BoundingBox, gate: f32) -> usize {
         let (cx, cy) = ((b.x_min_px + b.x_max_px) / 2, (b.y_min_px + b.y_max_px) / 2);
         let (w, h) = (self.size.width(), self.size.height());

@@ -8,8 +8,9 @@
 //! 5–10 px short (17 % of its speed). The LED's light falls monotonically away from its path
 //! (its spot has one peak), so the floor is where the profile stops falling: the ray is walked
 //! out until a window's median has set no new low (lower by more than [`FLOOR_PRECISION`] of
-//! the light's span) for a window's length, and the floor is that low. The median, not the darkest sample, so that the floor's grout lines and read noise do
-//! not drag the floor down (a dark line crossed by a ray is narrower than half a window).
+//! the light's span) for a window's length, and the floor is that low. The median, not the
+//! darkest sample, so that the floor's grout lines and read noise do not drag the floor down
+//! (a dark line crossed by a ray is narrower than half a window).
 
 use super::tips::luma_at;
 use crate::frame::Frame;
