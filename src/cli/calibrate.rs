@@ -34,9 +34,9 @@ use glint::geometry::{
 };
 use glint::small_file;
 use glint::source::dump::{DumpError, DumpSource};
-use glint::source::sidecar::{Sidecar, SidecarError};
 use glint::source::FrameSource;
 
+use super::input::{sidecar_format, sidecar_of};
 use super::memory::MemoryArgs;
 
 /// Nominal frame rate given to the dump source; calibration does not use timestamps.
@@ -174,31 +174,19 @@ struct Views<'a> {
 /// records, else YUYV. A sidecar that contradicts `--format-in`, or one that does not fit its
 /// dump, is refused, as `glint track` refuses it.
 fn view_format(input: &str, size: FrameSize, given: Option<PixelFormat>) -> Result<PixelFormat> {
-    let dump = Path::new(input);
     // Standard input has no sidecar, and a missing dump is reported when it is opened.
-    let Some(dump_bytes) = (input != "-")
-        .then(|| dump.metadata().ok())
+    let dump_bytes = (input != "-")
+        .then(|| Path::new(input).metadata().ok())
         .flatten()
         .filter(|m| m.is_file())
-        .map(|m| m.len())
-    else {
-        return Ok(given.unwrap_or_default());
+        .map(|m| m.len());
+    let sidecar = match dump_bytes {
+        Some(dump_bytes) => sidecar_of(Path::new(input), size, dump_bytes)?,
+        None => None,
     };
-    let path = Sidecar::path_for(dump);
-    let recorded = match Sidecar::load_for(&path, size, dump_bytes) {
-        Ok(sidecar) => sidecar
-            .pixel_format()
-            .with_context(|| path.display().to_string())?,
-        Err(SidecarError::Io(e)) if e.kind() == io::ErrorKind::NotFound => {
-            return Ok(given.unwrap_or_default())
-        }
-        Err(e) => bail!("{}: {e}", path.display()),
-    };
-    match given {
-        Some(given) if given != recorded => bail!(
-            "the sidecar of {input} says the frames are {recorded}, but --format-in is {given}"
-        ),
-        _ => Ok(recorded),
+    match sidecar {
+        Some(sidecar) => sidecar_format(input, &sidecar, given),
+        None => Ok(given.unwrap_or_default()),
     }
 }
 

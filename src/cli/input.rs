@@ -12,7 +12,7 @@ use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use std::time::Duration;
 
-use anyhow::{bail, Context, Result};
+use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
 
 use glint::frame::{Frame, FrameSize, PixelFormat};
@@ -257,13 +257,8 @@ pub fn open(
     };
     let source = match sidecar {
         Some(sidecar) => {
-            let recorded = sidecar.pixel_format()?;
-            if let Some(given) = args.format_in.filter(|&f| f != recorded) {
-                bail!(
-                    "the sidecar of {input} says the frames are {recorded}, but --format-in is \
-                     {given} (--no-sidecar replays the dump without it)"
-                );
-            }
+            let recorded = sidecar_format(input, &sidecar, args.format_in)
+                .map_err(|e| anyhow!("{e} (--no-sidecar replays the dump without it)"))?;
             if fps.is_some() {
                 log::warn!("--fps is ignored: the sidecar's frame times are used");
             }
@@ -303,23 +298,43 @@ pub fn open_without_waiting(input: &Path) -> Result<File> {
 
 /// The checked sidecar of `dump`, or `None` when it has none.
 fn find_sidecar(dump: &Path, size: FrameSize, dump_bytes: u64) -> Result<Option<Sidecar>> {
+    let sidecar = sidecar_of(dump, size, dump_bytes)
+        .map_err(|e| anyhow!("{e} (--no-sidecar replays the dump without it)"))?;
+    if let Some(sidecar) = &sidecar {
+        log::info!(
+            "{}: replaying {} frames with their recorded times ({} dropped)",
+            Sidecar::path_for(dump).display(),
+            sidecar.frames.len(),
+            sidecar.dropped()
+        );
+    }
+    Ok(sidecar)
+}
+
+/// The sidecar `glint record` wrote beside `dump` (`dump_bytes` long, frames of `size`), or
+/// `None` when it has none. A sidecar that does not fit its dump is an error naming it.
+pub fn sidecar_of(dump: &Path, size: FrameSize, dump_bytes: u64) -> Result<Option<Sidecar>> {
     let path = Sidecar::path_for(dump);
     match Sidecar::load_for(&path, size, dump_bytes) {
-        Ok(sidecar) => {
-            log::info!(
-                "{}: replaying {} frames with their recorded times ({} dropped)",
-                path.display(),
-                sidecar.frames.len(),
-                sidecar.dropped()
-            );
-            Ok(Some(sidecar))
-        }
+        Ok(sidecar) => Ok(Some(sidecar)),
         Err(SidecarError::Io(e)) if e.kind() == io::ErrorKind::NotFound => Ok(None),
-        Err(e) => bail!(
-            "{}: {e} (--no-sidecar replays the dump without it)",
-            path.display()
-        ),
+        Err(e) => bail!("{}: {e}", path.display()),
     }
+}
+
+/// The pixel format the sidecar of the dump `input` records, unless `--format-in` (`given`)
+/// says another: a dump holds frames of one format, and reading them as another gives
+/// garbage positions.
+pub fn sidecar_format(
+    input: &str,
+    sidecar: &Sidecar,
+    given: Option<PixelFormat>,
+) -> Result<PixelFormat> {
+    let recorded = sidecar.pixel_format()?;
+    if let Some(given) = given.filter(|&f| f != recorded) {
+        bail!("the sidecar of {input} says the frames are {recorded}, but --format-in is {given}");
+    }
+    Ok(recorded)
 }
 
 /// Logs the run's drops and, when asked for, prints its latency percentiles.
