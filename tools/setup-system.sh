@@ -4,6 +4,7 @@
 #
 #   tools/setup-system.sh          what building and running glint needs (README command 1)
 #   tools/setup-system.sh test     that, plus what the tests need (tools/test.sh runs this)
+#   tools/setup-system.sh profile  that, plus the profilers the README's cost figures come from
 #   tools/setup-system.sh list [test]     prints the package list, one a line
 #   tools/setup-system.sh verify [test]   installs nothing; fails unless every listed package is
 #                                  installed AND every system file the build and tests use
@@ -44,6 +45,10 @@
 #   qemu-system-arm  the example firmware on an emulated Cortex-M4 board (mps2-an386) in the
 #                    robot-in-the-loop rig (tools/src/rig, tools/tests/rig.rs)
 #
+# Measuring cost (not needed to build or test; the README's figures name which one):
+#   valgrind         callgrind's instruction counts, the load-independent cost figures
+#   linux-perf       perf, where a stage's time goes (CPU samples)
+#
 # The VM runs host-built (glibc) test programs: tests/vm/prepare.sh copies the C libraries they
 # need into the guest, so no extra Rust target is needed.
 set -eu
@@ -53,11 +58,12 @@ TEST_PACKAGES="qemu-system-x86 busybox-static v4l-utils cpio kmod xz-utils binut
     gcc-aarch64-linux-gnu gcc-arm-linux-gnueabihf libc6-dev-arm64-cross libc6-dev-armhf-cross
     linux-libc-dev-arm64-cross linux-libc-dev-armhf-cross qemu-user chromium systemd python3 python3-venv apt
     qemu-system-arm"
+PROFILE_PACKAGES="valgrind linux-perf"
 
 here=$(cd "$(dirname "$0")" && pwd)
 
 usage() {
-    echo "usage: tools/setup-system.sh [test] | list [test] | verify [test]" >&2
+    echo "usage: tools/setup-system.sh [test|profile] | list [test|profile] | verify [test]" >&2
     exit 2
 }
 
@@ -66,6 +72,7 @@ packages() {
     case "${1:-}" in
         "") echo $BUILD_PACKAGES ;;
         test) echo $BUILD_PACKAGES $TEST_PACKAGES ;;
+        profile) echo $BUILD_PACKAGES $PROFILE_PACKAGES ;;
         *) usage ;;
     esac
 }
@@ -190,7 +197,7 @@ verify_set() {
 }
 
 case "${1:-}" in
-    "" | test) install_set "$@" ;;
+    "" | test | profile) install_set "$@" ;;
     list) packages "${2:-}" | tr ' ' '\n' ;;
     verify) verify_set "${2:-}" ;;
     *) usage ;;
