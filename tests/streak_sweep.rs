@@ -234,15 +234,35 @@ fn print_frame(
     let d =
         |(px, py): (f32, f32), (tx, ty): (f64, f64)| (f64::from(px) - tx).hypot(f64::from(py) - ty);
     let start = (2.0 * mx - x, 2.0 * my - y);
+    // The middle's error along the true direction of travel and across it.
+    let (vx, vy) = (truth.vx_px_s.unwrap_or(0.0), truth.vy_px_s.unwrap_or(0.0));
+    let speed = vx.hypot(vy);
+    let (ex, ey) = (f64::from(e.mid_px.0) - mx, f64::from(e.mid_px.1) - my);
+    let split = |(ex, ey): (f64, f64)| {
+        if speed > 0.0 {
+            ((ex * vx + ey * vy) / speed, (ey * vx - ex * vy) / speed)
+        } else {
+            (f64::NAN, f64::NAN)
+        }
+    };
+    let (mid_along, mid_across) = split((ex, ey));
+    let (head_along, head_across) = split((
+        f64::from(e.position_px.0) - x,
+        f64::from(e.position_px.1) - y,
+    ));
     let streak = best.map(|(_, s)| s);
     let path = streak.and_then(|s| s.path);
     eprintln!(
-        "    frame {index:>2}: true len {:.1} px, head {:.2} px (from the start {:.2}), mid {:.2} px, \
+        "    frame {index:>2}: true len {:.1} px, head {:.2} px (along {:+.2}, across {:+.2}, from the start {:.2}), mid {:.2} px (along {:+.2}, across {:+.2}), \
          {} {}, fitted len {}, fit_px {}, thickness {}",
         truth.streak_px.unwrap_or(f64::NAN),
         d(e.position_px, (x, y)),
+        head_along,
+        head_across,
         d(e.position_px, start),
         d(e.mid_px, (mx, my)),
+        mid_along,
+        mid_across,
         e.position_method.name(),
         match (streak.map(|s| s.path_failed), path) {
             (Some(true), _) => "fit failed",
@@ -771,5 +791,42 @@ fn the_ramps_read_a_streak_s_speed_in_a_wide_glow() {
         "pooled {:.2} / {:.2} %",
         100.0 * median,
         100.0 * p95
+    );
+}
+
+/// The ramps' middle of a long straight streak is placed by the mirror symmetry of its light
+/// (`src/detect/mirror_middle.rs`): on the default run's 60 px lines of spots without a glow
+/// (a disk or a Gaussian; sweep seed 11), the middle, pooled over every frame, is within the
+/// issue's bounds (0.2 / 0.5 px). The intensity-weighted centroid it was before, which weighs
+/// the rim 30 px out on either side, read 0.22 / 0.60 px on these points (0.22 / 0.68 px
+/// on point 18 alone). Blooms are left out: on a glow's shallow flank the floor's texture
+/// moves the crossings by tenths of a pixel (README, "Accuracy over a sweep").
+#[test]
+fn the_ramps_place_a_long_streak_s_middle_by_its_symmetry() {
+    let points: Vec<SweepPoint> = SweepPoint::sweep(DEFAULT_SEED, DEFAULT_POINTS)
+        .into_iter()
+        .filter(|p| {
+            p.spot != SpotKind::Bloom
+                && matches!(p.path, SweepPath::Line { length_px, .. } if length_px == MIDDLE_STREAK_PX)
+        })
+        .collect();
+    assert!(points.len() >= 3, "{} such points", points.len());
+    let mut middles = Vec::new();
+    for point in &points {
+        let s = run_point(point, StreakModel::Ramps);
+        eprintln!("{}: middle {:.2?} px: {point}", point.index, s.mid_px);
+        middles.extend(s.mid_px);
+    }
+    let (median, p95) = (
+        quantile(&middles, 0.5).expect("middles were read"),
+        quantile(&middles, 0.95).unwrap(),
+    );
+    eprintln!(
+        "pooled {median:.3} / {p95:.3} px over {} frames",
+        middles.len()
+    );
+    assert!(
+        median <= MID_MEDIAN_MAX_PX && p95 <= MID_P95_MAX_PX,
+        "pooled {median:.3} / {p95:.3} px"
     );
 }

@@ -11,6 +11,7 @@ pub mod blobs;
 pub mod fit;
 pub mod floor_bg;
 pub mod line_profile;
+pub mod mirror_middle;
 pub mod moments;
 pub mod morph;
 mod normal;

@@ -20,6 +20,7 @@ use super::bitimage::{BitImage, Window, NEIGHBOURS_8};
 use super::blobs::{Blob, BoundingBox, Labeler};
 use super::fit::{self, Rough};
 use super::floor_bg::FloorBackground;
+use super::mirror_middle;
 use super::moments::{Moments, StadiumPath};
 use super::morph::{self, Kernel};
 use super::skeleton::{self, SkeletonMethod, SkeletonScratch, SEED_PRE_DILATIONS};
@@ -53,6 +54,10 @@ const SHORT_STREAK_SPOTS: f32 = 3.0;
 /// deviation of its ends): the goal for the single-frame speed, the path's length over
 /// the exposure, is 3 % (median).
 const MEASURED_PATH_FRACTION: f32 = 0.03;
+
+/// A blob whose skeleton's chord is at least this many times its thickness is a streak with
+/// an axis, whose middle is placed by the symmetry of its light ([`mirror_middle`]).
+const ELONGATED_WIDTHS: f32 = 2.0;
 
 /// Skeleton pixels the walk to the ends may visit; more belong to no LED.
 pub const MAX_SKELETON_PX: usize = 2048;
@@ -274,6 +279,7 @@ pub fn analyze(
         ends_px,
         seed_point_px,
         thickness_px,
+        levels.top_luma,
     );
     let (mid_px, path) = match model {
         StreakModel::Ramps => {
@@ -593,6 +599,7 @@ fn middle(
     ends: [(f32, f32); 2],
     seed_point: (u16, u16),
     thickness_px: f32,
+    top_luma: u8,
 ) -> (f32, f32) {
     let chord = (ends[1].0 - ends[0].0, ends[1].1 - ends[0].1);
     let length = (chord.0 * chord.0 + chord.1 * chord.1).sqrt();
@@ -612,9 +619,16 @@ fn middle(
             s_off += w * ((x - centroid.0) * n.0 + (y - centroid.1) * n.1);
         }
     });
-    if sw <= 0.0 {
-        return p;
+    let rough = if sw > 0.0 {
+        let offset = s_off / sw;
+        (centroid.0 + offset * n.0, centroid.1 + offset * n.1)
+    } else {
+        p
+    };
+    // A blob no longer than about twice its width has no axis to be symmetric along: its
+    // skeleton is a spur of a round blob, and its chord points anywhere.
+    if length < ELONGATED_WIDTHS * thickness_px {
+        return rough;
     }
-    let offset = s_off / sw;
-    (centroid.0 + offset * n.0, centroid.1 + offset * n.1)
+    mirror_middle::centre(frame, rough, d, n, 0.5 * length, top_luma).unwrap_or(rough)
 }

@@ -1,0 +1,177 @@
+//! Where a streak's middle lies along it, from the mirror symmetry of its light.
+//!
+//! An LED moving at a steady speed along a straight line or a circle leaves light that is
+//! mirror-symmetric about the perpendicular bisector of the path's chord: the spot is swept
+//! the same way on either side of the middle. The camera's tone curve, its black level and its
+//! clipping map equal light to equal luma, so the luma is mirror-symmetric too, whatever the
+//! spot's profile and however far the LED saturates. On any line parallel to the chord, the
+//! points where the luma falls through a level on either side of the middle are mirror images:
+//! their midpoint lies on the bisector, which is the middle's position along the chord.
+//!
+//! The intensity-weighted centroid the middle started from weighs every pixel of the streak's
+//! rim, and on a 60 px streak a rim pixel 25 px from the middle whose luma the floor's texture
+//! or the read noise moves carries that lever arm: the centroid was 0.2–0.7 px off along the
+//! streak. The level crossings here are read where the light falls steeply, at the streak's two
+//! caps, and only the difference of their distances counts.
+
+use super::ray_floor;
+use super::tips::luma_at;
+use crate::frame::Frame;
+
+/// The levels the luma along the lines is cut at, as fractions of the way from the floor to
+/// the streak's top. Clear of the floor, whose texture under the two caps differs, and of the
+/// top, where a bilinear sample beside a clipped pixel understates the light by an amount that
+/// depends on where the pixel grid falls, which differs at the two caps.
+const LEVELS: [f32; 7] = [0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9];
+
+/// The lines parallel to the chord that place the middle along it, as offsets across from the
+/// middle, in pixels: three, so that the pixel grid's sampling and the read noise average out.
+const ALONG_LINES_PX: [f32; 3] = [-0.5, 0.0, 0.5];
+
+/// The lines across the streak that place the middle across it, as offsets along the chord
+/// from the bisector, in pixels: within a pixel, so that an arc's bend (its centre line moves
+/// across by `t² / 2r` at `t` from the middle) stays below 0.02 px on the sweep's tightest
+/// circle (15 px).
+const ACROSS_LINES_PX: [f32; 5] = [-1.0, -0.5, 0.0, 0.5, 1.0];
+
+/// Sampling step along a line.
+const STEP_PX: f32 = 0.1;
+
+/// How far past the chord's half-length a line is walked: the widest spot's fall to the
+/// levels (a glow's cap lies within the floor's reach, [`ray_floor::MAX_REACH_PX`]).
+const BEYOND_CHORD_PX: f32 = ray_floor::MAX_REACH_PX;
+
+/// The streak's middle, from `mid` near it: moved along `along` (a unit vector parallel to the
+/// chord, which is `half_chord_px` long on either side of `mid`) to the bisector by the level
+/// crossings on lines parallel to the chord, then across (`across`, the unit normal) to the
+/// centre of the cross-section there, by the crossings on short lines across it (the
+/// cross-section of a streak is mirror-symmetric about its path too: exactly on a straight
+/// one, and on an arc of radius `r` to within its width over `r`). `top_luma` is the frame's
+/// clip level. `None` when the floor cannot be read beside the middle, the light at the middle
+/// is no brighter than it, or no level is crossed on both sides of any line.
+pub fn centre(
+    frame: &Frame<'_>,
+    mid: (f32, f32),
+    along: (f32, f32),
+    across: (f32, f32),
+    half_chord_px: f32,
+    top_luma: u8,
+) -> Option<(f32, f32)> {
+    // The floor: the brighter of the floors on the two sides of the middle, so that every
+    // level stands clear of it on both.
+    let a = ray_floor::along(frame, mid, across)?;
+    let b = ray_floor::along(frame, mid, (-across.0, -across.1))?;
+    let floor = a.luma.max(b.luma);
+    // The streak's top: its clip, or the light at the middle for a streak that does not clip.
+    let top = luma_at(frame, mid.0, mid.1)?.min(f32::from(top_luma));
+    let span = top - floor;
+    if span < 1.0 {
+        return None;
+    }
+    let mut levels = [0.0f32; LEVELS.len()];
+    for (level, f) in levels.iter_mut().zip(LEVELS) {
+        *level = floor + f * span;
+    }
+    let along_px = mirror_offset(
+        frame,
+        mid,
+        (along, across),
+        &ALONG_LINES_PX,
+        &levels,
+        half_chord_px + BEYOND_CHORD_PX,
+    )?;
+    let on_bisector = (mid.0 + along_px * along.0, mid.1 + along_px * along.1);
+    let across_px = mirror_offset(
+        frame,
+        on_bisector,
+        (across, along),
+        &ACROSS_LINES_PX,
+        &levels,
+        a.reach_px.max(b.reach_px),
+    )?;
+    Some((
+        on_bisector.0 + across_px * across.0,
+        on_bisector.1 + across_px * across.1,
+    ))
+}
+
+/// The offset along `d` from `point` to the mirror line of the light, from the lines parallel
+/// to `d` at `offsets` along `n` (`(d, n)`): the mean over the lines and `levels` of the
+/// midpoints of the first falls through a level on either side, each walked out to
+/// `reach_px`. `None` when no level is crossed on both sides of any line.
+fn mirror_offset(
+    frame: &Frame<'_>,
+    point: (f32, f32),
+    (d, n): ((f32, f32), (f32, f32)),
+    offsets: &[f32],
+    levels: &[f32; LEVELS.len()],
+    reach_px: f32,
+) -> Option<f32> {
+    let (mut sum, mut weights) = (0.0f32, 0.0f32);
+    for offset in offsets {
+        let start = (point.0 + offset * n.0, point.1 + offset * n.1);
+        let forward = first_falls(frame, start, d, levels, reach_px);
+        let back = first_falls(frame, start, (-d.0, -d.1), levels, reach_px);
+        for (f, b) in forward.iter().zip(&back) {
+            if let (Some(f), Some(b)) = (f, b) {
+                // A crossing moves by the luma's error over the slope there: each midpoint
+                // counts by the inverse of its variance, so that a glow's shallow flank, where
+                // the floor's texture and the noise move a crossing by pixels, counts little
+                // beside a core's steep one.
+                let w = 1.0 / (1.0 / (f.slope * f.slope) + 1.0 / (b.slope * b.slope));
+                sum += w * 0.5 * (f.at_px - b.at_px);
+                weights += w;
+            }
+        }
+    }
+    (weights > 0.0).then(|| sum / weights)
+}
+
+/// Where a walk fell through a level, and how steeply.
+#[derive(Clone, Copy)]
+struct Fall {
+    /// Distance from the walk's start.
+    at_px: f32,
+    /// The luma's fall per pixel there.
+    slope: f32,
+}
+
+/// Walks from `start` along unit vector `d`, out to `reach_px`, and records where the luma
+/// first falls through each of `levels`, having been at or above it from the start. A level
+/// the start is below, or the walk never falls through, is `None`.
+fn first_falls(
+    frame: &Frame<'_>,
+    start: (f32, f32),
+    d: (f32, f32),
+    levels: &[f32; LEVELS.len()],
+    reach_px: f32,
+) -> [Option<Fall>; LEVELS.len()] {
+    let mut found: [Option<Fall>; LEVELS.len()] = [None; LEVELS.len()];
+    let Some(mut prev) = luma_at(frame, start.0, start.1) else {
+        return found;
+    };
+    // Levels still to be crossed: those the start is above.
+    let mut open = levels.map(|level| prev >= level);
+    let samples = (reach_px / STEP_PX) as usize;
+    for i in 1..=samples {
+        if !open.iter().any(|&o| o) {
+            break;
+        }
+        let u = i as f32 * STEP_PX;
+        let Some(v) = luma_at(frame, start.0 + u * d.0, start.1 + u * d.1) else {
+            break;
+        };
+        for ((slot, o), &level) in found.iter_mut().zip(open.iter_mut()).zip(levels) {
+            if *o && v < level {
+                let frac = (prev - level) / (prev - v);
+                *slot = Some(Fall {
+                    at_px: (i as f32 - 1.0 + frac) * STEP_PX,
+                    slope: (prev - v) / STEP_PX,
+                });
+                *o = false;
+            }
+        }
+        prev = v;
+    }
+    found
+}
