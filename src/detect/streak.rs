@@ -13,6 +13,11 @@
 //! of the threshold: a bright, textured floor beside a streak otherwise carries weight and
 //! pulls its centroid by tenths of a pixel (over the 200 sweep points the 60 px streaks'
 //! middle went from 0.347 / 0.964 px to 0.217 / 0.664 px, median / p95).
+//!
+//! Even so, the centroid weighs the rim far out along a long streak, where the floor's texture
+//! and the noise move it along the streak: a streak clearly longer than it is wide takes its
+//! middle from the mirror symmetry of its light instead ([`mirror_middle`]; seed 11's 60 px
+//! streaks 0.116 / 0.820 px with the ramps).
 
 use heapless::Deque;
 
@@ -588,7 +593,9 @@ fn farthest_along(
 }
 
 /// The streak's middle: the centroid moved across the streak to the centre of its
-/// cross-section through the centroid, perpendicular to the chord between the ends.
+/// cross-section through the centroid, perpendicular to the chord between the ends; for a
+/// streak at least [`ELONGATED_WIDTHS`] times longer than thick, that point moved to where the
+/// symmetry of the light puts the middle ([`mirror_middle::centre`]).
 #[allow(clippy::too_many_arguments)]
 fn middle(
     frame: &Frame<'_>,
