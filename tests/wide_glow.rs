@@ -7,11 +7,11 @@
 //! Rendered with the sweep's model (a Gaussian core in a Gaussian glow, its core `saturation`
 //! times the clip along the streak), a 60 px streak at 640×480 and a 120 px one at 1280×720,
 //! at 90 fps, 10 ms exposure, over glow widths and brightnesses chosen so that the clipped
-//! pixels alone exceed 2 % of the frame (measured on the rendered frame, not assumed). Asserted: the glow clips
-//! that wide; the LED is reported from the second frame on (the first frame's large blob
-//! cannot be told from a window) in every visible frame, every report within
-//! [`REPORT_TOLERANCE_PX`] of the LED, and the static window of more than 2 % of the frame
-//! beside it is never reported.
+//! pixels alone exceed 2 % of the frame (measured on the rendered frame, not assumed).
+//! Asserted: the glow clips that wide; the LED is reported from the second frame on at the
+//! latest (the first frame's large blob cannot be told from a window), in every visible frame
+//! after, every report within [`REPORT_TOLERANCE_PX`] of the LED, and the static window of
+//! more than 2 % of the frame beside it is never reported.
 
 use glint::frame::{Frame, FrameSize};
 use glint::pipeline::{Pipeline, PipelineConfig};
@@ -170,10 +170,9 @@ fn run(case: Case, angle_rad: f64) -> (usize, Option<usize>, Vec<Option<f64>>, u
 
 #[test]
 fn an_led_whose_clipped_glow_exceeds_the_glare_limit_is_found_while_it_moves() {
-    // Frame size, streak length, core σ, glow width and brightness, saturation, heading
-    // (the path in full view in every frame, away from the window). Across a
-    // long streak the glow clips out to d where saturation × glow ratio × glow width ×
-    // exp(-d²/2σ_g²) = 1.
+    // Frame size, streak length, core σ, glow width and brightness, saturation, heading (the
+    // path in full view in every frame, away from the window). Across a long streak the glow
+    // clips out to d where saturation × glow ratio × glow width × exp(-d²/2σ_g²) = 1.
     let cases = [
         // Sweep point 118's kind at 640×480 (2 % is 6144 px): a glow 5.8× the core, clipped
         // some 30 px either side of a 60 px path.
