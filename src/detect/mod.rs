@@ -30,6 +30,7 @@ use morph::Kernel;
 use skeleton::SkeletonMethod;
 use spot_shape::SpotOptics;
 use streak::{Streak, StreakModel, StreakScratch};
+use threshold::large_blob::{LastBlobs, MovedLarge};
 use threshold::static_map::StaticMap;
 use threshold::{blob_level, Levels, Threshold, AUTO_MARGIN_LUMA};
 
@@ -43,7 +44,9 @@ pub const SEED_EROSIONS: u32 = 10;
 /// lens, a white frame): no blob in it can be told from the glare.
 pub const BLINDED_FRACTION: f32 = 0.25;
 
-/// Blobs larger than this fraction of the frame are glare, not an LED.
+/// Blobs larger than this fraction of the frame are glare, not an LED, unless they moved
+/// since the last frame (an LED in a wide glow; automatic threshold only, see
+/// [`threshold::large_blob`]).
 pub const MAX_BLOB_FRACTION: f32 = 0.02;
 
 /// The static map does not learn within this many pixels of the last analysed blob (the
@@ -140,6 +143,13 @@ pub struct Detector {
     statics: StaticMap,
     /// Around the blob analysed in the last frame (the LED): not learned as static.
     keep_out: heapless::Vec<Window, MAX_KEEP_OUT>,
+    /// The first cut's blobs of the last frame, to tell a large blob that moved.
+    last_blobs: LastBlobs,
+    /// This frame's large first-cut blobs that moved: what is cut from them is a candidate
+    /// whatever its size (only the largest piece of each).
+    moved_large: MovedLarge,
+    /// The blobs of this frame's mask that are pieces of a large blob's glow, not its light.
+    glow_pieces: [bool; blobs::MAX_BLOBS],
     /// Frames segmented so far, for a clock when the caller gives none.
     frames_segmented: u64,
     /// The time of the frame being segmented.
@@ -168,6 +178,9 @@ impl Detector {
             floor: (config.streak_model == StreakModel::Fit).then(|| FloorBackground::new(size)),
             statics: StaticMap::new(size.width(), size.height()),
             keep_out: heapless::Vec::new(),
+            last_blobs: LastBlobs::new(),
+            moved_large: MovedLarge::new(),
+            glow_pieces: [false; blobs::MAX_BLOBS],
             frames_segmented: 0,
             t_us: 0,
             optics: None,
@@ -206,6 +219,7 @@ impl Detector {
     pub fn segment_at(&mut self, frame: &Frame<'_>, t_us: u64) -> Detection {
         self.frames_segmented += 1;
         self.t_us = t_us;
+        self.moved_large.clear();
         self.streak.reset();
         let mut learning = false;
         let mut glare_px = 0;
@@ -273,6 +287,8 @@ impl Detector {
         }
         self.labeler.label(&self.mask);
         self.labeled = true;
+        self.moved_large
+            .mark_glow_pieces(self.labeler.blobs(), &mut self.glow_pieces);
         detection.blob_count = self.labeler.blobs().len();
         detection.overflow = self.labeler.overflow();
         if !detection.overflow.any() {
@@ -303,6 +319,9 @@ impl Detector {
     /// and taken out of it before any blob is found, so they set no level and are never
     /// candidates.
     ///
+    /// A clipped blob larger than an LED's usual size is cut too when it moved since the last
+    /// frame (see [`threshold::large_blob`]), and dropped as glare when it did not.
+    ///
     /// Returns the levels, the pixels left in the mask, and the pixels of glare dropped as
     /// too large to be an LED.
     fn cut_auto(&mut self, frame: &Frame<'_>) -> (Levels, usize, usize) {
@@ -316,18 +335,39 @@ impl Detector {
         }
         self.keep_out.clear();
         let count = count.saturating_sub(self.statics.clear_static(&mut self.mask));
-        if count == 0 || frame.size() != self.size {
+        if frame.size() != self.size {
+            self.last_blobs.forget();
+            self.mask.clear_all();
+            return (levels, 0, 0);
+        }
+        if count == 0 {
+            self.last_blobs.remember(&[]);
             self.mask.clear_all();
             return (levels, 0, 0);
         }
         self.labeler.label(&self.mask);
-        match blob_level::cut_each_blob(
+        let first_cut = self.labeler.blobs();
+        let (last_blobs, moved_large) = (&self.last_blobs, &mut self.moved_large);
+        let cut = blob_level::cut_each_blob(
             frame,
             &self.labeler,
             self.config.min_area_px,
             self.max_area_px,
+            |blob| {
+                let moved = last_blobs.moved(blob, first_cut);
+                if moved {
+                    moved_large.push(blob);
+                }
+                moved
+            },
             &mut self.mask,
-        ) {
+        );
+        if self.labeler.overflow().any() {
+            self.last_blobs.forget();
+        } else {
+            self.last_blobs.remember(self.labeler.blobs());
+        }
+        match cut {
             Some(cut) => {
                 levels.threshold_luma = cut.brightest_level_luma;
                 (levels, cut.count, cut.glare_px)
@@ -369,8 +409,10 @@ impl Detector {
         detection
     }
 
-    /// The blobs of the last segmented frame that may be the LED: neither noise nor glare.
-    /// None when the frame overflowed the blob tables or was blinded.
+    /// The blobs of the last segmented frame that may be the LED: neither noise nor glare
+    /// (larger than [`MAX_BLOB_FRACTION`] of the frame only when they moved, and then not
+    /// the pieces of its glow, see [`threshold::large_blob`]). None when the frame overflowed the blob tables or was
+    /// blinded.
     pub fn candidates(&self) -> impl Iterator<Item = (usize, Blob)> + Clone + '_ {
         let usable = self.labeled && !self.labeler.overflow().any();
         self.labeler
@@ -378,8 +420,11 @@ impl Detector {
             .iter()
             .copied()
             .enumerate()
-            .filter(move |(_, b)| {
-                usable && b.area_px >= self.config.min_area_px && b.area_px <= self.max_area_px
+            .filter(move |(i, b)| {
+                usable
+                    && b.area_px >= self.config.min_area_px
+                    && (b.area_px <= self.max_area_px || self.moved_large.holds(b))
+                    && !self.glow_pieces.get(*i).copied().unwrap_or(false)
             })
     }
 

@@ -126,8 +126,12 @@ pub struct Score {
     pub ambiguous: usize,
     /// Relative error of the single-frame speed, in frames whose velocity came from the streak.
     pub streak_speed_errors: Vec<f64>,
-    /// Distances between reported and true streak middles, in visible frames found.
+    /// Distances between reported and true streak middles (the LED at mid-exposure), in
+    /// visible frames found.
     pub mid_errors_px: Vec<f64>,
+    /// Distances between reported streak middles and the points halfway along the true
+    /// paths (the streak's middle in space), in visible frames found.
+    pub path_mid_errors_px: Vec<f64>,
     /// Distances between reported and true current positions.
     pub pos_errors_px: Vec<f64>,
 }
@@ -156,6 +160,12 @@ pub fn score(reports: &[Value], truths: &[Truth]) -> Score {
                     };
                     s.mid_errors_px
                         .push(d("mid_x", "mid_y", t.mid_x_px, t.mid_y_px));
+                    s.path_mid_errors_px.push(d(
+                        "mid_x",
+                        "mid_y",
+                        t.path_mid_x_px,
+                        t.path_mid_y_px,
+                    ));
                     s.pos_errors_px.push(d("x", "y", t.x_px, t.y_px));
                 }
             }

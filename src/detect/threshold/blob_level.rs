@@ -8,8 +8,10 @@
 //! thing is measured on itself:
 //!
 //! - blobs smaller than the LED's minimum area (a hot pixel, a speck of noise) are dropped
-//!   and set no level, and so are blobs larger than an LED can be (a window): cut again, a
-//!   window whose noise straddles its own level would break into thousands of specks;
+//!   and set no level, and so are clipped blobs larger than an LED's usual size (a window:
+//!   cut again, a window whose noise straddles its own level would break into thousands of
+//!   specks) unless they moved since the last frame (an LED in a wide glow, see
+//!   [`large_blob`](super::large_blob));
 //! - blobs whose top is too dark to be a clipped light ([`MIN_CLIP_LUMA`]) are dropped, unless
 //!   they are a light that does not clip: a top of at least [`MIN_LIGHT_LUMA`] and at least
 //!   [`LIGHT_CONTRAST_LUMA`] above the mean luma of a ring around the blob (a dot on the floor,
@@ -22,7 +24,7 @@
 
 use super::{Levels, AUTO_MARGIN_LUMA, MIN_CLIP_LUMA, MIN_LIGHT_LUMA};
 use crate::detect::bitimage::BitImage;
-use crate::detect::blobs::{BoundingBox, Labeler, MAX_BLOBS};
+use crate::detect::blobs::{Blob, BoundingBox, Labeler, MAX_BLOBS};
 use crate::frame::Frame;
 
 /// How far above its surroundings a light that does not clip must peak: a quarter of the luma
@@ -41,20 +43,22 @@ pub struct BlobCut {
     pub count: usize,
     /// The level of the brightest blob that kept any pixels (`None` when none did).
     pub brightest_level_luma: Option<u8>,
-    /// Pixels of the clipped blobs dropped as larger than an LED can be (a window, a lamp in
-    /// the lens, a white frame): glare, for the "blinded" test.
+    /// Pixels of the clipped blobs dropped as larger than an LED's usual size and not moving
+    /// (a window, a lamp in the lens, a white frame): glare, for the "blinded" test.
     pub glare_px: usize,
 }
 
 /// Cuts every blob that `labeler` found in `mask` (the low first cut of `frame`) at its own
-/// top luma minus [`AUTO_MARGIN_LUMA`], clearing blobs of fewer than `min_area_px` or more
-/// than `max_area_px` pixels and blobs that are not lights (see the module's rules). `None` when the labeller overflowed, so that the
-/// caller can fall back to one level for the frame.
+/// top luma minus [`AUTO_MARGIN_LUMA`], clearing blobs of fewer than `min_area_px` pixels,
+/// clipped blobs of more than `max_area_px` for which `large_moved` is false, and blobs
+/// that are not lights (see the module's rules). `None` when the labeller overflowed, so
+/// that the caller can fall back to one level for the frame.
 pub fn cut_each_blob(
     frame: &Frame<'_>,
     labeler: &Labeler,
     min_area_px: u32,
     max_area_px: u32,
+    mut large_moved: impl FnMut(&Blob) -> bool,
     mask: &mut BitImage,
 ) -> Option<BlobCut> {
     if labeler.overflow().any() {
@@ -77,15 +81,24 @@ pub fn cut_each_blob(
     let mut levels = [None; MAX_BLOBS];
     let mut glare_px = 0;
     for ((level, blob), &top) in levels.iter_mut().zip(blobs).zip(&tops) {
-        if blob.area_px > max_area_px && top >= MIN_CLIP_LUMA {
-            glare_px += blob.area_px as usize;
-        }
-        let light = top >= MIN_CLIP_LUMA
+        let clipped = top >= MIN_CLIP_LUMA;
+        let size = if blob.area_px < min_area_px {
+            false
+        } else if blob.area_px <= max_area_px {
+            true
+        } else {
+            // Only a clipped light can be an LED's glow; the test of motion only for it.
+            let moved = clipped && large_moved(blob);
+            if clipped && !moved {
+                glare_px += blob.area_px as usize;
+            }
+            moved
+        };
+        let light = clipped
             || (top >= MIN_LIGHT_LUMA
                 && ring_mean_luma(frame, &blob.bbox)
                     .is_some_and(|ring| f32::from(top) >= ring + f32::from(LIGHT_CONTRAST_LUMA)));
-        *level = ((min_area_px..=max_area_px).contains(&blob.area_px) && light)
-            .then(|| top.saturating_sub(AUTO_MARGIN_LUMA));
+        *level = (size && light).then(|| top.saturating_sub(AUTO_MARGIN_LUMA));
     }
     let level_of = |slot: usize| -> Option<u8> { *levels.get(slot)? };
     let mut count = 0;

@@ -18,6 +18,7 @@ use crate::frame::Frame;
 
 pub mod blob_level;
 mod kernels;
+pub mod large_blob;
 pub mod static_map;
 
 /// The lowest top luma level that can be a clipped sensor. Studio range clips at 235, so

@@ -46,6 +46,8 @@ fn truth(mid: (f64, f64), position: (f64, f64)) -> Truth {
         vx_px_s: Some(0.0),
         vy_px_s: Some(0.0),
         streak_px: Some(0.0),
+        path_mid_x_px: Some(mid.0),
+        path_mid_y_px: Some(mid.1),
     }
 }
 

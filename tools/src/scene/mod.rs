@@ -373,6 +373,7 @@ impl Scene {
             .motion(exposure.end_s - 0.5 * exposure.duration_s)
             .position_px;
         let known = |v: f64| (visible != Visibility::Hidden).then_some(v);
+        let path_mid = self.path_middle_px(frame, start_s, exposure.duration_s, steps);
         let (end, mid, streak_px) = match &self.config.view {
             None => (end, mid, streak_px),
             Some(view) => {
@@ -409,7 +410,36 @@ impl Scene {
             vx_px_s: known(end.velocity_px_s.x),
             vy_px_s: known(end.velocity_px_s.y),
             streak_px: known(streak_px),
+            path_mid_x_px: known(path_mid.x),
+            path_mid_y_px: known(path_mid.y),
         }
+    }
+
+    /// The point halfway along the LED's path on the picture from `start_s` over
+    /// `duration_s`, the path sampled `steps` times (steps of at most
+    /// [`MAX_DISK_STEP_PX`]): the streak's middle in space.
+    fn path_middle_px(&self, frame: usize, start_s: f64, duration_s: f64, steps: usize) -> Point {
+        let at = |k: usize| {
+            let t = start_s + duration_s * k as f64 / steps as f64;
+            self.picture_px(self.config.trajectory.motion(t).position_px, frame)
+        };
+        let step_px = |k: usize| {
+            let (a, b) = (at(k), at(k + 1));
+            Point::new(b.x - a.x, b.y - a.y).norm()
+        };
+        let half_px = 0.5 * (0..steps).map(step_px).sum::<f64>();
+        let mut walked_px = 0.0;
+        for k in 0..steps {
+            let step = step_px(k);
+            if step > 0.0 && walked_px + step >= half_px {
+                let (a, b) = (at(k), at(k + 1));
+                let f = (half_px - walked_px) / step;
+                return Point::new(a.x + f * (b.x - a.x), a.y + f * (b.y - a.y));
+            }
+            walked_px += step;
+        }
+        // No length at all: the LED stood still.
+        at(0)
     }
 
     /// Whether frame `frame` is one of [`SceneConfig::led_hidden_frames`].

@@ -410,3 +410,44 @@ fn through_a_lens_the_led_is_where_the_truth_says() {
     }
     assert!(checked >= 5);
 }
+
+/// The truth's path middle is halfway along the path's length in the exposure: the time
+/// middle at constant speed (a line, a circle); on the speed ramp, on the line and half the
+/// streak from where the exposure started, while the time middle lags it by up to half a
+/// pixel as the LED speeds up (and leads it as it brakes).
+#[test]
+fn the_path_middle_is_halfway_along_the_streak() {
+    let middles = |name: &str| {
+        let scene = Scene::preset(name).unwrap();
+        (0..scene.frame_count())
+            .map(|i| scene.truth(i))
+            .filter(|t| t.visible == Visibility::Visible)
+            .map(|t| {
+                let p = Point::new(t.path_mid_x_px.unwrap(), t.path_mid_y_px.unwrap());
+                let m = Point::new(t.mid_x_px.unwrap(), t.mid_y_px.unwrap());
+                let end = Point::new(t.x_px.unwrap(), t.y_px.unwrap());
+                (p, m, end, t.streak_px.unwrap())
+            })
+            .collect::<Vec<_>>()
+    };
+    let gap = |a: Point, b: Point| Point::new(a.x - b.x, a.y - b.y).norm();
+    for name in ["fast-line", "circles"] {
+        for (path_mid, mid, _, _) in middles(name) {
+            assert!(gap(path_mid, mid) < 1e-3, "{name}: {path_mid:?} {mid:?}");
+        }
+    }
+    let ramp = middles("speed-ramp");
+    let mut widest_px: f64 = 0.0;
+    for &(path_mid, mid, end, streak_px) in &ramp {
+        // On the straight line, half the streak back from the end.
+        assert!(
+            (gap(path_mid, end) - 0.5 * streak_px).abs() < 0.01,
+            "{path_mid:?}, end {end:?}, streak {streak_px}"
+        );
+        widest_px = widest_px.max(gap(path_mid, mid));
+    }
+    assert!(
+        (0.3..0.6).contains(&widest_px),
+        "the time middle is {widest_px:.3} px from the path's at most"
+    );
+}

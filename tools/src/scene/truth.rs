@@ -56,6 +56,13 @@ pub struct Truth {
     pub mid_x_px: Option<f64>,
     /// LED centre at the middle of the exposure: the middle of the streak.
     pub mid_y_px: Option<f64>,
+    /// The point halfway along the path's length during the exposure: the streak's middle in
+    /// space, which is what a single frame shows. At constant speed it is [`Truth::mid_x_px`];
+    /// an LED speeding up spends the exposure's first half on less than half of the path.
+    pub path_mid_x_px: Option<f64>,
+    /// The point halfway along the path's length during the exposure (see
+    /// [`Truth::path_mid_x_px`]).
+    pub path_mid_y_px: Option<f64>,
     /// Velocity at the end of the exposure.
     pub vx_px_s: Option<f64>,
     /// Velocity at the end of the exposure.
@@ -66,8 +73,13 @@ pub struct Truth {
 }
 
 /// The CSV header, also the column order.
-pub const CSV_HEADER: &str = "frame,t,visible,x,y,mid_x,mid_y,vx,vy,streak_px";
-const CSV_COLUMNS: usize = 10;
+pub const CSV_HEADER: &str =
+    "frame,t,visible,x,y,mid_x,mid_y,vx,vy,streak_px,path_mid_x,path_mid_y";
+const CSV_COLUMNS: usize = 12;
+
+/// The header of truth files written before the path's middle was a column: still read, the
+/// path's middle unknown.
+const CSV_HEADER_WITHOUT_PATH_MIDDLE: &str = "frame,t,visible,x,y,mid_x,mid_y,vx,vy,streak_px";
 
 /// Writes the header and one line per frame.
 pub fn write_truth_csv<W: Write>(mut out: W, truths: &[Truth]) -> io::Result<()> {
@@ -88,6 +100,8 @@ pub fn write_truth_csv<W: Write>(mut out: W, truths: &[Truth]) -> io::Result<()>
             truth.vx_px_s,
             truth.vy_px_s,
             truth.streak_px,
+            truth.path_mid_x_px,
+            truth.path_mid_y_px,
         ] {
             match value {
                 Some(v) => write!(out, ",{v:.6}")?,
@@ -166,23 +180,40 @@ impl From<io::Error> for TruthCsvError {
 pub fn read_truth_csv<R: BufRead>(input: R) -> Result<Vec<Truth>, TruthCsvError> {
     let mut lines = input.lines();
     let header = lines.next().transpose()?.unwrap_or_default();
-    if header.trim() != CSV_HEADER {
-        return Err(TruthCsvError::Header { found: header });
-    }
+    let with_path_middle = match header.trim() {
+        CSV_HEADER => true,
+        CSV_HEADER_WITHOUT_PATH_MIDDLE => false,
+        _ => return Err(TruthCsvError::Header { found: header }),
+    };
     let mut truths = Vec::new();
     for (index, line) in lines.enumerate() {
         let line = line?;
         if line.trim().is_empty() {
             continue;
         }
-        truths.push(parse_line(index + 2, line.trim())?);
+        truths.push(parse_line(index + 2, line.trim(), with_path_middle)?);
     }
     Ok(truths)
 }
 
-fn parse_line(line_no: usize, line: &str) -> Result<Truth, TruthCsvError> {
-    let cells: Vec<&str> = line.split(',').collect();
-    let &[frame, t, visible, x, y, mid_x, mid_y, vx, vy, streak] = cells.as_slice() else {
+fn parse_line(line_no: usize, line: &str, with_path_middle: bool) -> Result<Truth, TruthCsvError> {
+    let mut cells: Vec<&str> = line.split(',').collect();
+    let columns = if with_path_middle {
+        CSV_COLUMNS
+    } else {
+        CSV_COLUMNS - 2
+    };
+    if cells.len() != columns {
+        return Err(TruthCsvError::Columns {
+            line: line_no,
+            found: cells.len(),
+        });
+    }
+    // An old file's path middle: unknown, as an empty cell.
+    cells.resize(CSV_COLUMNS, "");
+    let &[frame, t, visible, x, y, mid_x, mid_y, vx, vy, streak, path_mid_x, path_mid_y] =
+        cells.as_slice()
+    else {
         return Err(TruthCsvError::Columns {
             line: line_no,
             found: cells.len(),
@@ -213,6 +244,8 @@ fn parse_line(line_no: usize, line: &str) -> Result<Truth, TruthCsvError> {
         vx_px_s: optional("vx", vx)?,
         vy_px_s: optional("vy", vy)?,
         streak_px: optional("streak_px", streak)?,
+        path_mid_x_px: optional("path_mid_x", path_mid_x)?,
+        path_mid_y_px: optional("path_mid_y", path_mid_y)?,
     })
 }
 
@@ -233,6 +266,8 @@ mod tests {
                 vx_px_s: Some(60.0),
                 vy_px_s: Some(-1.125),
                 streak_px: Some(0.5),
+                path_mid_x_px: Some(10.125),
+                path_mid_y_px: Some(-3.375),
             },
             Truth {
                 frame: 1,
@@ -245,6 +280,8 @@ mod tests {
                 vx_px_s: None,
                 vy_px_s: None,
                 streak_px: None,
+                path_mid_x_px: None,
+                path_mid_y_px: None,
             },
         ]
     }
@@ -256,8 +293,18 @@ mod tests {
         let text = String::from_utf8(text).unwrap();
         let lines: Vec<&str> = text.lines().collect();
         assert_eq!(lines[0], CSV_HEADER);
-        assert_eq!(lines[2], "1,0.031250,0,,,,,,,");
+        assert_eq!(lines[2], "1,0.031250,0,,,,,,,,,");
         assert_eq!(read_truth_csv(text.as_bytes()).unwrap(), sample());
+        // A file written before the path's middle was a column reads with it unknown.
+        let old = format!(
+            "{CSV_HEADER_WITHOUT_PATH_MIDDLE}\n0,0.0,1,10.25,-3.5,10,-3.25,60,-1.125,0.5\n"
+        );
+        let read = read_truth_csv(old.as_bytes()).unwrap();
+        let mut expected = sample()[0].clone();
+        (expected.path_mid_x_px, expected.path_mid_y_px) = (None, None);
+        assert_eq!(read, vec![expected]);
+        let short = format!("{CSV_HEADER}\n0,0.0,1,10.25,-3.5,10,-3.25,60,-1.125,0.5\n");
+        assert!(read_truth_csv(short.as_bytes()).is_err(), "columns missing");
     }
 
     #[test]
@@ -270,10 +317,10 @@ mod tests {
             matches!(err, TruthCsvError::Columns { line: 2, found: 5 }),
             "{err}"
         );
-        let text = format!("{CSV_HEADER}\n0,0.0,2,,,,,,,\n");
+        let text = format!("{CSV_HEADER}\n0,0.0,2,,,,,,,,,\n");
         let err = read_truth_csv(text.as_bytes()).unwrap_err();
         assert!(err.to_string().contains("visible"), "{err}");
-        let text = format!("{CSV_HEADER}\n0,0.0,1,NaN,,,,,,\n");
+        let text = format!("{CSV_HEADER}\n0,0.0,1,NaN,,,,,,,,\n");
         assert!(read_truth_csv(text.as_bytes()).is_err());
     }
 }
