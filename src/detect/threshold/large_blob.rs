@@ -156,11 +156,9 @@ impl MovedLarge {
                     .filter(|(_, b)| inside(&b.bbox, extent))
             };
             let largest = pieces().max_by_key(|(_, b)| b.area_px).map(|(i, _)| i);
-            for (i, _) in pieces() {
-                if Some(i) != largest {
-                    if let Some(flag) = glow.get_mut(i) {
-                        *flag = true;
-                    }
+            for (i, _) in pieces().filter(|&(i, _)| Some(i) != largest) {
+                if let Some(flag) = glow.get_mut(i) {
+                    *flag = true;
                 }
             }
         }
