@@ -222,7 +222,7 @@ fn an_led_whose_clipped_glow_exceeds_the_glare_limit_is_found_while_it_moves() {
                 "{case:?}: {off_led} reports off the LED (the window?)"
             ));
         }
-        if !first.is_some_and(|f| f <= 1) {
+        if first.is_none_or(|f| f > 1) {
             problems.push(format!("{case:?}: acquired in frame {first:?}"));
         }
         if !errors.iter().skip(1).all(Option::is_some) {
