@@ -3,17 +3,20 @@
 //! plugin, twice with different frame counts, and divides the difference by the extra frames,
 //! so set-up (rendering the frames, allocation, process start) cancels out.
 //!
-//! `cargo run --release --example frame_cost -- STAGE FRAMES`
+//! `cargo run --release --example frame_cost -- STAGE FRAMES [SCENE]`
 //!
-//! STAGE is `pipeline` (the whole `Pipeline::process` on each frame of the `fast-line` scene, a
-//! 60 px streak at 640×480, in order so the tracker follows it), `threshold` (the automatic
-//! threshold alone, on YUYV frames), `threshold-uyvy` and `threshold-grey` (the same frames
-//! repacked as UYVY and as GREY), or `none` (set-up only).
+//! STAGE is `pipeline` (the whole `Pipeline::process` on each frame of the scene, by default
+//! `fast-line`, a 60 px streak at 640×480, in order so the tracker follows it), `pipeline-fit`
+//! (the same with `--streak-model fit`), `threshold` (the automatic threshold alone, on YUYV
+//! frames), `threshold-uyvy` and `threshold-grey` (the same frames repacked as UYVY and as
+//! GREY), or `none` (set-up only). SCENE is any preset (`hd-720` for 1280×720).
 
 use std::hint::black_box;
 
 use glint::detect::bitimage::BitImage;
+use glint::detect::streak::StreakModel;
 use glint::detect::threshold::{self, Threshold};
+use glint::detect::DetectorConfig;
 use glint::frame::{Frame, FrameSize, PixelFormat};
 use glint::pipeline::{Pipeline, PipelineConfig};
 use glint::source::FrameMeta;
@@ -24,15 +27,15 @@ use glint_tools::scene::Scene;
 /// rendering cost is the same in every run and cancels out of the difference.
 const RENDERED_FRAMES: usize = 16;
 const SCENE: &str = "fast-line";
-const USAGE: &str =
-    "usage: frame_cost pipeline|threshold|threshold-uyvy|threshold-grey|none FRAMES";
+const USAGE: &str = "usage: frame_cost pipeline|pipeline-fit|threshold|threshold-uyvy|threshold-grey|none FRAMES [SCENE]";
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args = std::env::args().skip(1);
     let stage = args.next().ok_or(USAGE)?;
     let frames: usize = args.next().ok_or(USAGE)?.parse()?;
+    let scene_name = args.next().unwrap_or_else(|| SCENE.to_string());
 
-    let mut config = Scene::preset_config(SCENE).ok_or("unknown scene")?;
+    let mut config = Scene::preset_config(&scene_name).ok_or("unknown scene")?;
     // Frames from the middle of the scene, where the LED is in view and streaked.
     let first = config.frame_count / 2;
     config.frame_count = first + RENDERED_FRAMES;
@@ -65,10 +68,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let tracker = TrackerConfig {
         exposure_us: Some(scene.exposure_us()),
     };
+    let streak_model = match stage.as_str() {
+        "pipeline-fit" => StreakModel::Fit,
+        _ => StreakModel::Ramps,
+    };
     let mut pipeline = Pipeline::new(
         size,
         PipelineConfig {
             tracker,
+            detector: DetectorConfig {
+                streak_model,
+                ..DetectorConfig::default()
+            },
             ..PipelineConfig::default()
         },
     )?;
@@ -77,7 +88,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for k in 0..frames {
         let frame = frame_of(k)?;
         match stage.as_str() {
-            "pipeline" => {
+            "pipeline" | "pipeline-fit" => {
                 let meta = FrameMeta {
                     index: k as u64,
                     sequence: k as u64,
@@ -98,6 +109,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             _ => return Err(USAGE.into()),
         }
     }
-    println!("{stage}: {frames} frames of {SCENE} at {size}, result {found}");
+    println!("{stage}: {frames} frames of {scene_name} at {size}, result {found}");
     Ok(())
 }

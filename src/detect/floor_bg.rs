@@ -48,6 +48,8 @@ pub struct FloorBackground {
     lit: BitImage,
     /// The read noise's standard deviation, measured on the last update (luma).
     noise_luma: f32,
+    /// Frames learned since the floor was made or cleared.
+    frames_learned: u32,
 }
 
 impl FloorBackground {
@@ -59,6 +61,7 @@ impl FloorBackground {
             count: vec![0; size.pixels()],
             lit: BitImage::new(size),
             noise_luma: 0.0,
+            frames_learned: 0,
         }
     }
 
@@ -83,10 +86,13 @@ impl FloorBackground {
     /// Forgets everything learned.
     pub fn clear(&mut self) {
         self.count.fill(0);
+        self.frames_learned = 0;
     }
 
-    /// Learns `frame` everywhere except within `margin_px(shorter side)` of each of `blobs`
-    /// (the light in it). A frame of another size is ignored.
+    /// Learns `frame` except within `margin_px(shorter side)` of each of `blobs` (the light in
+    /// it): everywhere in the first [`MEAN_FRAMES`] frames, then around the blobs
+    /// ([`near_blob_px`]) and one row in [`ROW_PHASES`] elsewhere. A frame of another size is
+    /// ignored.
     pub fn update<'b>(
         &mut self,
         frame: &Frame<'_>,
@@ -98,30 +104,42 @@ impl FloorBackground {
         }
         let mut any_lit = false;
         let gate = (GATE_DEVIATIONS * self.noise_luma).max(MIN_GATE_LUMA);
+        let (width, height) = (self.size.width(), self.size.height());
+        let mut near = Near::default();
         for b in blobs {
             let b = b.bbox;
-            let margin_px = margin_px(
-                (b.x_max_px.saturating_sub(b.x_min_px)).min(b.y_max_px.saturating_sub(b.y_min_px))
-                    + 1,
-            )
-            .max(self.glow_px(frame, b, gate));
+            let (w, h) = (b.x_max_px - b.x_min_px + 1, b.y_max_px - b.y_min_px + 1);
+            let margin_px = margin_px(w.min(h)).max(self.glow_px(frame, b, gate));
             let x0 = b.x_min_px.saturating_sub(margin_px);
             let x1 = b.x_max_px + margin_px;
             let y0 = b.y_min_px.saturating_sub(margin_px);
-            let y1 = (b.y_max_px + margin_px).min(self.size.height() - 1);
+            let y1 = (b.y_max_px + margin_px).min(height - 1);
             for y in y0..=y1 {
-                self.lit.set_run(y, x0, x1.min(self.size.width() - 1));
+                self.lit.set_run(y, x0, x1.min(width - 1));
             }
+            let reach_px = margin_px + near_blob_px(w.max(h));
+            near.add(NearWindow {
+                y0: b.y_min_px.saturating_sub(reach_px),
+                y1: (b.y_max_px + reach_px).min(height - 1),
+                k0: b.x_min_px.saturating_sub(reach_px) / RUN_PX,
+                k1: (b.x_max_px + reach_px).min(width - 1) / RUN_PX,
+            });
             any_lit = true;
         }
+        let everywhere = self.frames_learned < u32::from(MEAN_FRAMES);
+        let phase = (self.frames_learned % ROW_PHASES as u32) as usize;
+        self.frames_learned = self.frames_learned.saturating_add(1);
         // The gate in the mean's fixed point: a deviation `d` (×256, an integer) is beyond
         // the gate exactly when it is beyond its floor.
         let gate_fixed = (gate * MEAN_SCALE).floor() as i32;
         let (mut deviation_sum, mut deviations) = (0u64, 0u64);
-        let width = self.size.width();
         let step = frame.luma_step();
         let mut luma = [0u8; RUN_PX];
         for (y, row) in frame.luma_rows().enumerate() {
+            let whole_row = everywhere || y % ROW_PHASES == phase;
+            if !whole_row && !near.covers_row(y) {
+                continue;
+            }
             let lit_row = self.lit.row(y);
             let start = y * width;
             let (Some(means), Some(counts)) = (
@@ -134,16 +152,10 @@ impl FloorBackground {
             let runs = means.chunks_mut(RUN_PX).zip(counts.chunks_mut(RUN_PX));
             for (k, (means, counts)) in runs.enumerate() {
                 let lit = lit_row.get(k).copied().unwrap_or(0);
-                if lit == u64::MAX {
+                if lit == u64::MAX || !(whole_row || near.covers(k, y)) {
                     continue;
                 }
-                let pixels = row.iter().skip(k * RUN_PX * step).step_by(step);
-                let mut got = 0;
-                for (dst, &src) in luma.iter_mut().zip(pixels) {
-                    *dst = src;
-                    got += 1;
-                }
-                let got = got.min(means.len());
+                let got = gather_luma(row, k * RUN_PX * step, step, &mut luma).min(means.len());
                 // A row shorter than the frame says (never, for a checked frame) is not learned
                 // from stale bytes.
                 let (means, counts) = (
@@ -160,6 +172,101 @@ impl FloorBackground {
         }
         if any_lit {
             self.lit.clear_all();
+        }
+    }
+}
+
+/// Past the first [`MEAN_FRAMES`] frames, a pixel away from the blobs is learned in one frame
+/// of this many (a row of this many, in turn): the floor changes slowly, and the mean of a
+/// pixel seen every few frames has the same noise as one seen every frame. Learning the whole
+/// frame every frame cost more than everything else on the per-frame path together.
+const ROW_PHASES: usize = 8;
+
+/// How far beyond a blob's light the floor is still learned every frame, for a blob whose
+/// longer side is `max_side_px`: about where the light is in the next frame (a streak moves
+/// about its own length from one frame to the next), so that the floor under it is as fresh
+/// as under a floor learned everywhere every frame, and light that has just left a pixel is
+/// forgotten before the light returns.
+fn near_blob_px(max_side_px: usize) -> usize {
+    max_side_px + NEAR_BLOB_MIN_PX
+}
+
+/// The least reach of [`near_blob_px`]: a still spot or a short streak may start moving.
+const NEAR_BLOB_MIN_PX: usize = 16;
+
+/// Most windows around blobs kept apart; more are merged into the last one.
+const MAX_NEAR: usize = 16;
+
+/// Rows `y0..=y1` and runs `k0..=k1` learned every frame (around a blob).
+#[derive(Clone, Copy, Default)]
+struct NearWindow {
+    y0: usize,
+    y1: usize,
+    k0: usize,
+    k1: usize,
+}
+
+/// The windows around a frame's blobs, at most [`MAX_NEAR`] (a frame with more blobs has its
+/// last window grown to cover the rest: more is learned, never less).
+#[derive(Default)]
+struct Near {
+    windows: [NearWindow; MAX_NEAR],
+    len: usize,
+}
+
+impl Near {
+    fn add(&mut self, w: NearWindow) {
+        if let Some(slot) = self.windows.get_mut(self.len) {
+            *slot = w;
+            self.len += 1;
+        } else if let Some(last) = self.windows.last_mut() {
+            *last = NearWindow {
+                y0: last.y0.min(w.y0),
+                y1: last.y1.max(w.y1),
+                k0: last.k0.min(w.k0),
+                k1: last.k1.max(w.k1),
+            };
+        }
+    }
+
+    fn covers_row(&self, y: usize) -> bool {
+        self.windows[..self.len]
+            .iter()
+            .any(|w| (w.y0..=w.y1).contains(&y))
+    }
+
+    fn covers(&self, k: usize, y: usize) -> bool {
+        self.windows[..self.len]
+            .iter()
+            .any(|w| (w.y0..=w.y1).contains(&y) && (w.k0..=w.k1).contains(&k))
+    }
+}
+
+/// Copies the luma of the run starting at byte `start` of `row` (every `step`-th byte) into
+/// `luma`; returns how many pixels it had. The packed formats' steps have loops of their own,
+/// which the compiler turns into vector code.
+#[inline]
+fn gather_luma(row: &[u8], start: usize, step: usize, luma: &mut [u8; RUN_PX]) -> usize {
+    let rest = row.get(start..).unwrap_or_default();
+    match step {
+        1 if rest.len() >= RUN_PX => {
+            luma.copy_from_slice(&rest[..RUN_PX]);
+            RUN_PX
+        }
+        // The luma row ends on a luma byte: a full run reads 2 × 64 − 1 bytes.
+        2 if rest.len() >= 2 * RUN_PX - 1 => {
+            for (dst, &src) in luma.iter_mut().zip(rest.iter().step_by(2)) {
+                *dst = src;
+            }
+            RUN_PX
+        }
+        _ => {
+            let mut got = 0;
+            for (dst, &src) in luma.iter_mut().zip(rest.iter().step_by(step.max(1))) {
+                *dst = src;
+                got += 1;
+            }
+            got
         }
     }
 }
@@ -197,7 +304,7 @@ fn learn_run(
                 let (deviation, learned) =
                     learn_steady_pixel(luma[i], &mut means[i], &mut counts[i], gate_fixed);
                 sum += deviation;
-                n += u32::from(learned);
+                n += learned;
             }
         }
         _ => {
@@ -214,26 +321,26 @@ fn learn_run(
 }
 
 /// [`learn_pixel`] for a pixel not lit and seen [`MEAN_FRAMES`] times: its mean moves by
-/// `deviation / MEAN_FRAMES` (then truncated, as there), which is an arithmetic shift.
+/// `deviation / MEAN_FRAMES` (then truncated, as there), which is an arithmetic shift. Every
+/// choice is a select of values computed either way, so that a run of these is vector code
+/// (a branch per choice kept it scalar, at 16 instructions a pixel).
 #[inline(always)]
-fn learn_steady_pixel(luma: u8, mean: &mut u16, count: &mut u8, gate_fixed: i32) -> (u32, bool) {
+fn learn_steady_pixel(luma: u8, mean: &mut u16, count: &mut u8, gate_fixed: i32) -> (u32, u32) {
     const SHIFT: u32 = MEAN_FRAMES.trailing_zeros();
     let value = i32::from(luma) << 8;
     let old = i32::from(*mean);
     let deviation = value - old;
     let restart = deviation < -gate_fixed;
     let learned = !restart & (deviation <= gate_fixed);
-    let new_mean = if learned {
+    let kept = if learned {
         old + (deviation >> SHIFT)
-    } else if restart {
-        value
     } else {
         old
     };
-    *mean = new_mean as u16;
+    *mean = if restart { value } else { kept } as u16;
     *count = if restart { 1 } else { MEAN_FRAMES };
-    let learned_deviation = if learned { deviation.unsigned_abs() } else { 0 };
-    (learned_deviation, learned)
+    let magnitude = deviation.unsigned_abs();
+    (if learned { magnitude } else { 0 }, u32::from(learned))
 }
 
 /// Learns one pixel, unless `lit`. Returns its absolute deviation from the mean (fixed
@@ -408,23 +515,75 @@ mod tests {
         let frame = Frame::new_checked(&next, size, size.row_bytes()).unwrap();
         bg.update(&frame, core::iter::empty(), |_| 0);
         let step = 2.0 / f32::from(MEAN_FRAMES);
+        // Past the first frames, a row away from the light learned in this frame.
+        let y = 2 * usize::from(MEAN_FRAMES) % ROW_PHASES;
         for x in [0, 20, 63, 64, 75, 99] {
-            assert_eq!(bg.luma(x, 5), Some(f32::from(floor(x, 5)) + step), "x {x}");
+            assert_eq!(bg.luma(x, y), Some(f32::from(floor(x, y)) + step), "x {x}");
         }
         for x in [10, 80] {
             assert_eq!(
-                bg.luma(x, 5),
-                Some(f32::from(floor(x, 5))),
+                bg.luma(x, y),
+                Some(f32::from(floor(x, y))),
                 "x {x}: light arriving"
             );
         }
         for x in [30, 70] {
             assert_eq!(
-                bg.luma(x, 5),
-                Some(f32::from(floor(x, 5) - 30)),
+                bg.luma(x, y),
+                Some(f32::from(floor(x, y) - 30)),
                 "x {x}: restarted"
             );
         }
         assert!((bg.noise_luma() - 2.0 / MAD_PER_SIGMA).abs() < 1e-5);
+    }
+
+    #[test]
+    fn past_the_first_frames_the_floor_is_learned_around_the_light_and_in_turn_elsewhere() {
+        // Two runs of the mask's words a row.
+        let size = FrameSize::new(128, 64).unwrap();
+        let floor = |x: usize, y: usize| (60 + (x * 7 + y * 13) % 40) as u8;
+        let mut bg = FloorBackground::new(size);
+        let still = yuyv(128, 64, floor);
+        let frame = Frame::new_checked(&still, size, size.row_bytes()).unwrap();
+        for _ in 0..MEAN_FRAMES {
+            bg.update(&frame, core::iter::empty(), |_| 0);
+        }
+        // The whole floor 2 brighter (within the gate), and a light at x 10..=12, y 20..=22:
+        // learned around it (as far as `near_blob_px` beyond its margin, so rows up to 43 of
+        // the first run) and elsewhere in the rows of this frame's turn only.
+        let light = |x: usize, y: usize| (10..=12).contains(&x) && (20..=22).contains(&y);
+        let next = yuyv(
+            128,
+            64,
+            |x, y| if light(x, y) { 255 } else { floor(x, y) + 2 },
+        );
+        let frame = Frame::new_checked(&next, size, size.row_bytes()).unwrap();
+        bg.update(&frame, [blob(10, 20, 12, 22)].iter(), |_| 2);
+        let phase = usize::from(MEAN_FRAMES) % ROW_PHASES;
+        let step = 2.0 / f32::from(MEAN_FRAMES);
+        let learned = |x: usize, y: usize| bg.luma(x, y) == Some(f32::from(floor(x, y)) + step);
+        let kept = |x: usize, y: usize| bg.luma(x, y) == Some(f32::from(floor(x, y)));
+        for (x, y) in [(40, 21), (63, 0), (0, 43), (30, 35)] {
+            assert!(
+                learned(x, y),
+                "({x}, {y}) beside the light: {:?}",
+                bg.luma(x, y)
+            );
+        }
+        for y in [phase, phase + ROW_PHASES, 63 - (63 - phase) % ROW_PHASES] {
+            for x in [64, 100, 127] {
+                assert!(learned(x, y), "({x}, {y}) in this frame's rows");
+            }
+        }
+        for (x, y) in [(100, 21), (64, 1), (5, 50), (127, 63)] {
+            assert!(y % ROW_PHASES != phase);
+            assert!(
+                kept(x, y),
+                "({x}, {y}) far from the light: {:?}",
+                bg.luma(x, y)
+            );
+        }
+        // The light's own pixels and its margin are never learned.
+        assert!(kept(11, 21) && kept(9, 20));
     }
 }
