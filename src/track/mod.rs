@@ -1187,6 +1187,33 @@ mod tests {
         }
     }
 
+    /// A still LED whose single frame claims a 10 px path (a glow's floor texture read as
+    /// light, `fit_px` 1 px): once five middles are known, their motion says it stands (they
+    /// jitter by 0.1 px), the claimed head lies beyond both noises, and the head is where the
+    /// middles' motion puts it, with their velocity. Before, the head was a claimed end, 5 px
+    /// off.
+    #[test]
+    fn a_path_the_middles_contradict_gives_way_to_their_motion() {
+        let mut t = Tracker::new(TrackerConfig {
+            exposure_us: Some(10_000),
+        });
+        for i in 0..8u64 {
+            let jitter_px = if i % 2 == 0 { 0.1 } else { -0.1 };
+            let mid = (100.0 + jitter_px, 100.0);
+            let mut s = streak(mid, Some([(mid.0 - 5.0, 100.0), (mid.0 + 5.0, 100.0)]));
+            if let Some(p) = s.path.as_mut() {
+                p.fit_px = Some(1.0);
+            }
+            let e = t.update(i * FRAME_US, Some(&s)).unwrap();
+            let error_px = (e.position_px.0 - 100.0).hypot(e.position_px.1 - 100.0);
+            if i >= 4 {
+                assert!(error_px <= 0.5, "frame {i}: head {:?}", e.position_px);
+                let method = e.velocity_px_s.map(|(_, m)| m);
+                assert_eq!(method, Some(VelocityMethod::Frames), "frame {i}");
+            }
+        }
+    }
+
     /// A smear taken in the first frame has no velocity yet: its gate is the smallest, and a
     /// fast LED is out of it in the next frame. Bits of its glow cut apart beside it (or any
     /// other new blob) do not make that frame `ambiguous`: the LED went, and the largest blob

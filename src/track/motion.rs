@@ -24,7 +24,7 @@
 
 /// Middles the motion is measured over, the current one included: up to five prediction
 /// errors, and for a settling LED only the frames since it stopped after a few frames at rest.
-pub const MOTION_MIDDLES: usize = 7;
+pub const MOTION_MIDDLES: usize = 8;
 
 /// Prediction errors needed before the motion's spread is trusted: one may be small by chance.
 pub const MIN_INNOVATIONS: usize = 2;
@@ -84,8 +84,9 @@ impl MotionHead {
 /// current one last) for an exposure of `exposure_us`, or `None` with too few middles or
 /// frame times that do not increase.
 pub fn motion_head(middles: &[Middle], exposure_us: u32) -> Option<MotionHead> {
+    // A prediction error of the turning motion needs three middles before it.
     let n = middles.len();
-    if n < MIN_INNOVATIONS + 2 || n > MOTION_MIDDLES {
+    if n < MIN_INNOVATIONS + 3 || n > MOTION_MIDDLES {
         return None;
     }
     // Displacements over each interval, as velocities, and the turn between consecutive ones.
@@ -229,9 +230,9 @@ mod tests {
 
     #[test]
     fn too_few_middles_or_times_that_do_not_increase_give_nothing() {
-        let m = middles(|t| (1000.0 * t, 0.0), 3);
+        let m = middles(|t| (1000.0 * t, 0.0), 4);
         assert_eq!(motion_head(&m, EXPOSURE_US), None);
-        let mut m = middles(|t| (1000.0 * t, 0.0), 4);
+        let mut m = middles(|t| (1000.0 * t, 0.0), 5);
         m[3].t_us = m[2].t_us;
         assert_eq!(motion_head(&m, EXPOSURE_US), None);
     }
