@@ -568,6 +568,47 @@ fn a_long_streak_in_a_saturated_glow_takes_the_fitted_middle() {
     }
 }
 
+/// Sweep points searched for tight circles in a glow.
+const TIGHT_ARC_POINTS: usize = 48;
+
+/// A tight circle inside a saturated glow: its fitted path is as long as the glow is wide, so
+/// it reads still, and its head was the middle carried by the last three frames' velocity,
+/// which on a circle turning half a radian or more a frame points far from the tangent:
+/// 10–14 px off on sweep points 7 and 39. The tracker now carries the middle by the middles'
+/// turning motion (`src/track/motion.rs`): the head is `(1 + r) m_k − r m_{k−1}` turned, with
+/// `r` half the exposure over the frame interval, so its error is at most `1 + 2 r` times
+/// the middles' (their errors adding in the worst case), whatever the fit claims.
+#[test]
+fn a_tight_circle_in_a_glow_takes_its_head_from_the_middles_turn() {
+    let period_s = 1.0 / 90.0;
+    let exposure_s = 0.010;
+    let r = 0.5 * exposure_s / period_s;
+    let tight: Vec<SweepPoint> = SweepPoint::sweep(DEFAULT_SEED, TIGHT_ARC_POINTS)
+        .into_iter()
+        .filter(|p| match p.path {
+            SweepPath::Arc {
+                radius_px,
+                length_px,
+            } => p.spot == SpotKind::Bloom && length_px / radius_px * period_s / exposure_s >= 0.5,
+            _ => false,
+        })
+        .collect();
+    assert!(
+        !tight.is_empty(),
+        "no tight circle in a glow among the points"
+    );
+    for point in tight {
+        let s = run_point(&point, StreakModel::Fit);
+        let head = quantile(&s.head_px, 0.5).unwrap();
+        let middle = quantile(&s.mid_px, 0.5).unwrap();
+        eprintln!("{point}: head median {head:.2} px, middle median {middle:.2} px");
+        assert!(
+            head <= (1.0 + 2.0 * r) * middle,
+            "{point}: head median {head:.2} px, middle {middle:.2} px"
+        );
+    }
+}
+
 fn env_or<T: std::str::FromStr>(name: &str, default: T) -> T {
     std::env::var(name)
         .ok()

@@ -49,6 +49,7 @@
 pub mod assign;
 pub mod body;
 pub mod marker;
+pub mod motion;
 pub mod multi;
 pub mod state;
 pub mod statics;
@@ -58,6 +59,7 @@ use heapless::HistoryBuf;
 use crate::detect::blobs::Blob;
 use crate::detect::streak::Streak;
 use body::Body;
+use motion::{Middle, MotionHead, CHI2_1DOF_99, CHI2_2DOF_99, MOTION_MIDDLES};
 use statics::{Known, Statics};
 
 pub use marker::{MarkerPose, MarkerTracker};
@@ -189,6 +191,9 @@ pub struct Tracker {
     followed: Option<Followed>,
     /// Whether the previous frame had the LED: the head needs the position just before.
     previous_found: bool,
+    /// How many of the last samples of the history are of consecutive frames that had the
+    /// LED: the middles whose motion is measured (see [`motion`]).
+    found_run: usize,
     /// The track was taken as the lone candidate in view and has not moved since: it may be a
     /// lamp, and yields to the first thing that moves.
     tentative: bool,
@@ -371,6 +376,7 @@ impl Tracker {
         self.followed = None;
         self.tentative = false;
         self.previous_found = false;
+        self.found_run = 0;
         self.missed_frames = 0;
     }
 
@@ -568,6 +574,7 @@ impl Tracker {
         let Some(streak) = streak else {
             self.missed_frames = self.missed_frames.saturating_add(1);
             self.previous_found = false;
+            self.found_run = 0;
             return None;
         };
         // Back after its body was followed while it was lost: where the body last put it is
@@ -615,6 +622,57 @@ impl Tracker {
                 b
             })
         });
+        // One frame cannot always tell a still LED from a moving one; the middles' motion
+        // between frames can (see [`motion`]). A single frame's head beyond the noise of
+        // both from where that motion puts it, or a path read as still while the middles
+        // moved beyond their noise, gives way to the motion's head and velocity.
+        // Each variance is held to the quantile of its own kind: the fit's is reported, the
+        // motion's measured from a few frames. Without a reported uncertainty (the ramps)
+        // there is nothing to say the single frame's head is wrong. A path read as still
+        // has its head carried from the middle below, by the three frames' velocity, which
+        // divides the middle's jitter: right for a straight motion, not on a tight circle,
+        // where the motion's turn is needed.
+        let fit_px = streak.path.and_then(|p| p.fit_px);
+        let motion = self.motion_head(mid_px, t_us);
+        let from_motion = motion.filter(|m| match (head, fit_px) {
+            (Some(h), Some(fit_px)) => {
+                let (dx, dy) = (h.0 - m.head_px.0, h.1 - m.head_px.1);
+                let allowed = CHI2_2DOF_99 * fit_px * fit_px
+                    + m.beyond(2) * m.head_sigma_px * m.head_sigma_px;
+                dx * dx + dy * dy > allowed
+            }
+            (Some(_), None) => false,
+            (None, _) => m.moved && m.turning && !streak.path_failed,
+        });
+        let fit_px = fit_px.unwrap_or(0.0);
+        if let Some(m) = from_motion {
+            // The single frame's length is still its speed when the motion's path agrees
+            // with it: only its place or direction was wrong (a reversed short streak).
+            let speed = m.velocity_px_s.0.hypot(m.velocity_px_s.1);
+            let exposure_s = self.config.exposure_us.map_or(0.0, |e| e as f32 * 1e-6);
+            let streak_speed = streak.path.filter(|_| head.is_some()).and_then(|p| {
+                let miss = p.path_length_px - speed * exposure_s;
+                // The length's ends each carry the fit's deviation.
+                let allowed = CHI2_1DOF_99 * 2.0 * fit_px * fit_px
+                    + m.beyond(1) * m.path_sigma_px * m.path_sigma_px;
+                (miss * miss <= allowed && speed > 0.0)
+                    .then(|| p.path_length_px / exposure_s / speed)
+            });
+            let velocity_px_s = match streak_speed {
+                Some(scale) => (
+                    (m.velocity_px_s.0 * scale, m.velocity_px_s.1 * scale),
+                    VelocityMethod::Streak,
+                ),
+                None => (m.velocity_px_s, VelocityMethod::Frames),
+            };
+            let estimate = Estimate {
+                position_px: m.head_px,
+                position_method: PositionMethod::Head,
+                mid_px,
+                velocity_px_s: Some(velocity_px_s),
+            };
+            return Some(self.record(t_us, estimate));
+        }
         let velocity_px_s = self.velocity(streak, head.unwrap_or(mid_px), previous, t_us);
         // A streak too short for its ends to be measured still moved: with the exposure
         // known, the head is half an exposure's travel ahead of the middle.
@@ -650,11 +708,34 @@ impl Tracker {
             mid_px,
             velocity_px_s,
         };
-        let sample = Sample { t_us, estimate };
-        self.history.write(sample);
+        Some(self.record(t_us, estimate))
+    }
+
+    /// Enters a found frame's estimate into the history.
+    fn record(&mut self, t_us: u64, estimate: Estimate) -> Estimate {
+        self.history.write(Sample { t_us, estimate });
         self.missed_frames = 0;
         self.previous_found = true;
-        Some(estimate)
+        self.found_run = (self.found_run + 1).min(HISTORY_FRAMES);
+        estimate
+    }
+
+    /// The motion head of the streak whose middle is `mid_px` at `t_us`, from the middles of
+    /// the consecutive found frames before it (see [`motion::motion_head`]); `None` without
+    /// the exposure time or with too few of them.
+    fn motion_head(&self, mid_px: (f32, f32), t_us: u64) -> Option<MotionHead> {
+        let exposure_us = self.config.exposure_us?;
+        let mut middles = [Middle::default(); MOTION_MIDDLES];
+        let before = self.found_run.min(MOTION_MIDDLES - 1);
+        let recent = self.history.oldest_ordered().rev().take(before);
+        for (slot, sample) in middles[..before].iter_mut().rev().zip(recent) {
+            *slot = Middle {
+                t_us: sample.t_us,
+                px: sample.estimate.mid_px,
+            };
+        }
+        middles[before] = Middle { t_us, px: mid_px };
+        motion::motion_head(&middles[..=before], exposure_us)
     }
 
     /// The middle's mean velocity since the [`STEADY_FRAMES`]-th last found frame (`None`
@@ -1103,6 +1184,33 @@ mod tests {
                 "frame {i}: head {:?}",
                 e.position_px
             );
+        }
+    }
+
+    /// A still LED whose single frame claims a 10 px path (a glow's floor texture read as
+    /// light, `fit_px` 1 px): once five middles are known, their motion says it stands (they
+    /// jitter by 0.1 px), the claimed head lies beyond both noises, and the head is where the
+    /// middles' motion puts it, with their velocity. Before, the head was a claimed end, 5 px
+    /// off.
+    #[test]
+    fn a_path_the_middles_contradict_gives_way_to_their_motion() {
+        let mut t = Tracker::new(TrackerConfig {
+            exposure_us: Some(10_000),
+        });
+        for i in 0..8u64 {
+            let jitter_px = if i % 2 == 0 { 0.1 } else { -0.1 };
+            let mid = (100.0 + jitter_px, 100.0);
+            let mut s = streak(mid, Some([(mid.0 - 5.0, 100.0), (mid.0 + 5.0, 100.0)]));
+            if let Some(p) = s.path.as_mut() {
+                p.fit_px = Some(1.0);
+            }
+            let e = t.update(i * FRAME_US, Some(&s)).unwrap();
+            let error_px = (e.position_px.0 - 100.0).hypot(e.position_px.1 - 100.0);
+            if i >= 4 {
+                assert!(error_px <= 0.5, "frame {i}: head {:?}", e.position_px);
+                let method = e.velocity_px_s.map(|(_, m)| m);
+                assert_eq!(method, Some(VelocityMethod::Frames), "frame {i}");
+            }
         }
     }
 

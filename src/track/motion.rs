@@ -1,0 +1,239 @@
+//! The streak's middle between frames: where its motion puts the head, and how far that can
+//! be trusted, measured from how well the same motion predicted the last middles.
+//!
+//! One frame cannot always tell a still LED from a moving one: where the floor under a
+//! saturated glow was never seen without the light, the fitted path reads its texture as
+//! light (paths of 6–27 px for an LED at rest, 13–36 px for a true 14–23 px), and a 1.5 px
+//! disk streak reads reversed or twice as long. The middle is robust there (a few tenths of a
+//! pixel), and its motion over the frame interval, scaled by the exposure, is the path the
+//! LED drew: on the accuracy sweep's straight streaks the middles' displacement times exposure
+//! over interval is the true length within a few tenths of a pixel, where the fit was off by
+//! up to 5 px. This module turns the last middles into a head of its own with a standard
+//! deviation; the tracker compares it with the single frame's head (see
+//! [`super::Tracker::update`]).
+//!
+//! The motion is a constant turn (a straight line is a turn of zero): the LED keeps its speed
+//! and turns at the rate its last two displacements turned. A tight circle (16–22 px, a
+//! quarter turn a frame) needs the turn: the last displacement's direction is the tangent
+//! half a frame ago, 30–40° off. Where the turn is noise (a slow or still LED) it would only
+//! spread the head, so of the straight and the turning motion the one that predicted the
+//! last middles better is taken. The head's deviation is the prediction errors'
+//! (innovations') spread, carried to the head: an LED that accelerates or turns against the
+//! model makes its own prediction errors large, so its motion head is trusted less at once,
+//! in the very frame it changes course.
+
+/// Middles the motion is measured over, the current one included: up to five prediction
+/// errors, and for a settling LED only the frames since it stopped after a few frames at rest.
+pub const MOTION_MIDDLES: usize = 8;
+
+/// Prediction errors needed before the motion's spread is trusted: one may be small by chance.
+pub const MIN_INNOVATIONS: usize = 2;
+
+/// The 99 % quantile of the χ² distribution with two degrees of freedom: a 2-D offset whose
+/// squared length exceeds this many known variances (per axis) is beyond the noise.
+pub const CHI2_2DOF_99: f32 = 9.21;
+
+/// The same with one degree of freedom, for a length.
+pub const CHI2_1DOF_99: f32 = 6.63;
+
+/// A variance measured from a few prediction errors is itself uncertain: an offset measured
+/// against it is beyond the noise past `k` times the 99 % quantile of Fisher's F(k, ν), with
+/// ν the degrees of freedom of the measurement (two per prediction error); for k = 2 these
+/// are that quantile times two, for k = 1 the F quantile itself (Student's t squared), at
+/// ν = 4, 6, 8, 10 (two to five prediction errors).
+const F_99_TIMES_K: [[f32; 4]; 2] = [[21.20, 13.75, 11.26, 10.04], [36.0, 21.84, 17.30, 15.12]];
+
+/// A streak's middle at a frame time.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Middle {
+    /// Frame time.
+    pub t_us: u64,
+    /// The streak's middle.
+    pub px: (f32, f32),
+}
+
+/// What the middles' motion says about the current frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MotionHead {
+    /// The LED at the end of the current exposure.
+    pub head_px: (f32, f32),
+    /// Its velocity there.
+    pub velocity_px_s: (f32, f32),
+    /// One standard deviation of `head_px`, per axis.
+    pub head_sigma_px: f32,
+    /// Whether the last displacement is beyond the middles' noise: the LED moved.
+    pub moved: bool,
+    /// Whether the turning motion predicted the last middles better than the straight one.
+    pub turning: bool,
+    /// One standard deviation of the path over the exposure the velocity gives, along it.
+    pub path_sigma_px: f32,
+    /// Prediction errors the deviations were measured from.
+    pub innovations: usize,
+}
+
+impl MotionHead {
+    /// The factor a squared offset in `dimensions` (1 or 2) is compared with, times the
+    /// variance measured from the prediction errors, to be beyond their noise (99 %).
+    pub fn beyond(&self, dimensions: usize) -> f32 {
+        let row = &F_99_TIMES_K[dimensions.clamp(1, 2) - 1];
+        row[self.innovations.clamp(MIN_INNOVATIONS, row.len() + 1) - MIN_INNOVATIONS]
+    }
+}
+
+/// The motion head of the last of `middles` (oldest first, consecutive found frames, the
+/// current one last) for an exposure of `exposure_us`, or `None` with too few middles or
+/// frame times that do not increase.
+pub fn motion_head(middles: &[Middle], exposure_us: u32) -> Option<MotionHead> {
+    // A prediction error of the turning motion needs three middles before it.
+    let n = middles.len();
+    if n < MIN_INNOVATIONS + 3 || n > MOTION_MIDDLES {
+        return None;
+    }
+    // Displacements over each interval, as velocities, and the turn between consecutive ones.
+    let mut v = [(0.0f32, 0.0f32); MOTION_MIDDLES];
+    let mut dt_s = [0.0f32; MOTION_MIDDLES];
+    for j in 1..n {
+        let dt_us = middles[j].t_us.checked_sub(middles[j - 1].t_us)?;
+        if dt_us == 0 {
+            return None;
+        }
+        dt_s[j] = dt_us as f32 * 1e-6;
+        let (a, b) = (middles[j - 1].px, middles[j].px);
+        v[j] = ((b.0 - a.0) / dt_s[j], (b.1 - a.1) / dt_s[j]);
+    }
+    // The turn rate at middle j (from displacement j to j + 1), per second.
+    let turn_rate = |j: usize| -> f32 {
+        let (a, b) = (v[j], v[j + 1]);
+        let angle = (a.0 * b.1 - a.1 * b.0).atan2(a.0 * b.0 + a.1 * b.1);
+        angle / (0.5 * (dt_s[j] + dt_s[j + 1]))
+    };
+    // Each model predicts middle j from the displacement before it, turned by the rate
+    // measured one displacement earlier (zero for the straight model); both are scored on
+    // the same middles.
+    let innovations = |turning: bool| -> f32 {
+        let mut sum_sq = 0.0;
+        for j in 3..n {
+            let rate = if turning { turn_rate(j - 2) } else { 0.0 };
+            let turn = rate * 0.5 * (dt_s[j - 1] + dt_s[j]);
+            let (c, s) = (turn.cos(), turn.sin());
+            let (vx, vy) = v[j - 1];
+            let step = ((c * vx - s * vy) * dt_s[j], (s * vx + c * vy) * dt_s[j]);
+            let (m, p) = (middles[j].px, middles[j - 1].px);
+            let e = (m.0 - p.0 - step.0, m.1 - p.1 - step.1);
+            sum_sq += e.0 * e.0 + e.1 * e.1;
+        }
+        // Per axis.
+        sum_sq / (2 * (n - 3)) as f32
+    };
+    let (straight, turning) = (innovations(false), innovations(true));
+    let turns = turning < straight;
+    let (innovation_var, rate) = if turns {
+        (turning, turn_rate(n - 2))
+    } else {
+        (straight, 0.0)
+    };
+    let last_s = dt_s[n - 1];
+    let exposure_s = exposure_us as f32 * 1e-6;
+    let (vx, vy) = v[n - 1];
+    // On a circle the last displacement is the chord of the last interval: its direction is
+    // the tangent half an interval ago, and the head is a quarter of the exposure's turn
+    // further round from the middle's tangent, at a chord of 2 R sin(ω E / 4).
+    let half_turn = 0.5 * rate * last_s;
+    let chord_per_arc = |angle: f32| {
+        if angle.abs() < 1e-4 {
+            1.0
+        } else {
+            angle.sin() / angle
+        }
+    };
+    let to_head_s =
+        0.5 * exposure_s * chord_per_arc(0.25 * rate * exposure_s) / chord_per_arc(half_turn);
+    let rotate = |(x, y): (f32, f32), angle: f32| {
+        let (c, s) = (angle.cos(), angle.sin());
+        (c * x - s * y, s * x + c * y)
+    };
+    let (hx, hy) = rotate(
+        (vx * to_head_s, vy * to_head_s),
+        half_turn + 0.25 * rate * exposure_s,
+    );
+    let m = middles[n - 1].px;
+    let speed_per_chord = 1.0 / chord_per_arc(half_turn);
+    let velocity_px_s = rotate(
+        (vx * speed_per_chord, vy * speed_per_chord),
+        half_turn + 0.5 * rate * exposure_s,
+    );
+    // With middles of independent noise σ, a prediction error is a second difference
+    // (variance 6 σ² per axis), and the head, (1 + r) m_k − r m_{k−1} with r the head's lead
+    // over the last interval, has variance ((1 + r)² + r²) σ²; an unmodelled acceleration
+    // shows in the prediction errors more than in the head, so the same ratio is an upper
+    // bound for it.
+    let r = to_head_s / last_s;
+    let middle_var = innovation_var / 6.0;
+    let head_var = ((1.0 + r) * (1.0 + r) + r * r) * middle_var;
+    let innovations = n - 3;
+    // The last displacement, against its noise (two middles' noise per axis).
+    let moved_sq = (vx * vx + vy * vy) * last_s * last_s;
+    let mut head = MotionHead {
+        head_px: (m.0 + hx, m.1 + hy),
+        velocity_px_s,
+        head_sigma_px: head_var.sqrt(),
+        moved: false,
+        turning: turns,
+        // The path is the displacement scaled by exposure over interval.
+        path_sigma_px: (2.0 * middle_var).sqrt() * exposure_s / last_s,
+        innovations,
+    };
+    head.moved = moved_sq > head.beyond(2) * 2.0 * middle_var;
+    Some(head)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const FRAME_US: u64 = 11_111;
+    const EXPOSURE_US: u32 = 10_000;
+
+    fn middles(at: impl Fn(f32) -> (f32, f32), n: usize) -> Vec<Middle> {
+        (0..n)
+            .map(|i| Middle {
+                t_us: i as u64 * FRAME_US,
+                px: at(i as f32 * FRAME_US as f32 * 1e-6),
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_straight_line_s_head_is_half_an_exposure_ahead() {
+        let m = middles(|t| (100.0 + 2000.0 * t, 50.0 - 1000.0 * t), 5);
+        let h = motion_head(&m, EXPOSURE_US).unwrap();
+        let t = 4.0 * FRAME_US as f32 * 1e-6 + 0.005;
+        let truth = (100.0 + 2000.0 * t, 50.0 - 1000.0 * t);
+        assert!((h.head_px.0 - truth.0).abs() < 1e-2 && (h.head_px.1 - truth.1).abs() < 1e-2);
+        assert!(h.moved);
+        assert!(h.head_sigma_px < 1e-2, "{}", h.head_sigma_px);
+    }
+
+    #[test]
+    fn a_circle_s_head_is_a_quarter_exposure_s_turn_round() {
+        // A 16 px circle, 23 px of arc per 10 ms exposure: the sweep's tightest.
+        let (r, w) = (16.0f32, 23.0 / 16.0 / 0.01);
+        let at = |t: f32| (300.0 + r * (w * t).cos(), 200.0 + r * (w * t).sin());
+        let m = middles(at, 5);
+        let h = motion_head(&m, EXPOSURE_US).unwrap();
+        let truth = at(4.0 * FRAME_US as f32 * 1e-6 + 0.005);
+        let error = (h.head_px.0 - truth.0).hypot(h.head_px.1 - truth.1);
+        assert!(error < 0.05, "{error} px");
+        let speed = h.velocity_px_s.0.hypot(h.velocity_px_s.1);
+        assert!((speed - r * w).abs() < 1.0, "{speed} px/s");
+    }
+
+    #[test]
+    fn too_few_middles_or_times_that_do_not_increase_give_nothing() {
+        let m = middles(|t| (1000.0 * t, 0.0), 4);
+        assert_eq!(motion_head(&m, EXPOSURE_US), None);
+        let mut m = middles(|t| (1000.0 * t, 0.0), 5);
+        m[3].t_us = m[2].t_us;
+        assert_eq!(motion_head(&m, EXPOSURE_US), None);
+    }
+}
