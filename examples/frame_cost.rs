@@ -80,7 +80,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 streak_model,
                 ..DetectorConfig::default()
             },
-            ..PipelineConfig::default()
         },
     )?;
     let mut mask = BitImage::new(size);
