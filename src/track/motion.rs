@@ -86,7 +86,7 @@ impl MotionHead {
 pub fn motion_head(middles: &[Middle], exposure_us: u32) -> Option<MotionHead> {
     // A prediction error of the turning motion needs three middles before it.
     let n = middles.len();
-    if n < MIN_INNOVATIONS + 3 || n > MOTION_MIDDLES {
+    if !(MIN_INNOVATIONS + 3..=MOTION_MIDDLES).contains(&n) {
         return None;
     }
     // Displacements over each interval, as velocities, and the turn between consecutive ones.
