@@ -11,7 +11,9 @@ cd "$(dirname "$0")/.."
 
 tools/setup-system.sh test
 tools/setup-python.sh
-cargo test --workspace
+# The firmware first: it installs its rustup target, which the robot-in-the-loop rig's test
+# (tools/tests/rig.rs, in the workspace's tests) needs to build the firmware it runs in qemu.
 bash board/firmware/check.sh
+cargo test --workspace
 tools/cross.sh ci
 bash board/raspberry-pi/check.sh
