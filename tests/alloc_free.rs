@@ -6,6 +6,7 @@ mod common;
 
 use common::alloc::{allocations_during, Counting};
 use std::io::{self, BufWriter, Cursor};
+use std::sync::OnceLock;
 
 use glint::frame::FrameSize;
 use glint::pipeline::{self, Pipeline, PipelineConfig};
@@ -16,8 +17,14 @@ use glint_tools::scene::Scene;
 #[global_allocator]
 static GLOBAL: Counting = Counting;
 
-/// Rendered frames of several scenes at 640×480, blank frames between them.
-fn frames() -> (FrameSize, Vec<u8>, usize) {
+/// Rendered frames of several scenes at 640×480, blank frames between them: rendered once and
+/// shared by the tests (they run side by side in this process and only read them).
+fn frames() -> &'static (FrameSize, Vec<u8>, usize) {
+    static FRAMES: OnceLock<(FrameSize, Vec<u8>, usize)> = OnceLock::new();
+    FRAMES.get_or_init(render_frames)
+}
+
+fn render_frames() -> (FrameSize, Vec<u8>, usize) {
     // First (so that the tracker starts on its brightest LED), three LEDs on one body, the
     // tracked one hidden for 10 frames while the other two move on: the tracker follows its
     // body by them while it is lost.
@@ -49,7 +56,7 @@ fn frames() -> (FrameSize, Vec<u8>, usize) {
 
 #[test]
 fn replay_allocates_nothing_per_frame() {
-    let (size, bytes, count) = frames();
+    let &(size, ref bytes, count) = frames();
     assert!(count >= 100, "at least 100 frames, got {count}");
 
     // Start-up allocations happen here, outside the count.
@@ -71,9 +78,14 @@ fn replay_allocates_nothing_per_frame() {
         "the scenes were tracked: {summary:?}"
     );
     assert_eq!(allocations, 0, "allocations during {count} frames");
+}
 
-    // The CSV sink, the seed's morphological skeleton and the fitted streak model (with the
-    // floor it learns without the light, frame by frame) keep the promise too.
+/// The CSV sink, the seed's morphological skeleton and the fitted streak model (with the floor
+/// it learns without the light, frame by frame) keep the promise too. (A test of its own, so
+/// that the costly fit runs beside the other replays.)
+#[test]
+fn the_fitted_streak_model_allocates_nothing_per_frame() {
+    let &(size, ref bytes, _) = frames();
     let config = PipelineConfig {
         detector: glint::detect::DetectorConfig {
             skeleton: glint::detect::skeleton::SkeletonMethod::Morphological,
@@ -98,8 +110,12 @@ fn replay_allocates_nothing_per_frame() {
     assert_eq!(allocations, 0);
     let floor = pipeline.detector().unwrap().floor_background().unwrap();
     assert!(floor.luma(5, 5).is_some(), "the fit's floor was learned");
+}
 
-    // So does the background-difference detector, learning included.
+/// So does the background-difference detector, learning included.
+#[test]
+fn the_background_difference_allocates_nothing_per_frame() {
+    let &(size, ref bytes, _) = frames();
     let config = PipelineConfig {
         detector: glint::detect::DetectorConfig {
             method: glint::detect::MaskMethod::BackgroundDifference {
@@ -158,7 +174,7 @@ fn floor_mapping_and_marker_tracking_allocate_nothing_per_frame() {
     use glint_tools::markers::{reference_camera, MarkerScene, PlacedMarker};
 
     // The LED pipeline with the floor stage, through both sinks.
-    let (size, bytes, count) = frames();
+    let &(size, ref bytes, count) = frames();
     let config = PipelineConfig {
         tracker: glint::track::TrackerConfig {
             exposure_us: Some(25_000),
@@ -282,7 +298,7 @@ fn serial_sink_allocates_nothing_per_frame() {
 fn preview_sink_with_a_viewer_allocates_nothing_per_frame() {
     use common::live::get;
 
-    let (size, bytes, count) = frames();
+    let &(size, ref bytes, count) = frames();
     let mut sink =
         glint::sink::preview::PreviewSink::start("127.0.0.1:0".parse().unwrap(), size, Vec::new())
             .unwrap();
@@ -319,7 +335,7 @@ fn the_stop_aware_file_source_allocates_nothing_per_frame() {
     use std::sync::atomic::AtomicBool;
     use std::sync::Arc;
 
-    let (size, bytes, count) = frames();
+    let &(size, ref bytes, count) = frames();
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("frames.yuv");
     std::fs::write(&path, &bytes).unwrap();
@@ -456,7 +472,7 @@ fn mavlink_sink_allocates_nothing_per_frame() {
     use std::sync::atomic::{AtomicBool, Ordering};
     use std::sync::Arc;
 
-    let (size, bytes, count) = frames();
+    let &(size, ref bytes, count) = frames();
     let (mut master, slave) = serialport::TTYPort::pair().expect("pty pair");
     let name = slave.name().expect("slave name");
     let stop = Arc::new(AtomicBool::new(false));
@@ -668,7 +684,7 @@ fn publishing_allocates_nothing_on_the_tracking_thread() {
     use glint::sink::Sink;
     use glint::source::FrameSource;
 
-    let (size, bytes, count) = frames();
+    let &(size, ref bytes, count) = frames();
     let config = PublishConfig {
         keys: Keys::new("glint/alloc-test", "cam", 0).unwrap(),
         connect: Vec::new(),
