@@ -29,9 +29,9 @@
 //! of `ℓ`, and past an end the light lost off the far end is `P · Φ(−(u + ℓ)/σ)`; both are in
 //! the pairing, with `ℓ` from the ends found without them.
 
+use super::level_falls::{first_falls, Armed};
 use super::normal::{normal_cdf, quantile_of_ln};
 use super::ray_floor;
-use super::tips::luma_at;
 use crate::frame::Frame;
 
 /// The brightness levels the profiles are cut at, as fractions of the way from the floor to
@@ -50,9 +50,6 @@ const FOOT_LEVEL: f32 = 0.15;
 /// are left to the ramps' rule.
 const FOOT_MIN_RATIO: f32 = 0.75;
 
-/// Profile sampling step.
-const STEP_PX: f32 = 0.1;
-
 /// The widths the fit searches at most, in pixels: a spot narrower than a pixel's sampling to
 /// a glow wider than the profile's reach.
 const SIGMA_RANGE_PX: (f32, f32) = (0.3, 8.0);
@@ -66,6 +63,19 @@ const BODY_OFFSETS_PX: [f32; 3] = [-1.0, 0.0, 1.0];
 
 /// A ray's crossings of the levels: the distance at which it first falls through each.
 type Crossings = [Option<f32>; LEVELS.len()];
+
+/// Where a ray first falls through each level (a level it reaches beyond its start counts:
+/// an end's ray may start on the streak's flank), read no farther than the floor is sought.
+fn crossings(
+    frame: &Frame<'_>,
+    start: (f32, f32),
+    d: (f32, f32),
+    levels: &[f32; LEVELS.len()],
+    reach_px: f32,
+) -> Crossings {
+    let reach_px = reach_px.min(ray_floor::MAX_REACH_PX);
+    first_falls(frame, start, d, levels, reach_px, Armed::OnceReached).map(|f| f.map(|f| f.at_px))
+}
 
 /// Places the two path ends. `mid` is the streak's middle and `across` the unit normal to its
 /// chord there; `origins` are points on the axis near the two ends and `outward` the unit
@@ -103,10 +113,7 @@ pub fn place_ends(
     if span < 1.0 {
         return None;
     }
-    let mut levels = [0.0f32; LEVELS.len()];
-    for (level, f) in levels.iter_mut().zip(LEVELS) {
-        *level = floor + f * span;
-    }
+    let levels = LEVELS.map(|f| floor + f * span);
     // The half-width across at each level, averaged over both sides and the body's sections.
     let mut width_sum = [0.0f32; LEVELS.len()];
     let mut width_count = [0u32; LEVELS.len()];
@@ -309,50 +316,3 @@ fn end_offset(ln_light: f32, sigma: f32, path_px: f32) -> f32 {
 
 /// The largest `ln(lost / light)` formed: beyond it the far end's share is all there is.
 const MAX_LN_RATIO: f32 = 80.0;
-
-/// Walks from `start` along unit vector `d`, out to `reach_px`, and records where the
-/// brightness first falls through each of `levels` (descending), having been above it. A level
-/// the start is not above, or the ray never falls through, is `None`.
-fn crossings(
-    frame: &Frame<'_>,
-    start: (f32, f32),
-    d: (f32, f32),
-    levels: &[f32; LEVELS.len()],
-    reach_px: f32,
-) -> Crossings {
-    let mut found: Crossings = [None; LEVELS.len()];
-    let Some(mut prev) = luma_at(frame, start.0, start.1) else {
-        return found;
-    };
-    // Levels the walk has been above, so far.
-    let mut above = [false; LEVELS.len()];
-    for (a, &level) in above.iter_mut().zip(levels) {
-        *a = prev >= level;
-    }
-    let samples = (reach_px.min(ray_floor::MAX_REACH_PX) / STEP_PX) as usize;
-    for i in 1..=samples {
-        let u = i as f32 * STEP_PX;
-        let Some(v) = luma_at(frame, start.0 + u * d.0, start.1 + u * d.1) else {
-            break;
-        };
-        let mut open = false;
-        for k in 0..LEVELS.len() {
-            if found[k].is_some() {
-                continue;
-            }
-            let level = levels[k];
-            if above[k] && v < level {
-                let frac = (prev - level) / (prev - v);
-                found[k] = Some((i as f32 - 1.0 + frac) * STEP_PX);
-            } else {
-                above[k] = above[k] || v >= level;
-                open = true;
-            }
-        }
-        if !open {
-            break;
-        }
-        prev = v;
-    }
-    found
-}

@@ -19,6 +19,7 @@
 //! 0.07 / 0.55 px. What is left is mostly blooms: where a glow reaches the levels on its own,
 //! every crossing is on its shallow flank, which the floor's texture moves by tenths of a pixel.
 
+use super::level_falls::{first_falls, Armed};
 use super::ray_floor;
 use super::tips::luma_at;
 use crate::frame::Frame;
@@ -38,9 +39,6 @@ const ALONG_LINES_PX: [f32; 3] = [-0.5, 0.0, 0.5];
 /// across by `t² / 2r` at `t` from the middle) stays below 0.02 px on the sweep's tightest
 /// circle (15 px).
 const ACROSS_LINES_PX: [f32; 5] = [-1.0, -0.5, 0.0, 0.5, 1.0];
-
-/// Sampling step along a line.
-const STEP_PX: f32 = 0.1;
 
 /// How far past the chord's half-length a line is walked: the widest spot's fall to the
 /// levels (a glow's cap lies within the floor's reach, [`ray_floor::MAX_REACH_PX`]).
@@ -73,10 +71,7 @@ pub fn centre(
     if span < 1.0 {
         return None;
     }
-    let mut levels = [0.0f32; LEVELS.len()];
-    for (level, f) in levels.iter_mut().zip(LEVELS) {
-        *level = floor + f * span;
-    }
+    let levels = LEVELS.map(|f| floor + f * span);
     let along_px = mirror_offset(
         frame,
         mid,
@@ -115,68 +110,20 @@ fn mirror_offset(
     let (mut sum, mut weights) = (0.0f32, 0.0f32);
     for offset in offsets {
         let start = (point.0 + offset * n.0, point.1 + offset * n.1);
-        let forward = first_falls(frame, start, d, levels, reach_px);
-        let back = first_falls(frame, start, (-d.0, -d.1), levels, reach_px);
+        let forward = first_falls(frame, start, d, levels, reach_px, Armed::AtStart);
+        let back = first_falls(frame, start, (-d.0, -d.1), levels, reach_px, Armed::AtStart);
         for (f, b) in forward.iter().zip(&back) {
             if let (Some(f), Some(b)) = (f, b) {
                 // A crossing moves by the luma's error over the slope there: each midpoint
                 // counts by the inverse of its variance, so that a glow's shallow flank, where
                 // the floor's texture and the noise move a crossing by pixels, counts little
                 // beside a core's steep one.
-                let w = 1.0 / (1.0 / (f.slope * f.slope) + 1.0 / (b.slope * b.slope));
+                let (fs, bs) = (f.slope_per_px, b.slope_per_px);
+                let w = 1.0 / (1.0 / (fs * fs) + 1.0 / (bs * bs));
                 sum += w * 0.5 * (f.at_px - b.at_px);
                 weights += w;
             }
         }
     }
     (weights > 0.0).then(|| sum / weights)
-}
-
-/// Where a walk fell through a level, and how steeply.
-#[derive(Clone, Copy)]
-struct Fall {
-    /// Distance from the walk's start.
-    at_px: f32,
-    /// The luma's fall per pixel there.
-    slope: f32,
-}
-
-/// Walks from `start` along unit vector `d`, out to `reach_px`, and records where the luma
-/// first falls through each of `levels`, having been at or above it from the start. A level
-/// the start is below, or the walk never falls through, is `None`.
-fn first_falls(
-    frame: &Frame<'_>,
-    start: (f32, f32),
-    d: (f32, f32),
-    levels: &[f32; LEVELS.len()],
-    reach_px: f32,
-) -> [Option<Fall>; LEVELS.len()] {
-    let mut found: [Option<Fall>; LEVELS.len()] = [None; LEVELS.len()];
-    let Some(mut prev) = luma_at(frame, start.0, start.1) else {
-        return found;
-    };
-    // Levels still to be crossed: those the start is above.
-    let mut open = levels.map(|level| prev >= level);
-    let samples = (reach_px / STEP_PX) as usize;
-    for i in 1..=samples {
-        if !open.iter().any(|&o| o) {
-            break;
-        }
-        let u = i as f32 * STEP_PX;
-        let Some(v) = luma_at(frame, start.0 + u * d.0, start.1 + u * d.1) else {
-            break;
-        };
-        for ((slot, o), &level) in found.iter_mut().zip(open.iter_mut()).zip(levels) {
-            if *o && v < level {
-                let frac = (prev - level) / (prev - v);
-                *slot = Some(Fall {
-                    at_px: (i as f32 - 1.0 + frac) * STEP_PX,
-                    slope: (prev - v) / STEP_PX,
-                });
-                *o = false;
-            }
-        }
-        prev = v;
-    }
-    found
 }

@@ -10,6 +10,7 @@ pub mod bitimage;
 pub mod blobs;
 pub mod fit;
 pub mod floor_bg;
+mod level_falls;
 pub mod line_profile;
 pub mod mirror_middle;
 pub mod moments;
