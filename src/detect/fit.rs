@@ -232,7 +232,7 @@ fn levenberg_marquardt(
     clip: f32,
     active: &[bool; PARAMS],
 ) -> Option<(Params, f32)> {
-    let mut cost = cost_of(samples, &p, clip, active)?;
+    let mut cost = cost_of(samples, &p, clip, active, f32::INFINITY)?;
     let mut lambda = 1e-2f32;
     for _ in 0..MAX_ITERATIONS {
         let (mut jtj, mut jtr) = normal_equations(samples, &p, clip, active)?;
@@ -260,7 +260,7 @@ fn levenberg_marquardt(
                 step *= MAX_PATH_STEP_PX / reach;
             }
             let trial = clamp_params(p + step);
-            match cost_of(samples, &trial, clip, active) {
+            match cost_of(samples, &trial, clip, active, cost) {
                 Some(c) if c < cost => {
                     let converged = (cost - c) < 1e-4 * cost;
                     p = trial;
@@ -596,13 +596,19 @@ fn residual(luma: f32, model: f32, clip: f32) -> f32 {
     }
 }
 
-/// The sum of squared residuals at `p` (the glow drawn only when it is `active`).
-fn cost_of(s: &Samples, p: &Params, clip: f32, active: &[bool; PARAMS]) -> Option<f32> {
+/// The sum of squared residuals at `p` (the glow drawn only when it is `active`), or, once
+/// the sum reaches `bound`, the partial sum (itself at least `bound`). A trial step is taken
+/// only when its cost is below the current one, and a sum of squares only grows, so the
+/// pixels after that point cannot change the verdict: a rejected trial mostly stops early.
+fn cost_of(s: &Samples, p: &Params, clip: f32, active: &[bool; PARAMS], bound: f32) -> Option<f32> {
     let path = Path::new(p, active[GLOW_RATIO]);
     let mut cost = 0.0;
     for ((&xy, &luma), &floor_ln) in s.xy.iter().zip(&s.luma).zip(&s.floor_ln).take(s.len) {
         let r = residual(luma, model(&path, p, xy, floor_ln, clip).0, clip);
         cost += r * r;
+        if cost >= bound {
+            break;
+        }
     }
     cost.is_finite().then_some(cost)
 }
@@ -938,6 +944,38 @@ mod tests {
         s
     }
 
+    /// A cost bounded below the full one stops at or above the bound, so a trial is judged
+    /// as the full sum would judge it, and a low bound stops before the last pixel; a bound
+    /// above the full cost changes nothing.
+    #[test]
+    fn a_bounded_cost_keeps_the_verdict() {
+        let clip = 250.0;
+        let all = [true; PARAMS];
+        for truth in paths() {
+            let s = samples_of(&truth, clip);
+            let mut p = truth;
+            p[0] += 0.7;
+            p[7] *= 1.3;
+            let full = cost_of(&s, &p, clip, &all, f32::INFINITY).expect("finite");
+            for bound in [0.1 * full, 0.5 * full, 0.99 * full] {
+                let bounded = cost_of(&s, &p, clip, &all, bound).expect("finite");
+                assert!(
+                    bounded >= bound && bounded <= full,
+                    "{truth:?}: bounded at {bound} the cost read {bounded} (full {full})"
+                );
+            }
+            let early = cost_of(&s, &p, clip, &all, 0.1 * full).expect("finite");
+            assert!(
+                early < full,
+                "{truth:?}: a tenth of the cost summed every pixel"
+            );
+            for bound in [full * 1.01, 2.0 * full] {
+                let bounded = cost_of(&s, &p, clip, &all, bound).expect("finite");
+                assert_eq!(bounded, full, "{truth:?}: bounded at {bound}");
+            }
+        }
+    }
+
     #[test]
     fn the_normal_equations_descend_the_cost() {
         let clip = 250.0;
@@ -961,7 +999,7 @@ mod tests {
                 let cost_at = |delta: f32| {
                     let mut q = p;
                     q[j] += delta;
-                    cost_of(&s, &q, clip, &all).expect("finite")
+                    cost_of(&s, &q, clip, &all, f32::INFINITY).expect("finite")
                 };
                 // The cost is Σ r², so its slope is −2 Jᵀr.
                 let numeric = -(cost_at(h) - cost_at(-h)) / (4.0 * h);
