@@ -7,9 +7,11 @@
 //!
 //! STAGE is `pipeline` (the whole `Pipeline::process` on each frame of the scene, by default
 //! `fast-line`, a 60 px streak at 640×480, in order so the tracker follows it), `pipeline-fit`
-//! (the same with `--streak-model fit`), `threshold` (the automatic threshold alone, on YUYV
-//! frames), `threshold-uyvy` and `threshold-grey` (the same frames repacked as UYVY and as
-//! GREY), or `none` (set-up only). SCENE is any preset (`hd-720` for 1280×720).
+//! (the same with `--streak-model fit`), `pipeline-auto` (with `--streak-model auto`),
+//! `threshold` (the automatic threshold alone, on YUYV frames), `threshold-uyvy` and
+//! `threshold-grey` (the same frames repacked as UYVY and as GREY), or `none` (set-up only).
+//! SCENE is any preset (`hd-720` for 1280×720). The pipeline stages print how many frames had
+//! their streak fitted.
 
 use std::hint::black_box;
 
@@ -27,7 +29,7 @@ use glint_tools::scene::Scene;
 /// rendering cost is the same in every run and cancels out of the difference.
 const RENDERED_FRAMES: usize = 16;
 const SCENE: &str = "fast-line";
-const USAGE: &str = "usage: frame_cost pipeline|pipeline-fit|threshold|threshold-uyvy|threshold-grey|none FRAMES [SCENE]";
+const USAGE: &str = "usage: frame_cost pipeline|pipeline-fit|pipeline-auto|threshold|threshold-uyvy|threshold-grey|none FRAMES [SCENE]";
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args = std::env::args().skip(1);
@@ -70,6 +72,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     let streak_model = match stage.as_str() {
         "pipeline-fit" => StreakModel::Fit,
+        "pipeline-auto" => StreakModel::Auto,
         _ => StreakModel::Ramps,
     };
     let mut pipeline = Pipeline::new(
@@ -84,10 +87,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     )?;
     let mut mask = BitImage::new(size);
     let mut found = 0usize;
+    // Frames whose streak was fitted (`pipeline-fit`: every analysed one; `pipeline-auto`:
+    // those the cascade found doubtful).
+    let mut fitted = 0usize;
     for k in 0..frames {
         let frame = frame_of(k)?;
         match stage.as_str() {
-            "pipeline" | "pipeline-fit" => {
+            "pipeline" | "pipeline-fit" | "pipeline-auto" => {
                 let meta = FrameMeta {
                     index: k as u64,
                     sequence: k as u64,
@@ -95,7 +101,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     timestamp_us: (k as f64 * 1e6 / scene.fps()) as u64,
                     monotonic_us: 0,
                 };
-                found += usize::from(pipeline.process(black_box(&frame), meta).position.is_some());
+                let report = pipeline.process(black_box(&frame), meta);
+                found += usize::from(report.position.is_some());
+                fitted += usize::from(report.detection.best.is_some_and(|(_, s)| s.fitted()));
             }
             "threshold" => {
                 found += threshold::apply(black_box(&frame), Threshold::Auto, &mut mask).1;
@@ -108,6 +116,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             _ => return Err(USAGE.into()),
         }
     }
-    println!("{stage}: {frames} frames of {scene_name} at {size}, result {found}");
+    println!("{stage}: {frames} frames of {scene_name} at {size}, result {found}, fitted {fitted}");
     Ok(())
 }

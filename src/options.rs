@@ -56,6 +56,8 @@ pub enum StreakModelArg {
     Ramps,
     /// A swept-spot model fitted to the pixels (spot width, brightness, gamma from the frame).
     Fit,
+    /// The ramps, and the fit where the spot's edge is not sharp (a Gaussian, a glow).
+    Auto,
 }
 
 /// `--erode-kernel`.
@@ -92,6 +94,7 @@ impl LedArgs {
             streak_model: match self.streak_model {
                 StreakModelArg::Ramps => StreakModel::Ramps,
                 StreakModelArg::Fit => StreakModel::Fit,
+                StreakModelArg::Auto => StreakModel::Auto,
             },
             ..DetectorConfig::default()
         }
@@ -171,5 +174,11 @@ mod tests {
         assert_eq!(config.skeleton, SkeletonMethod::Morphological);
         assert_eq!(config.streak_model, StreakModel::Fit);
         assert_eq!(config.min_area_px, DetectorConfig::default().min_area_px);
+        let auto = LedArgs {
+            streak_model: StreakModelArg::Auto,
+            ..args
+        };
+        let config = auto.detector_config(MaskMethod::Saturation);
+        assert_eq!(config.streak_model, StreakModel::Auto);
     }
 }

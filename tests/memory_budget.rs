@@ -73,9 +73,11 @@ fn the_led_pipeline_allocates_what_the_plan_says() {
             let planned = planned + budget::background_bytes(size, frames);
             assert_close("bgdiff", size, planned, led(size, method));
         }
-        let measured = led_with(size, MaskMethod::Saturation, StreakModel::Fit);
         let fit_planned = planned + budget::fit_floor_bytes(size);
-        assert_close("streak fit", size, fit_planned, measured);
+        for model in [StreakModel::Fit, StreakModel::Auto] {
+            let measured = led_with(size, MaskMethod::Saturation, model);
+            assert_close("streak fit", size, fit_planned, measured);
+        }
     }
 }
 

@@ -10,7 +10,8 @@
 //! The default run takes [`DEFAULT_POINTS`] points; `GLINT_SWEEP_POINTS=N` takes the first N
 //! of the same sweep (the README's figures use 200), and `GLINT_SWEEP_SEED` another sweep.
 //!
-//! It measures `--streak-model fit` (`GLINT_STREAK_MODEL=ramps` measures the default ramps).
+//! It measures `--streak-model fit` (`GLINT_STREAK_MODEL=ramps` measures the default ramps,
+//! `GLINT_STREAK_MODEL=auto` the cascade of both).
 //! To see where the errors come from: `GLINT_SWEEP_ONLY=5,13` runs only those points,
 //! `GLINT_SWEEP_FLAT_FLOOR=1` renders the floor without texture and `GLINT_SWEEP_NO_NOISE=1`
 //! without read noise.
@@ -623,6 +624,7 @@ fn every_sweep_point_holds_the_bounds() {
     let count = env_or("GLINT_SWEEP_POINTS", DEFAULT_POINTS);
     let model = match std::env::var("GLINT_STREAK_MODEL").as_deref() {
         Ok("ramps") => StreakModel::Ramps,
+        Ok("auto") => StreakModel::Auto,
         _ => StreakModel::Fit,
     };
     let mut failures = Vec::new();

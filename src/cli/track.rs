@@ -228,10 +228,10 @@ impl TrackSettings {
                 budget::led_detector_bytes(size),
             ),
         }
-        if self.detector != DetectorArg::Aruco && self.led.streak_model == StreakModelArg::Fit {
+        if self.detector != DetectorArg::Aruco && self.led.streak_model != StreakModelArg::Ramps {
             plan.add(
                 "the streak fit's learned floor",
-                format!("--streak-model fit, --size {size}"),
+                format!("--streak-model fit or auto, --size {size}"),
                 budget::fit_floor_bytes(size),
             );
         }

@@ -83,6 +83,12 @@ impl FloorBackground {
         self.noise_luma
     }
 
+    /// Whether the next update learns the whole frame: the first [`MEAN_FRAMES`] since the
+    /// floor was made or cleared, which give every pixel a mean of that many observations.
+    pub fn learns_everywhere(&self) -> bool {
+        self.frames_learned < u32::from(MEAN_FRAMES)
+    }
+
     /// Forgets everything learned.
     pub fn clear(&mut self) {
         self.count.fill(0);
@@ -126,7 +132,7 @@ impl FloorBackground {
             });
             any_lit = true;
         }
-        let everywhere = self.frames_learned < u32::from(MEAN_FRAMES);
+        let everywhere = self.learns_everywhere();
         let phase = (self.frames_learned % ROW_PHASES as u32) as usize;
         self.frames_learned = self.frames_learned.saturating_add(1);
         // The gate in the mean's fixed point: a deviation `d` (×256, an integer) is beyond

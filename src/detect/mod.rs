@@ -8,6 +8,7 @@ pub mod aruco;
 pub mod bgdiff;
 pub mod bitimage;
 pub mod blobs;
+pub mod cascade;
 pub mod fit;
 pub mod floor_bg;
 mod level_falls;
@@ -138,8 +139,13 @@ pub struct Detector {
     labeled: bool,
     /// The background model, for [`MaskMethod::BackgroundDifference`].
     background: Option<Background>,
-    /// The floor without the light, for the streak fit ([`StreakModel::Fit`]).
+    /// The floor without the light, for the streak fit ([`StreakModel::Fit`] and
+    /// [`StreakModel::Auto`]).
     floor: Option<FloorBackground>,
+    /// Whether the floor is kept learned after its first frames (which learn it everywhere):
+    /// always for the fit; for the cascade once it has fitted a streak ([`cascade`]), so that
+    /// a camera whose LED the ramps read does not pay for its upkeep on every frame.
+    floor_learning: bool,
     /// The static bright pixels learned by the automatic threshold.
     statics: StaticMap,
     /// Around the blob analysed in the last frame (the LED): not learned as static.
@@ -176,7 +182,8 @@ impl Detector {
             max_area_px: (size.pixels() as f32 * MAX_BLOB_FRACTION) as u32,
             labeled: false,
             background,
-            floor: (config.streak_model == StreakModel::Fit).then(|| FloorBackground::new(size)),
+            floor: (config.streak_model != StreakModel::Ramps).then(|| FloorBackground::new(size)),
+            floor_learning: config.streak_model == StreakModel::Fit,
             statics: StaticMap::new(size.width(), size.height()),
             keep_out: heapless::Vec::new(),
             last_blobs: LastBlobs::new(),
@@ -301,7 +308,11 @@ impl Detector {
     /// Learns the floor (for the streak fit) from `frame` away from the blobs just labelled:
     /// none of the pixels the fit will read in this frame is learned from it.
     fn learn_floor(&mut self, frame: &Frame<'_>) {
-        let Some(floor) = &mut self.floor else {
+        let Some(floor) = self
+            .floor
+            .as_mut()
+            .filter(|f| self.floor_learning || f.learns_everywhere())
+        else {
             return;
         };
         let blobs = if self.labeled {
@@ -463,6 +474,10 @@ impl Detector {
             self.optics.as_deref(),
             &mut self.streak,
         );
+        // The cascade fitted a streak: the camera shows spots the ramps cannot read, and the
+        // fit wants the floor kept from now on (until then, it was learned in full in the
+        // run's first frames only).
+        self.floor_learning |= streak.fitted();
         Some((blob, streak))
     }
 

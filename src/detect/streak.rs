@@ -23,6 +23,7 @@ use heapless::Deque;
 
 use super::bitimage::{BitImage, Window, NEIGHBOURS_8};
 use super::blobs::{Blob, BoundingBox, Labeler};
+use super::cascade;
 use super::fit::{self, Rough};
 use super::floor_bg::FloorBackground;
 use super::mirror_middle;
@@ -92,6 +93,14 @@ pub struct Streak {
     pub path_failed: bool,
 }
 
+impl Streak {
+    /// Whether the streak model was fitted to it ([`StreakModel::Fit`], or
+    /// [`StreakModel::Auto`] on a doubtful streak).
+    pub fn fitted(&self) -> bool {
+        self.path_failed || self.path.is_some_and(|p| p.fit_px.is_some())
+    }
+}
+
 /// How the LED's position at the start and end of the exposure is measured.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum StreakModel {
@@ -102,6 +111,8 @@ pub enum StreakModel {
     /// A swept-spot model fitted to the pixels ([`fit`]): the spot's width, brightness and
     /// the camera's tone come from the frame itself.
     Fit,
+    /// The ramps, and the fit where the ramps' reading is doubtful ([`cascade`]).
+    Auto,
 }
 
 /// The LED's path over the exposure.
@@ -286,46 +297,50 @@ pub fn analyze(
         thickness_px,
         levels.top_luma,
     );
-    let (mid_px, path) = match model {
+    let ramps = |scratch: &StreakScratch| {
+        ramps_path(
+            frame,
+            &scratch.skeleton,
+            window,
+            ends_px,
+            mid_px,
+            levels,
+            optics,
+        )
+    };
+    let fitted = || {
+        let moments = Moments::of_runs(labeler.runs_of(index).map(|r| (r.y, r.x0, r.x1)));
+        fitted_path(
+            frame,
+            blob,
+            (ends_px, mid_px, thickness_px),
+            moments.map(|m| m.stadium()),
+            levels,
+            background,
+        )
+    };
+    let (mid_px, path, fitted_now) = match model {
         StreakModel::Ramps => {
-            let tips = spans_its_middle(ends_px, mid_px)
-                .then(|| {
-                    tips::refine(
-                        frame,
-                        &scratch.skeleton,
-                        window,
-                        ends_px,
-                        mid_px,
-                        levels.top_luma,
-                    )
-                })
-                .flatten()
-                .and_then(|t| {
-                    let shape = optics
-                        .and_then(|o| o.spot_shape_at(mid_px))
-                        .unwrap_or_else(SpotShape::identity);
-                    spot_shape::through_lens(t, ends_px, mid_px, shape)
-                });
-            // A still LED has no path: its ends would only be the spot's own outline, and the
-            // tracker carries its middle by the frames' velocity instead.
-            let path = tips.filter(|t| !t.still).map(|t| StreakPath {
-                ends_px: t.tips_px,
-                path_length_px: t.path_length_px,
-                fit_px: None,
-                fit_floor: None,
-            });
-            (mid_px, path)
+            let (tips, _) = ramps(scratch);
+            (mid_px, ramps_streak_path(tips), false)
         }
         StreakModel::Fit => {
-            let moments = Moments::of_runs(labeler.runs_of(index).map(|r| (r.y, r.x0, r.x1)));
-            fitted_path(
-                frame,
-                blob,
-                (ends_px, mid_px, thickness_px),
-                moments.map(|m| m.stadium()),
-                levels,
-                background,
-            )
+            let (mid, path) = fitted();
+            (mid, path, true)
+        }
+        StreakModel::Auto => {
+            let spans = spans_its_middle(ends_px, mid_px);
+            // A resolved edge first: the ramps are not read where they would be dropped.
+            let tips = cascade::edge_is_sharp(frame, mid_px, ends_px, levels.top_luma, spans)
+                .then(|| ramps(scratch).0);
+            match tips {
+                // Sharp, and read (or with no axis to read them on).
+                Some(tips) if tips.is_some() || !spans => (mid_px, ramps_streak_path(tips), false),
+                _ => {
+                    let (mid, path) = fitted();
+                    (mid, path, true)
+                }
+            }
         }
     };
 
@@ -338,8 +353,43 @@ pub fn analyze(
         skeleton_px: skeleton_px as u32,
         thickness_px,
         path,
-        path_failed: model == StreakModel::Fit && path.is_none(),
+        path_failed: fitted_now && path.is_none(),
     }
+}
+
+/// The ramps' tips of a streak (`None` when they cannot be read), and whether its skeleton's
+/// chord spans its middle (else they were not tried).
+fn ramps_path(
+    frame: &Frame<'_>,
+    skeleton: &BitImage,
+    window: Window,
+    ends_px: [(f32, f32); 2],
+    mid_px: (f32, f32),
+    levels: Levels,
+    optics: Option<&dyn SpotOptics>,
+) -> (Option<tips::Tips>, bool) {
+    let spans = spans_its_middle(ends_px, mid_px);
+    let tips = spans
+        .then(|| tips::refine(frame, skeleton, window, ends_px, mid_px, levels.top_luma))
+        .flatten()
+        .and_then(|t| {
+            let shape = optics
+                .and_then(|o| o.spot_shape_at(mid_px))
+                .unwrap_or_else(SpotShape::identity);
+            spot_shape::through_lens(t, ends_px, mid_px, shape)
+        });
+    (tips, spans)
+}
+
+/// The path of the ramps' tips. A still LED has no path: its ends would only be the spot's
+/// own outline, and the tracker carries its middle by the frames' velocity instead.
+fn ramps_streak_path(tips: Option<tips::Tips>) -> Option<StreakPath> {
+    tips.filter(|t| !t.still).map(|t| StreakPath {
+        ends_px: t.tips_px,
+        path_length_px: t.path_length_px,
+        fit_px: None,
+        fit_floor: None,
+    })
 }
 
 /// The middle and the path from the fitted streak model, with the still rule; the streak's

@@ -1,0 +1,107 @@
+//! When the ramps' reading of a streak is doubtful, so that `--streak-model auto` fits it
+//! ([`super::fit`]) instead.
+//!
+//! The ramps ([`super::tips`]) are built for a sharp-edged spot: a disk whose light stops at
+//! its rim, so that the luma across the streak falls from the clip to the floor within a
+//! pixel, wherever the tone curve, the noise and the floor put the levels. There the ramps
+//! place the ends to a few tenths of a pixel. A spot whose edge is resolved (a Gaussian, a
+//! glow around a core) falls over several pixels, and every level the ramps and the line
+//! profile cut it at lands on a shallow flank, where the floor's texture and the noise move a
+//! crossing by tenths of a pixel to pixels, and where the ends depend on a fall the ramps do
+//! not model (a glow, a tone curve). Over the 200 points of seed 11 (`tests/streak_sweep.rs`,
+//! every frame run through both models), the frames this module calls doubtful had the ramps
+//! out of a bound in 28 % of them (a head more than 1.5 px off, a speed more than 10 %, a
+//! 60 px streak's middle more than 0.5 px) and the fit in 10 %; the frames it leaves to the
+//! ramps had the ramps out in 2.1 %, the fit in 0.5 % (seed 12: 42 % and 12 %; 1.7 % and 1.7 %).
+//!
+//! So the cascade measures the fall across the streak's middle, perpendicular to the skeleton's
+//! chord (along the rows for a blob without an axis, whose light falls alike every way): from
+//! 0.8 to 0.2 of the way from the floor to the clip, on both sides, where the floor is where
+//! the light has died away ([`ray_floor`]). A fall wider than [`SHARP_EDGE_PX`] is a resolved
+//! edge, and the streak is fitted. So is one whose floor cannot be reached (the light still
+//! falling [`ray_floor::MAX_REACH_PX`] out: a glow wider than the ramps read), and a streak
+//! with an axis whose ramps could not be read at all.
+
+use super::ray_floor;
+use super::tips::luma_at;
+use crate::frame::Frame;
+
+/// A sharp edge falls from 0.8 to 0.2 of its step within this distance: a step between two
+/// pixel centres, read by bilinear interpolation, falls over 0.6 px along the rows and up to
+/// 0.85 px (0.6 × √2) along a diagonal; a pixel is the most a sharp edge takes. Over the sweep's
+/// moving points (seed 11) the median fall is 0.73 px for its disks (p95 2.2 px: noise, the
+/// floor's texture), 1.43 px for its Gaussians, 6.1 px for its glows.
+pub const SHARP_EDGE_PX: f32 = 1.0;
+
+/// The levels the fall is read between, as fractions of the way from the floor to the clip:
+/// clear of the clip (a bilinear sample beside a clipped pixel understates it) and of the
+/// floor (its texture).
+const FALL_LEVELS: (f32, f32) = (0.8, 0.2);
+
+/// Sampling step along the cross-section.
+const STEP_PX: f32 = 0.1;
+
+/// Whether the edge of the streak whose middle is `mid_px` and skeleton ends `ends_px` is
+/// sharp across its middle (within [`SHARP_EDGE_PX`] on both sides, on average), so that the
+/// ramps can read it; false when it cannot be read. `spans` says the ends make an axis (else
+/// the light is read along the rows). `clip_luma` is the blob's top level.
+pub fn edge_is_sharp(
+    frame: &Frame<'_>,
+    mid_px: (f32, f32),
+    ends_px: [(f32, f32); 2],
+    clip_luma: u8,
+    spans: bool,
+) -> bool {
+    let chord = (ends_px[1].0 - ends_px[0].0, ends_px[1].1 - ends_px[0].1);
+    let chord_px = chord.0.hypot(chord.1);
+    let across = if spans && chord_px > f32::EPSILON {
+        (-chord.1 / chord_px, chord.0 / chord_px)
+    } else {
+        (1.0, 0.0)
+    };
+    let clip = f32::from(clip_luma);
+    let sides = [across, (-across.0, -across.1)].map(|d| fall_px(frame, mid_px, d, clip));
+    match sides {
+        [Some(a), Some(b)] => 0.5 * (a + b) <= SHARP_EDGE_PX,
+        _ => false,
+    }
+}
+
+/// How far the luma along the ray from `start` along unit vector `d` takes to fall from the
+/// upper to the lower of [`FALL_LEVELS`], between `clip` and the floor the ray reaches; `None`
+/// when the floor is not reached, the light spans less than a level, `start` is below the upper
+/// level, or the ray does not fall through both levels before the floor.
+fn fall_px(frame: &Frame<'_>, start: (f32, f32), d: (f32, f32), clip: f32) -> Option<f32> {
+    let floor = ray_floor::along(frame, start, d)?;
+    let span = clip - floor.luma;
+    if span < 1.0 {
+        return None;
+    }
+    let (high, low) = FALL_LEVELS;
+    let level = |u: f32| {
+        luma_at(frame, start.0 + u * d.0, start.1 + u * d.1).map(|v| (v - floor.luma) / span)
+    };
+    let mut prev = level(0.0)?;
+    // A middle below the upper level is not inside the light: nothing to read.
+    if prev < high {
+        return None;
+    }
+    let mut upper = None;
+    let steps = (floor.reach_px / STEP_PX) as usize;
+    for i in 1..=steps {
+        let u = i as f32 * STEP_PX;
+        let v = level(u)?;
+        // Where the samples fall through `target`, linearly between them.
+        let cross = |target: f32| u - STEP_PX * (target - v) / (prev - v);
+        if upper.is_none() && v < high {
+            upper = Some(cross(high));
+        }
+        if let Some(upper) = upper {
+            if v < low {
+                return Some(cross(low) - upper);
+            }
+        }
+        prev = v;
+    }
+    None
+}
