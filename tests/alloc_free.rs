@@ -112,6 +112,42 @@ fn the_fitted_streak_model_allocates_nothing_per_frame() {
     assert!(floor.luma(5, 5).is_some(), "the fit's floor was learned");
 }
 
+/// The cascade (`--streak-model auto`): the ramps on every frame, the fit on the doubtful ones,
+/// and the floor kept up once a streak was fitted. Both branches must run for the count to
+/// mean anything, so the scenes must give it frames of each kind.
+#[test]
+fn the_cascade_allocates_nothing_per_frame() {
+    use glint::frame::Frame;
+    let &(size, ref bytes, count) = frames();
+    let config = PipelineConfig {
+        detector: glint::detect::DetectorConfig {
+            streak_model: glint::detect::streak::StreakModel::Auto,
+            ..Default::default()
+        },
+        tracker: glint::track::TrackerConfig {
+            exposure_us: Some(25_000),
+        },
+    };
+    let mut pipeline = Pipeline::new(size, config).unwrap();
+    let (mut fitted, mut left_to_the_ramps) = (0usize, 0usize);
+    let allocations = allocations_during(|| {
+        for (i, frame_bytes) in bytes.chunks_exact(size.frame_bytes()).enumerate() {
+            let frame = Frame::new_checked(frame_bytes, size, size.row_bytes()).unwrap();
+            let report = pipeline.process(&frame, common::view::meta_at_30_fps(i));
+            match report.detection.best.map(|(_, s)| s.fitted()) {
+                Some(true) => fitted += 1,
+                Some(false) => left_to_the_ramps += 1,
+                None => {}
+            }
+        }
+    });
+    assert_eq!(allocations, 0, "allocations during {count} frames");
+    assert!(
+        fitted > 0 && left_to_the_ramps > 0,
+        "both branches ran: {fitted} fitted, {left_to_the_ramps} left to the ramps"
+    );
+}
+
 /// So does the background-difference detector, learning included.
 #[test]
 fn the_background_difference_allocates_nothing_per_frame() {
@@ -199,14 +235,14 @@ fn floor_mapping_and_marker_tracking_allocate_nothing_per_frame() {
     let out = || BufWriter::with_capacity(64 * 1024, io::sink());
     for (name, floor) in [("homography", reference_floor()), ("lens", lens_floor())] {
         let json = replay(
-            &bytes,
+            bytes,
             size,
             config,
             floor,
             &mut JsonLinesSink::new(out(), false),
         );
         assert_eq!(json, 0, "LED with floor ({name}), JSON lines");
-        let csv = replay(&bytes, size, config, floor, &mut CsvSink::new(out(), false));
+        let csv = replay(bytes, size, config, floor, &mut CsvSink::new(out(), false));
         assert_eq!(csv, 0, "LED with floor ({name}), CSV");
     }
     assert!(count > 100);
@@ -338,7 +374,7 @@ fn the_stop_aware_file_source_allocates_nothing_per_frame() {
     let &(size, ref bytes, count) = frames();
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("frames.yuv");
-    std::fs::write(&path, &bytes).unwrap();
+    std::fs::write(&path, bytes).unwrap();
     let stop = Arc::new(AtomicBool::new(false));
     let reader = Interruptible::new(std::fs::File::open(&path).unwrap(), Arc::clone(&stop));
     let mut source = Stoppable::new(DumpSource::try_new(reader, size, 30.0).unwrap(), stop);
