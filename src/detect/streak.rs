@@ -320,10 +320,7 @@ pub fn analyze(
         )
     };
     let (mid_px, path, fitted_now) = match model {
-        StreakModel::Ramps => {
-            let (tips, _) = ramps(scratch);
-            (mid_px, ramps_streak_path(tips), false)
-        }
+        StreakModel::Ramps => (mid_px, ramps_streak_path(ramps(scratch)), false),
         StreakModel::Fit => {
             let (mid, path) = fitted();
             (mid, path, true)
@@ -332,7 +329,7 @@ pub fn analyze(
             let spans = spans_its_middle(ends_px, mid_px);
             // A resolved edge first: the ramps are not read where they would be dropped.
             let tips = cascade::edge_is_sharp(frame, mid_px, ends_px, levels.top_luma, spans)
-                .then(|| ramps(scratch).0);
+                .then(|| ramps(scratch));
             match tips {
                 // Sharp, and read (or with no axis to read them on).
                 Some(tips) if tips.is_some() || !spans => (mid_px, ramps_streak_path(tips), false),
@@ -357,8 +354,8 @@ pub fn analyze(
     }
 }
 
-/// The ramps' tips of a streak (`None` when they cannot be read), and whether its skeleton's
-/// chord spans its middle (else they were not tried).
+/// The ramps' tips of a streak: `None` when they cannot be read, or when its skeleton's chord
+/// does not span its middle (then they are not tried).
 fn ramps_path(
     frame: &Frame<'_>,
     skeleton: &BitImage,
@@ -367,9 +364,8 @@ fn ramps_path(
     mid_px: (f32, f32),
     levels: Levels,
     optics: Option<&dyn SpotOptics>,
-) -> (Option<tips::Tips>, bool) {
-    let spans = spans_its_middle(ends_px, mid_px);
-    let tips = spans
+) -> Option<tips::Tips> {
+    spans_its_middle(ends_px, mid_px)
         .then(|| tips::refine(frame, skeleton, window, ends_px, mid_px, levels.top_luma))
         .flatten()
         .and_then(|t| {
@@ -377,8 +373,7 @@ fn ramps_path(
                 .and_then(|o| o.spot_shape_at(mid_px))
                 .unwrap_or_else(SpotShape::identity);
             spot_shape::through_lens(t, ends_px, mid_px, shape)
-        });
-    (tips, spans)
+        })
 }
 
 /// The path of the ramps' tips. A still LED has no path: its ends would only be the spot's
