@@ -17,9 +17,9 @@
 //! So the cascade measures the fall across the streak's middle, perpendicular to the skeleton's
 //! chord (along the rows for a blob without an axis, whose light falls alike every way): from
 //! 0.8 to 0.2 of the way from the floor to the clip, on both sides, where the floor is where
-//! the light has died away ([`ray_floor`]). A fall wider than [`SHARP_EDGE_PX`] is a resolved
+//! the light has died away (`ray_floor`). A fall wider than [`SHARP_EDGE_PX`] is a resolved
 //! edge, and the streak is fitted. So is one whose floor cannot be reached (the light still
-//! falling [`ray_floor::MAX_REACH_PX`] out: a glow wider than the ramps read), and a streak
+//! falling `ray_floor::MAX_REACH_PX` (64 px) out: a glow wider than the ramps read), and a streak
 //! with an axis whose ramps could not be read at all.
 
 use super::ray_floor;

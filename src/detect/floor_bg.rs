@@ -83,7 +83,7 @@ impl FloorBackground {
         self.noise_luma
     }
 
-    /// Whether the next update learns the whole frame: the first [`MEAN_FRAMES`] since the
+    /// Whether the next update learns the whole frame: the first `MEAN_FRAMES` (16) since the
     /// floor was made or cleared, which give every pixel a mean of that many observations.
     pub fn learns_everywhere(&self) -> bool {
         self.frames_learned < u32::from(MEAN_FRAMES)
@@ -96,8 +96,8 @@ impl FloorBackground {
     }
 
     /// Learns `frame` except within `margin_px(shorter side)` of each of `blobs` (the light in
-    /// it): everywhere in the first [`MEAN_FRAMES`] frames, then around the blobs
-    /// ([`near_blob_px`]) and one row in [`ROW_PHASES`] elsewhere. A frame of another size is
+    /// it): everywhere in the first `MEAN_FRAMES` (16) frames, then around the blobs
+    /// (`near_blob_px`) and one row in `ROW_PHASES` (8) elsewhere. A frame of another size is
     /// ignored.
     pub fn update<'b>(
         &mut self,
