@@ -22,8 +22,8 @@
 //! falling `ray_floor::MAX_REACH_PX` (64 px) out: a glow wider than the ramps read), and a streak
 //! with an axis whose ramps could not be read at all.
 
+use super::level_falls::{first_falls, Armed};
 use super::ray_floor;
-use super::tips::luma_at;
 use crate::frame::Frame;
 
 /// A sharp edge falls from 0.8 to 0.2 of its step within this distance: a step between two
@@ -36,10 +36,7 @@ pub const SHARP_EDGE_PX: f32 = 1.0;
 /// The levels the fall is read between, as fractions of the way from the floor to the clip:
 /// clear of the clip (a bilinear sample beside a clipped pixel understates it) and of the
 /// floor (its texture).
-const FALL_LEVELS: (f32, f32) = (0.8, 0.2);
-
-/// Sampling step along the cross-section.
-const STEP_PX: f32 = 0.1;
+const FALL_LEVELS: [f32; 2] = [0.8, 0.2];
 
 /// Whether the edge of the streak whose middle is `mid_px` and skeleton ends `ends_px` is
 /// sharp across its middle (within [`SHARP_EDGE_PX`] on both sides, on average), so that the
@@ -70,38 +67,17 @@ pub fn edge_is_sharp(
 /// How far the luma along the ray from `start` along unit vector `d` takes to fall from the
 /// upper to the lower of [`FALL_LEVELS`], between `clip` and the floor the ray reaches; `None`
 /// when the floor is not reached, the light spans less than a level, `start` is below the upper
-/// level, or the ray does not fall through both levels before the floor.
+/// level (not inside the light: nothing to read), or the ray does not fall through both levels
+/// before the floor.
 fn fall_px(frame: &Frame<'_>, start: (f32, f32), d: (f32, f32), clip: f32) -> Option<f32> {
     let floor = ray_floor::along(frame, start, d)?;
     let span = clip - floor.luma;
     if span < 1.0 {
         return None;
     }
-    let (high, low) = FALL_LEVELS;
-    let level = |u: f32| {
-        luma_at(frame, start.0 + u * d.0, start.1 + u * d.1).map(|v| (v - floor.luma) / span)
-    };
-    let mut prev = level(0.0)?;
-    // A middle below the upper level is not inside the light: nothing to read.
-    if prev < high {
-        return None;
+    let levels = FALL_LEVELS.map(|f| floor.luma + f * span);
+    match first_falls(frame, start, d, &levels, floor.reach_px, Armed::AtStart) {
+        [Some(upper), Some(lower)] => Some(lower.at_px - upper.at_px),
+        _ => None,
     }
-    let mut upper = None;
-    let steps = (floor.reach_px / STEP_PX) as usize;
-    for i in 1..=steps {
-        let u = i as f32 * STEP_PX;
-        let v = level(u)?;
-        // Where the samples fall through `target`, linearly between them.
-        let cross = |target: f32| u - STEP_PX * (target - v) / (prev - v);
-        if upper.is_none() && v < high {
-            upper = Some(cross(high));
-        }
-        if let Some(upper) = upper {
-            if v < low {
-                return Some(cross(low) - upper);
-            }
-        }
-        prev = v;
-    }
-    None
 }

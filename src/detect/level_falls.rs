@@ -1,12 +1,12 @@
 //! Where the luma along a ray first falls through a set of brightness levels.
 //!
-//! The line profile (`line_profile`) and the symmetric middle (`mirror_middle`) both read a
-//! streak's light by the same walk: out from a bright point along a ray, in fine steps,
+//! The line profile (`line_profile`), the symmetric middle (`mirror_middle`) and the cascade's
+//! edge check (`cascade`) all read a streak's light by the same walk: out from a bright point along a ray, in fine steps,
 //! noting where the light first falls through each of several levels. Equal light is equal
 //! luma whatever the tone curve, black level and clip, so such crossings compare light without
 //! a model of the camera; the line profile pairs them across the body and past an end, the
-//! symmetric middle on either side of the middle. One walk, so that both read the frame the
-//! same way; the middle also weighs each crossing by the luma's slope there (a crossing moves
+//! symmetric middle on either side of the middle, the cascade measures how far apart two of
+//! them lie across the body. One walk, so that all read the frame the same way; the middle also weighs each crossing by the luma's slope there (a crossing moves
 //! by the luma's error over that slope).
 
 use super::tips::luma_at;

@@ -297,13 +297,13 @@ pub fn analyze(
         thickness_px,
         levels.top_luma,
     );
+    let spans = spans_its_middle(ends_px, mid_px);
     let ramps = |scratch: &StreakScratch| {
         ramps_path(
             frame,
             &scratch.skeleton,
             window,
-            ends_px,
-            mid_px,
+            (ends_px, mid_px, spans),
             levels,
             optics,
         )
@@ -326,7 +326,6 @@ pub fn analyze(
             (mid, path, true)
         }
         StreakModel::Auto => {
-            let spans = spans_its_middle(ends_px, mid_px);
             // A resolved edge first: the ramps are not read where they would be dropped.
             let tips = cascade::edge_is_sharp(frame, mid_px, ends_px, levels.top_luma, spans)
                 .then(|| ramps(scratch));
@@ -354,18 +353,18 @@ pub fn analyze(
     }
 }
 
-/// The ramps' tips of a streak: `None` when they cannot be read, or when its skeleton's chord
-/// does not span its middle (then they are not tried).
+/// The ramps' tips of a streak with skeleton ends `ends_px` and middle `mid_px`: `None` when
+/// they cannot be read, or when the ends do not span the middle (`spans`, from
+/// [`spans_its_middle`]; then they are not tried).
 fn ramps_path(
     frame: &Frame<'_>,
     skeleton: &BitImage,
     window: Window,
-    ends_px: [(f32, f32); 2],
-    mid_px: (f32, f32),
+    (ends_px, mid_px, spans): ([(f32, f32); 2], (f32, f32), bool),
     levels: Levels,
     optics: Option<&dyn SpotOptics>,
 ) -> Option<tips::Tips> {
-    spans_its_middle(ends_px, mid_px)
+    spans
         .then(|| tips::refine(frame, skeleton, window, ends_px, mid_px, levels.top_luma))
         .flatten()
         .and_then(|t| {
