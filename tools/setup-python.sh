@@ -3,10 +3,12 @@
 # - pymavlink decodes what `glint --mavlink` sends (tests/mavlink.rs, tests/mavlink/decode.py);
 # - eclipse-zenoh (the same Zenoh release as the Rust crate, so the same protocol) subscribes to
 #   what `glint --publish` sends, and zenoh-ros2-sdk with its rosbags decodes the ROS messages
-#   and the rmw_zenoh attachment (tests/publish.rs, tests/publish/subscribe.py).
+#   and the rmw_zenoh attachment (tests/publish.rs, tests/publish/subscribe.py);
+# - numpy renders streak scenes with other physics than glint's own renderer
+#   (tests/independent_scenes.rs, tests/independent/render_streaks.py).
 # Binary wheels only, so nothing is compiled here. tools/test.sh runs this; run it by hand before
-# `cargo test --test mavlink` or `--test publish`. The venv is $GLINT_PY_VENV, or
-# ~/.cache/glint-py.
+# `cargo test --test mavlink`, `--test publish` or `--test independent_scenes`. The venv is
+# $GLINT_PY_VENV, or ~/.cache/glint-py.
 #
 # Needs Debian's python3-venv (tools/setup-system.sh test installs it) and access to PyPI.
 set -euo pipefail
@@ -20,6 +22,7 @@ packages=(
     eclipse-zenoh==1.10.2
     zenoh-ros2-sdk==0.1.8
     rosbags==0.11.9
+    numpy==2.2.6
 )
 
 installed() {

@@ -1,0 +1,339 @@
+#!/usr/bin/env python3
+"""Streak scenes rendered independently of glint's own renderer (glint-scene), to check that
+glint's accuracy is not a property of one renderer's physics.
+
+Everything that glint-scene models one way is modelled another way here:
+
+- the spot is a Moffat profile, (1 + r²/α²)^-β, with long power-law wings (lens scatter), or a
+  defocused pillbox softened by a small Gaussian, or a Moffat core in a wide Moffat halo;
+  glint-scene draws disks and Gaussians;
+- the streak is made by depositing the LED's path on a 4× finer grid and convolving it with
+  the spot (FFT), then averaging each pixel's 4×4 cells; glint-scene integrates in closed form;
+- the sensor counts electrons: Poisson shot noise on a full well, Gaussian read noise in
+  electrons, clipping at the full well, then an sRGB-like tone curve (a linear toe and a power)
+  or a filmic S-curve, an optional unsharp mask as webcams apply, 8-bit rounding, full or
+  studio range; glint-scene adds noise in luma after a pure power law;
+- the floor is smoothed random texture under a vignette.
+
+Ground truth is written in glint-scene's truth CSV (frame, t, visible, x, y, mid_x, mid_y, vx,
+vy, streak_px, path_mid_x, path_mid_y): x, y is the LED at the end of the exposure, mid at its
+middle in time, path_mid halfway along its path, v the velocity at the end of the exposure.
+Pixel (0, 0)'s centre is the coordinate (0, 0), as in OpenCV.
+
+    render_streaks.py --seed S --count N --out DIR
+
+writes DIR/scene_K.grey (8-bit luma frames, 640×480) and DIR/scene_K.csv for K < N, and
+DIR/scenes.json: one object per scene with its parameters (the exposure in µs among them).
+Only numpy is used.
+"""
+
+import argparse
+import json
+import math
+import os
+
+import numpy as np
+
+WIDTH, HEIGHT = 640, 480
+FPS = 30.0
+MAX_FRAMES = 14
+SUPER = 4
+
+
+def moffat(r2, alpha, beta):
+    return (1.0 + r2 / (alpha * alpha)) ** (-beta)
+
+
+def moffat_fwhm_alpha(fwhm, beta):
+    """α of a Moffat profile of this full width at half maximum."""
+    return fwhm / (2.0 * math.sqrt(2.0 ** (1.0 / beta) - 1.0))
+
+
+def spot_kernel(spot, radius_px):
+    """The spot's light on the fine grid, normalised to a peak of 1, out to `radius_px`."""
+    n = int(math.ceil(radius_px * SUPER))
+    c = (np.arange(-n, n + 1) / SUPER)[None, :]
+    r2 = c * c + c.T * c.T
+    kind = spot["kind"]
+    if kind == "moffat":
+        k = moffat(r2, spot["alpha_px"], spot["beta"])
+    elif kind == "halo":
+        k = moffat(r2, spot["alpha_px"], spot["beta"]) + spot["halo_ratio"] * moffat(
+            r2, spot["halo_alpha_px"], spot["halo_beta"]
+        )
+    else:  # a defocused pillbox, its edge softened by a Gaussian
+        edge = np.sqrt(r2) - spot["radius_px"]
+        k = 0.5 * (1.0 - np.tanh(edge / (spot["soft_px"] * 1.2)))
+    # A taper over the last quarter of the reach.
+    r = np.sqrt(r2) / radius_px
+    k = k * np.where(r < 0.75, 1.0, np.cos(np.clip((r - 0.75) / 0.25, 0, 1) * math.pi / 2) ** 2)
+    return k / k.max()
+
+
+def kernel_reach_px(spot, peak_full_wells):
+    """How far the spot's light is drawn: until it is below 3e-4 of a full well (at most 80
+    px; the last quarter is tapered, so that no edge shows where it stops)."""
+    if spot["kind"] == "pillbox":
+        return spot["radius_px"] + 4.0 * spot["soft_px"] + 1.0
+    level = 3e-4 / peak_full_wells
+    reach = spot["alpha_px"] * math.sqrt(level ** (-1.0 / spot["beta"]) - 1.0)
+    if spot["kind"] == "halo":
+        level /= spot["halo_ratio"]
+        if level < 1.0:
+            halo = spot["halo_alpha_px"] * math.sqrt(level ** (-1.0 / spot["halo_beta"]) - 1.0)
+            reach = max(reach, halo)
+    return min(4.0 / 3.0 * reach + 1.0, 80.0)
+
+
+def floor_texture(rng, level):
+    """Linear-light floor: smoothed noise at two scales under a vignette, mean about `level`."""
+    def smooth_noise(cell):
+        h, w = HEIGHT // cell + 2, WIDTH // cell + 2
+        coarse = rng.standard_normal((h, w))
+        ys = np.arange(HEIGHT) / cell
+        xs = np.arange(WIDTH) / cell
+        y0, x0 = ys.astype(int), xs.astype(int)
+        fy, fx = (ys - y0)[:, None], (xs - x0)[None, :]
+        a = coarse[y0][:, x0]
+        b = coarse[y0][:, x0 + 1]
+        c = coarse[y0 + 1][:, x0]
+        d = coarse[y0 + 1][:, x0 + 1]
+        return (a * (1 - fx) + b * fx) * (1 - fy) + (c * (1 - fx) + d * fx) * fy
+
+    texture = 1.0 + rng.uniform(0.05, 0.2) * smooth_noise(rng.integers(3, 9)) + rng.uniform(
+        0.03, 0.1
+    ) * smooth_noise(rng.integers(20, 60))
+    yy, xx = np.mgrid[0:HEIGHT, 0:WIDTH]
+    r2 = ((xx - WIDTH / 2) ** 2 + (yy - HEIGHT / 2) ** 2) / (WIDTH / 2) ** 2
+    vignette = 1.0 - rng.uniform(0.1, 0.35) * r2
+    return np.clip(level * texture * vignette, 0.0, None)
+
+
+class Motion:
+    """The LED's position at time t (seconds; frame n's exposure ends at n / FPS)."""
+
+    def __init__(self, rng, kind, exposure_s, streak_px, frames):
+        self.kind = kind
+        heading = rng.uniform(0, 2 * math.pi)
+        self.dir = np.array([math.cos(heading), math.sin(heading)])
+        self.speed = streak_px / exposure_s
+        self.t0 = -exposure_s
+        span_s = (frames - 1) / FPS + exposure_s
+        centre = np.array([WIDTH / 2, HEIGHT / 2]) + rng.uniform(-60, 60, 2)
+        if kind == "arc":
+            self.radius = rng.uniform(25, 120)
+            self.omega = self.speed / self.radius * rng.choice([-1, 1])
+            self.phase = rng.uniform(0, 2 * math.pi)
+            self.centre = centre
+        elif kind == "accelerate":
+            # From a third of the speed to the full speed at the last frame's end.
+            self.v0 = self.speed / 3
+            self.accel = (self.speed - self.v0) / span_s
+            self.start = centre - self.dir * (self.v0 + 0.5 * self.accel * span_s) * span_s / 2
+        elif kind == "settle":
+            # Moves 40 px into place over the first 3 to 5 frames with a raised-cosine speed,
+            # then stands, or creeps at up to 3 px/s.
+            self.move_s = rng.uniform(3, 5) / FPS
+            self.move_px = 40.0
+            self.creep = rng.uniform(0.0, 3.0)
+            self.start = centre - self.dir * 20
+        else:
+            self.start = centre - self.dir * self.speed * span_s / 2
+
+    def at(self, t):
+        s = np.asarray(t, dtype=float) - self.t0
+        if self.kind == "line":
+            d = self.speed * s
+        elif self.kind == "accelerate":
+            d = self.v0 * s + 0.5 * self.accel * s * s
+        elif self.kind == "settle":
+            u = np.clip(s / self.move_s, 0, 1)
+            d = self.move_px * (u - np.sin(2 * math.pi * u) / (2 * math.pi)) + self.creep * s
+        else:
+            a = self.phase + self.omega * s
+            return np.stack(
+                [self.centre[0] + self.radius * np.cos(a), self.centre[1] + self.radius * np.sin(a)],
+                axis=-1,
+            )
+        return self.start + np.multiply.outer(d, self.dir)
+
+
+def tone(v, camera):
+    """Linear light 0..1 (1 = full well) to 0..1 output."""
+    v = np.clip(v, 0.0, 1.0)
+    if camera["curve"] == "srgb":
+        g = camera["gamma"]
+        toe = 0.0031308
+        return np.where(v <= toe, 12.92 * v, 1.055 * v ** (1.0 / g) - 0.055)
+    # A filmic S: a power, then a soft shoulder that reaches 1 at full well.
+    x = v ** (1.0 / camera["gamma"])
+    s = camera["shoulder"]
+    return x * (1 + s) / (x + s)
+
+
+def streak_light(motion, kernel, t_start, t_end):
+    """The light of the LED swept from `t_start` to `t_end`, per pixel of a window around the
+    path (a still spot's peak is 1): the window's top-left pixel, the light, the sampled path
+    and its length."""
+    reach = kernel.shape[0] // 2
+    # The path, sampled finely enough that no fine cell is skipped.
+    probe = motion.at(np.linspace(t_start, t_end, 65))
+    length = float(np.sum(np.linalg.norm(np.diff(probe, axis=0), axis=1)))
+    steps = max(64, int(length * SUPER * 4))
+    times = np.linspace(t_start, t_end, steps + 1)
+    times = 0.5 * (times[1:] + times[:-1])
+    path = motion.at(times)
+    lo = np.floor(path.min(axis=0) - reach / SUPER - 2).astype(int)
+    hi = np.ceil(path.max(axis=0) + reach / SUPER + 2).astype(int)
+    w, h = hi[0] - lo[0] + 1, hi[1] - lo[1] + 1
+    # Fine cell (i, j) of the window has its centre at lo + ((i, j) + 0.5) / SUPER - 0.5; the
+    # grid has `reach` spare cells after the window, so that the circular convolution's spill
+    # does not wrap onto it.
+    fine = np.zeros((h * SUPER + reach, w * SUPER + reach))
+    fx = (path[:, 0] - lo[0] + 0.5) * SUPER - 0.5
+    fy = (path[:, 1] - lo[1] + 0.5) * SUPER - 0.5
+    ix, iy = np.floor(fx).astype(int), np.floor(fy).astype(int)
+    ax, ay = fx - ix, fy - iy
+    weight = 1.0 / len(times)
+    for dx, dy, share in (
+        (0, 0, (1 - ax) * (1 - ay)),
+        (1, 0, ax * (1 - ay)),
+        (0, 1, (1 - ax) * ay),
+        (1, 1, ax * ay),
+    ):
+        np.add.at(fine, (iy + dy, ix + dx), share * weight)
+    light = np.fft.irfft2(np.fft.rfft2(fine) * np.fft.rfft2(kernel, s=fine.shape), s=fine.shape)
+    # The kernel's centre is its cell (reach, reach): a deposit at cell c lands at c + reach.
+    light = light[reach : reach + h * SUPER, reach : reach + w * SUPER]
+    return lo, light.reshape(h, SUPER, w, SUPER).mean(axis=(1, 3)), path, length
+
+
+def render_scene(rng, index):
+    # The streak's length in one exposure, 2 to 60 px; a long one needs a long exposure.
+    streak_px = float(rng.choice([rng.uniform(2, 20), rng.uniform(20, 40), 60.0]))
+    exposure_s = float(rng.uniform(4e-3, 30e-3) if streak_px < 20 else rng.uniform(15e-3, 30e-3))
+    motion_kind = str(rng.choice(["line", "line", "arc", "accelerate", "settle"]))
+    # A straight run: as many frames as stay inside the middle of the picture at that speed.
+    frames = MAX_FRAMES
+    if motion_kind in ("line", "accelerate"):
+        per_frame_px = streak_px / exposure_s / FPS
+        frames = int(np.clip(300 / per_frame_px, 4, MAX_FRAMES))
+    kind = str(rng.choice(["moffat", "moffat", "halo", "pillbox"]))
+    spot = {"kind": kind}
+    if kind == "pillbox":
+        spot.update(radius_px=float(rng.uniform(0.8, 3.0)), soft_px=float(rng.uniform(0.3, 0.8)))
+    else:
+        fwhm = float(rng.uniform(1.5, 6.0))
+        beta = float(rng.uniform(2.5, 5.0))
+        spot.update(fwhm_px=fwhm, beta=beta, alpha_px=moffat_fwhm_alpha(fwhm, beta))
+        if kind == "halo":
+            halo_beta = float(rng.uniform(2.0, 3.5))
+            spot.update(
+                halo_ratio=float(rng.uniform(0.02, 0.08)),
+                halo_beta=halo_beta,
+                halo_alpha_px=moffat_fwhm_alpha(fwhm * rng.uniform(3, 5), halo_beta),
+            )
+    camera = {
+        "curve": str(rng.choice(["srgb", "filmic"])),
+        "gamma": float(rng.uniform(1.8, 2.4)),
+        "shoulder": float(rng.uniform(0.3, 1.0)),
+        "full_well_e": float(rng.uniform(3000, 15000)),
+        "read_noise_e": float(rng.uniform(2, 15)),
+        "sharpen": float(rng.choice([0.0, rng.uniform(0.2, 0.7)])),
+        "studio": bool(rng.random() < 0.4),
+    }
+    # The LED's peak in the dimmest frame's streak, in full wells: barely saturating to
+    # strongly (a still spot's peak is brighter by the streak's length over its width).
+    streak_peak_full_wells = float(np.exp(rng.uniform(math.log(1.3), math.log(30.0))))
+    floor_level = float(rng.uniform(0.01, 0.12))
+    floor = floor_texture(rng, floor_level)
+    motion = Motion(rng, motion_kind, exposure_s, streak_px, frames)
+    times = [(n / FPS - exposure_s, n / FPS) for n in range(frames)]
+    # The still spot's peak that gives that: the streaks' peaks measured on a short kernel.
+    short = spot_kernel(spot, kernel_reach_px(spot, 1.0))
+    dimmest = min(streak_light(motion, short, *t)[1].max() for t in times)
+    peak_full_wells = streak_peak_full_wells / dimmest
+    kernel = spot_kernel(spot, kernel_reach_px(spot, peak_full_wells))
+
+    out = bytearray()
+    truths = []
+    for n, (t_start, t_end) in enumerate(times):
+        lo, light, path, length = streak_light(motion, kernel, t_start, t_end)
+        h, w = light.shape
+        # A still spot's peak is 1 before scaling (the kernel's peak, the path's weight 1);
+        # what falls outside the picture is dropped.
+        irradiance = floor.copy()
+        x0, y0 = max(lo[0], 0), max(lo[1], 0)
+        x1, y1 = min(lo[0] + w, WIDTH), min(lo[1] + h, HEIGHT)
+        irradiance[y0:y1, x0:x1] += peak_full_wells * np.clip(
+            light[y0 - lo[1] : y1 - lo[1], x0 - lo[0] : x1 - lo[0]], 0, None
+        )
+        electrons = rng.poisson(irradiance * camera["full_well_e"]).astype(float)
+        electrons += rng.normal(0.0, camera["read_noise_e"], electrons.shape)
+        v = tone(electrons / camera["full_well_e"], camera)
+        if camera["sharpen"] > 0:
+            blur = (np.roll(v, 1, 0) + np.roll(v, -1, 0) + np.roll(v, 1, 1) + np.roll(v, -1, 1) + 4 * v) / 8
+            v = v + camera["sharpen"] * (v - blur)
+        v = np.clip(v, 0.0, 1.0)
+        luma = 16 + 219 * v if camera["studio"] else 255 * v
+        out += np.clip(np.rint(luma), 0, 255).astype(np.uint8).tobytes()
+
+        head = motion.at(t_end)
+        mid = motion.at(0.5 * (t_start + t_end))
+        along = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(path, axis=0), axis=1))])
+        path_mid = path[min(np.searchsorted(along, along[-1] / 2), len(path) - 1)]
+        dt = 1e-6
+        vel = (motion.at(t_end) - motion.at(t_end - dt)) / dt
+        # Visible (1) when the whole streak is in the picture, partly (-1) when it is cut by
+        # its border, hidden (0) when none of it is in.
+        margin = 3.0
+        inside = (
+            (path[:, 0] >= margin)
+            & (path[:, 0] <= WIDTH - 1 - margin)
+            & (path[:, 1] >= margin)
+            & (path[:, 1] <= HEIGHT - 1 - margin)
+        )
+        visible = 1 if inside.all() else (-1 if inside.any() else 0)
+        truths.append(
+            f"{n},{t_end:.6f},{visible},{head[0]:.4f},{head[1]:.4f},{mid[0]:.4f},{mid[1]:.4f},"
+            f"{vel[0]:.3f},{vel[1]:.3f},{length:.4f},{path_mid[0]:.4f},{path_mid[1]:.4f}"
+        )
+    params = {
+        "scene": index,
+        "frames": frames,
+        "exposure_us": int(round(exposure_s * 1e6)),
+        "streak_px": streak_px,
+        "spot": spot,
+        "camera": camera,
+        "streak_peak_full_wells": streak_peak_full_wells,
+        "peak_full_wells": peak_full_wells,
+        "floor_level": floor_level,
+        "motion": motion.kind,
+        # The first frame whose exposure starts after an LED moving into place stopped.
+        "settled_frame": math.ceil(motion.move_s * FPS) if motion.kind == "settle" else 0,
+    }
+    return bytes(out), truths, params
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--seed", type=int, required=True)
+    parser.add_argument("--count", type=int, required=True)
+    parser.add_argument("--out", required=True)
+    args = parser.parse_args()
+    rng = np.random.default_rng(args.seed)
+    scenes = []
+    for k in range(args.count):
+        frames, truths, params = render_scene(rng, k)
+        with open(os.path.join(args.out, f"scene_{k}.grey"), "wb") as f:
+            f.write(frames)
+        with open(os.path.join(args.out, f"scene_{k}.csv"), "w") as f:
+            f.write("frame,t,visible,x,y,mid_x,mid_y,vx,vy,streak_px,path_mid_x,path_mid_y\n")
+            f.write("\n".join(truths) + "\n")
+        scenes.append(params)
+    with open(os.path.join(args.out, "scenes.json"), "w") as f:
+        json.dump(scenes, f, indent=1)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,299 @@
+//! Accuracy on scenes that glint's own renderer did not make.
+//!
+//! `tests/independent/render_streaks.py` renders streaks with other physics than
+//! `glint-scene`: a Moffat spot with power-law wings (or a defocused pillbox, or a Moffat core
+//! in a Moffat halo), the path deposited on a finer grid and convolved, a sensor that counts
+//! electrons (shot noise, read noise, full-well clipping), an sRGB-like or filmic tone curve,
+//! a webcam's unsharp mask, full or studio range, and a vignetted textured floor. Its frames
+//! are 8-bit luma (a mono camera's GREY), written to real files and replayed by the real
+//! `glint track`, whose JSON lines are held to the truth the script wrote.
+//!
+//! The scoring follows `tests/streak_sweep.rs`: the LED must be reported at most one frame
+//! after it has moved 2 px from where it appeared and in every frame from then on, and never
+//! before it moved; the head is measured from the frame after the first report (once an LED
+//! that moves into place is in place); the middle on 60 px streaks; the single-frame speed on
+//! streaks of at least 8 px.
+//!
+//! The default run renders [`DEFAULT_SCENES`] scenes; `GLINT_INDEPENDENT_SCENES=N` renders
+//! N, `GLINT_INDEPENDENT_SEED` another set, `GLINT_STREAK_MODEL=fit|auto` replays with that
+//! model, and `GLINT_INDEPENDENT_KEEP=DIR` keeps the dumps there.
+
+mod common;
+
+use std::path::Path;
+use std::process::Command;
+
+use common::peers::python;
+use common::{glint, parse_jsonl, quantile};
+use glint_tools::scene::{read_truth_csv, Truth, Visibility};
+use serde_json::Value;
+
+const DEFAULT_SCENES: usize = 24;
+const DEFAULT_SEED: u64 = 1;
+
+const HEAD_MEDIAN_MAX_PX: f64 = 0.5;
+const HEAD_P95_MAX_PX: f64 = 1.5;
+const MID_MEDIAN_MAX_PX: f64 = 0.2;
+const MID_P95_MAX_PX: f64 = 0.5;
+const MIDDLE_STREAK_PX: f64 = 59.0;
+const SPEED_MEDIAN_MAX: f64 = 0.03;
+const SPEED_P95_MAX: f64 = 0.10;
+const SPEED_MIN_STREAK_PX: f64 = 8.0;
+const MOTION_SHOWN_PX: f64 = 2.0;
+const ACQUIRE_MAX_FRAMES: usize = 1;
+
+fn env_or<T: std::str::FromStr>(name: &str, default: T) -> T {
+    std::env::var(name)
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(default)
+}
+
+/// One scene's errors, and what broke the detection rules.
+#[derive(Default)]
+struct SceneScore {
+    head_px: Vec<f64>,
+    mid60_px: Vec<f64>,
+    speed: Vec<f64>,
+    /// Frames whose speed should have come from the streak and did not.
+    speed_missing: usize,
+    /// Rules broken: reported before it moved, acquired late, lost after acquisition.
+    broken: Vec<String>,
+}
+
+fn score(reports: &[Value], truths: &[Truth], settled_frame: usize, exposure_s: f64) -> SceneScore {
+    let mut s = SceneScore::default();
+    assert_eq!(reports.len(), truths.len(), "one report per frame");
+    let first = &truths[0];
+    // Where the LED was at the start of the first exposure (the straight streak's far end;
+    // an arc moves far more than the threshold in its first frame).
+    let start = (
+        2.0 * first.mid_x_px.unwrap() - first.x_px.unwrap(),
+        2.0 * first.mid_y_px.unwrap() - first.y_px.unwrap(),
+    );
+    let (mut moved, mut acquired) = (None, None);
+    for (r, t) in reports.iter().zip(truths) {
+        // A streak cut by the picture's border is neither required nor scored.
+        if t.visible != Visibility::Visible {
+            continue;
+        }
+        let (x, y) = (t.x_px.unwrap(), t.y_px.unwrap());
+        if moved.is_none() && (x - start.0).hypot(y - start.1) > MOTION_SHOWN_PX {
+            moved = Some(t.frame);
+        }
+        if r["found"] != true {
+            if acquired.is_some() {
+                s.broken.push(format!("lost in frame {}", t.frame));
+            }
+            continue;
+        }
+        if moved.is_none() {
+            s.broken
+                .push(format!("reported in frame {} before it moved", t.frame));
+        }
+        let acquired = *acquired.get_or_insert(t.frame);
+        let at = |kx: &str, ky: &str| (r[kx].as_f64().unwrap(), r[ky].as_f64().unwrap());
+        let (mx, my) = at("mid_x", "mid_y");
+        let streak_px = t.streak_px.unwrap();
+        if streak_px >= MIDDLE_STREAK_PX {
+            s.mid60_px
+                .push((mx - t.path_mid_x_px.unwrap()).hypot(my - t.path_mid_y_px.unwrap()));
+        }
+        if t.frame <= acquired || t.frame < settled_frame {
+            continue;
+        }
+        let (hx, hy) = at("x", "y");
+        s.head_px.push((hx - x).hypot(hy - y));
+        if streak_px >= SPEED_MIN_STREAK_PX {
+            // The single-frame speed is the streak's length over the exposure: the path's
+            // mean speed during it (an accelerating LED ends the exposure faster).
+            let truth = streak_px / exposure_s;
+            if r["v_method"] == "streak" {
+                let speed = r["vx"].as_f64().unwrap().hypot(r["vy"].as_f64().unwrap());
+                s.speed.push((speed - truth).abs() / truth);
+            } else {
+                s.speed_missing += 1;
+            }
+        }
+    }
+    match (moved, acquired) {
+        (Some(m), Some(a)) if a > m + ACQUIRE_MAX_FRAMES => {
+            s.broken
+                .push(format!("acquired in frame {a}, it moved in {m}"));
+        }
+        (_, None) => s.broken.push("never acquired".into()),
+        _ => {}
+    }
+    s
+}
+
+/// Renders the scenes into `dir` and returns their parameters.
+fn render(dir: &Path, seed: u64, count: usize) -> Vec<Value> {
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/independent/render_streaks.py");
+    let out = Command::new(python())
+        .arg(script)
+        .args(["--seed", &seed.to_string(), "--count", &count.to_string()])
+        .arg("--out")
+        .arg(dir)
+        .output()
+        .expect("run the renderer");
+    assert!(
+        out.status.success(),
+        "renderer failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let scenes = std::fs::read(dir.join("scenes.json")).expect("scenes.json");
+    serde_json::from_slice::<Vec<Value>>(&scenes).expect("scenes.json parses")
+}
+
+fn quantiles(v: &[f64]) -> (f64, f64) {
+    if v.is_empty() {
+        return (0.0, 0.0);
+    }
+    (quantile(v, 0.5), quantile(v, 0.95))
+}
+
+/// What a replay of the scenes showed.
+struct Outcome {
+    /// Detection rules broken, per scene.
+    broken: Vec<String>,
+    /// Scenes out of an accuracy bound, and which.
+    scenes_out: Vec<String>,
+    /// Pooled bounds not held.
+    pooled_out: Vec<String>,
+}
+
+/// Renders the scenes (`GLINT_INDEPENDENT_SEED`, `GLINT_INDEPENDENT_SCENES`) and replays
+/// them with `glint track` (`GLINT_STREAK_MODEL`, else the default model), printing every
+/// scene's figures and the pooled ones.
+fn replay_scenes() -> Outcome {
+    let seed = env_or("GLINT_INDEPENDENT_SEED", DEFAULT_SEED);
+    let count = env_or("GLINT_INDEPENDENT_SCENES", DEFAULT_SCENES);
+    let model = std::env::var("GLINT_STREAK_MODEL").ok();
+    let temp = tempfile::tempdir().expect("temp dir");
+    let dir = std::env::var_os("GLINT_INDEPENDENT_KEEP")
+        .map(std::path::PathBuf::from)
+        .unwrap_or_else(|| temp.path().to_path_buf());
+    std::fs::create_dir_all(&dir).expect("dump dir");
+    let scenes = render(&dir, seed, count);
+    let (mut head, mut mid60, mut speed, mut speed_missing) =
+        (Vec::new(), Vec::new(), Vec::new(), 0);
+    let mut outcome = Outcome {
+        broken: Vec::new(),
+        scenes_out: Vec::new(),
+        pooled_out: Vec::new(),
+    };
+    for params in &scenes {
+        let k = params["scene"].as_u64().unwrap();
+        let exposure = params["exposure_us"].as_u64().unwrap().to_string();
+        let mut cmd = glint();
+        cmd.args(["track", "--input"])
+            .arg(dir.join(format!("scene_{k}.grey")))
+            .args(["--size", "640x480", "--format-in", "grey", "--fps", "30"])
+            .args(["--exposure-us", &exposure]);
+        if let Some(model) = &model {
+            cmd.args(["--streak-model", model]);
+        }
+        let out = cmd.output().expect("run glint");
+        assert!(
+            out.status.success(),
+            "scene {k}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let csv = std::fs::read(dir.join(format!("scene_{k}.csv"))).expect("truth");
+        let truths = read_truth_csv(&csv[..]).expect("truth parses");
+        let settled = params["settled_frame"].as_u64().unwrap_or(0) as usize;
+        let exposure_s = params["exposure_us"].as_f64().unwrap() * 1e-6;
+        let s = score(&parse_jsonl(&out.stdout), &truths, settled, exposure_s);
+        let (h, m, v) = (
+            quantiles(&s.head_px),
+            quantiles(&s.mid60_px),
+            quantiles(&s.speed),
+        );
+        let mut out = Vec::new();
+        if h.0 > HEAD_MEDIAN_MAX_PX || h.1 > HEAD_P95_MAX_PX {
+            out.push("head");
+        }
+        if m.0 > MID_MEDIAN_MAX_PX || m.1 > MID_P95_MAX_PX {
+            out.push("middle");
+        }
+        let visible = truths.len();
+        if v.0 > SPEED_MEDIAN_MAX || v.1 > SPEED_P95_MAX || s.speed_missing * 10 > visible {
+            out.push("speed");
+        }
+        eprintln!(
+            "scene {k:>3}: head {:.2}/{:.2} px, mid60 {:.2}/{:.2} px, speed {:.1}/{:.1} % \
+             ({} frames without){}{}: {} {} {}",
+            h.0,
+            h.1,
+            m.0,
+            m.1,
+            100.0 * v.0,
+            100.0 * v.1,
+            s.speed_missing,
+            if out.is_empty() { "" } else { ", out: " },
+            out.join(" "),
+            params["motion"],
+            params["spot"],
+            params["camera"],
+        );
+        for b in &s.broken {
+            outcome.broken.push(format!("scene {k}: {b}"));
+        }
+        if !out.is_empty() {
+            outcome
+                .scenes_out
+                .push(format!("scene {k}: {}", out.join(" ")));
+        }
+        head.extend(s.head_px);
+        mid60.extend(s.mid60_px);
+        speed.extend(s.speed);
+        speed_missing += s.speed_missing;
+    }
+    let (h, m, v) = (quantiles(&head), quantiles(&mid60), quantiles(&speed));
+    eprintln!(
+        "pooled over {} scenes: head {:.3}/{:.3} px ({} frames), middle of 60 px streaks \
+         {:.3}/{:.3} px ({}), speed {:.2}/{:.2} % ({}, {} without); {} scenes out",
+        scenes.len(),
+        h.0,
+        h.1,
+        head.len(),
+        m.0,
+        m.1,
+        mid60.len(),
+        100.0 * v.0,
+        100.0 * v.1,
+        speed.len(),
+        speed_missing,
+        outcome.scenes_out.len(),
+    );
+    let mut out_of = |what: &str, (median, p95): (f64, f64), (mmax, pmax): (f64, f64)| {
+        if median > mmax || p95 > pmax {
+            outcome.pooled_out.push(format!(
+                "pooled {what}: {median:.3} / {p95:.3} against {mmax} / {pmax}"
+            ));
+        }
+    };
+    out_of("head", h, (HEAD_MEDIAN_MAX_PX, HEAD_P95_MAX_PX));
+    out_of("middle", m, (MID_MEDIAN_MAX_PX, MID_P95_MAX_PX));
+    out_of("speed", v, (SPEED_MEDIAN_MAX, SPEED_P95_MAX));
+    outcome
+}
+
+/// The detection rules hold on every scene: the LED is taken at most a frame after it moved,
+/// kept in every frame from then on, and never reported before it moved.
+#[test]
+fn independent_scenes_are_found_from_their_first_motion_on() {
+    let outcome = replay_scenes();
+    assert!(outcome.broken.is_empty(), "{}", outcome.broken.join("\n"));
+}
+
+/// NOT YET HELD (README, "Accuracy on independently rendered scenes"): the accuracy bounds on
+/// every scene and pooled. Run on purpose with `-- --ignored`.
+#[test]
+#[ignore = "the accuracy bounds are not yet held on every independent scene (README)"]
+fn independent_scenes_hold_the_bounds() {
+    let outcome = replay_scenes();
+    let failures: Vec<_> = [outcome.broken, outcome.scenes_out, outcome.pooled_out].concat();
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
