@@ -1,6 +1,7 @@
 //! `--streak-model auto` fits the streaks whose ramps' reading is doubtful and only those
-//! (`src/detect/cascade.rs`): a spot whose edge is resolved (a glow) is fitted, and the sharp
-//! disk of `fast-line` is read by the ramps alone, at the ramps' cost.
+//! (`src/detect/cascade.rs`): a spot whose edge is resolved (a glow) is fitted, so is a frame
+//! whose ramps contradict themselves (still, with tips a streak apart), and the sharp disk of
+//! `fast-line` is read by the ramps alone, at the ramps' cost.
 
 use glint::detect::streak::StreakModel;
 use glint::detect::DetectorConfig;
