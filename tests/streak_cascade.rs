@@ -1,6 +1,7 @@
 //! `--streak-model auto` fits the streaks whose ramps' reading is doubtful and only those
-//! (`src/detect/cascade.rs`): a spot whose edge is resolved (a glow) is fitted, and the sharp
-//! disk of `fast-line` is read by the ramps alone, at the ramps' cost.
+//! (`src/detect/cascade.rs`): a spot whose edge is resolved (a glow) is fitted, so is a frame
+//! whose ramps contradict themselves (still, with tips a streak apart), and the sharp disk of
+//! `fast-line` is read by the ramps alone, at the ramps' cost.
 
 use glint::detect::streak::StreakModel;
 use glint::detect::DetectorConfig;
@@ -97,4 +98,33 @@ fn a_sharp_disk_s_streak_is_left_to_the_ramps() {
     assert!(frames.len() >= 30, "found in {} frames of 32", frames.len());
     let fitted = frames.iter().filter(|f| f.0).count();
     assert_eq!(fitted, 0, "{fitted} of {} frames fitted", frames.len());
+}
+
+/// Point 179 of seed 11: a 1.3 px disk on a 19.4 px arc (radius 25 px), whose edge is sharp.
+/// In one frame the ramps called it still (the blob no longer than the spot, by its caps)
+/// while their own tips lay 19.3 px apart, five times the spot's width; the head was then
+/// carried from the middle, 5.65 px off. That reading contradicts itself and is fitted; the
+/// other frames stay with the ramps, and the head holds the bound in every frame.
+#[test]
+fn a_streak_the_ramps_call_still_across_their_own_path_is_fitted() {
+    let point = SweepPoint::sweep(11, 180).remove(179);
+    let scene = Scene::new(point.config()).unwrap();
+    let frames = run(&scene, usize::MAX);
+    assert!(
+        frames.len() >= 8,
+        "{point}: found in {} frames",
+        frames.len()
+    );
+    let fitted = frames.iter().filter(|f| f.0).count();
+    assert!(
+        fitted >= 1 && fitted < frames.len(),
+        "{point}: fitted in {fitted} of {} frames",
+        frames.len()
+    );
+    let mut heads: Vec<f64> = frames.iter().filter_map(|f| f.1).collect();
+    let (median, p95) = median_p95(&mut heads);
+    assert!(
+        median <= 0.5 && p95 <= 1.5,
+        "{point}: head {median:.2} / {p95:.2} px"
+    );
 }

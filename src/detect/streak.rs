@@ -330,8 +330,13 @@ pub fn analyze(
             let tips = cascade::edge_is_sharp(frame, mid_px, ends_px, levels.top_luma, spans)
                 .then(|| ramps(scratch));
             match tips {
-                // Sharp, and read (or with no axis to read them on).
-                Some(tips) if tips.is_some() || !spans => (mid_px, ramps_streak_path(tips), false),
+                // Sharp, and read without contradiction (or with no axis to read them on).
+                Some(tips)
+                    if tips.is_some_and(|t| !cascade::ramps_contradict(&t))
+                        || (tips.is_none() && !spans) =>
+                {
+                    (mid_px, ramps_streak_path(tips), false)
+                }
                 _ => {
                     let (mid, path) = fitted();
                     (mid, path, true)
