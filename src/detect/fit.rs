@@ -64,7 +64,8 @@ const MAX_END_SHIFT_PX: f32 = 6.0;
 const SIGMA_RANGE_PX: (f32, f32) = (0.3, 12.0);
 const TONE_RANGE: (f32, f32) = (0.2, 8.0);
 /// Parameters: start x, y; end x, y; sagitta; ln σ of the core; ln σ of the glow; ln amplitude;
-/// glow ratio; tone exponent; floor.
+/// glow ratio; tone exponent; floor; pedestal. The solver moves them in fitted coordinates
+/// (see [`fitted`]).
 const PARAMS: usize = 12;
 /// The glow starts this many times wider than the core, and this bright relative to it.
 const GLOW_WIDTH0: f32 = 3.0;
@@ -72,9 +73,9 @@ const GLOW_RATIO0: f32 = 0.05;
 /// The tone exponent starts at that of a gamma-2.2 camera.
 const TONE0: f32 = 0.45;
 
-/// The amplitude's index in the parameters, fitted as its logarithm: on a clipped streak it
-/// runs to hundreds of times its start, which steps in the amplitude itself took the whole
-/// iteration budget to cover (it at most doubled a step, the cost falling 5-50 % each).
+/// The amplitude's index in the parameters, held as its logarithm: on a clipped streak it
+/// runs to hundreds or thousands of times its start, and the fitted coordinates (see
+/// [`fitted`]) scale it by the tone exponent.
 const LN_AMPLITUDE: usize = 7;
 /// The amplitude's start, and the least it may fall to.
 const AMPLITUDE0: f32 = 2.0;
