@@ -41,6 +41,13 @@ const BODY_PX: usize = 32;
 /// Levenberg–Marquardt iterations at most, in each stage (the core alone, then everything,
 /// at most twice).
 pub const MAX_ITERATIONS: usize = 10;
+/// A stage has converged when a step lowers the cost by less than this fraction of it.
+const CONVERGED_COST: f32 = 1e-4;
+/// It has also settled when a step moves no point of the path more than this and lowers the
+/// cost by less than [`SETTLED_COST`] of it: what is left to gain is in the spot's shape,
+/// whose valley (see [`fitted`]) the steps may follow for long with the path still.
+const SETTLED_PATH_PX: f32 = 0.03;
+const SETTLED_COST: f32 = 1e-2;
 /// The most the path's parameters may move in one step.
 const MAX_PATH_STEP_PX: f32 = 2.0;
 /// Straight pieces the arc is drawn with.
@@ -56,8 +63,9 @@ const MAX_END_SHIFT_PX: f32 = 6.0;
 /// Bounds of the fitted spot σ and tone exponent.
 const SIGMA_RANGE_PX: (f32, f32) = (0.3, 12.0);
 const TONE_RANGE: (f32, f32) = (0.2, 8.0);
-/// Parameters: start x, y; end x, y; sagitta; ln σ of the core; ln σ of the glow; amplitude;
-/// glow ratio; tone exponent; floor.
+/// Parameters: start x, y; end x, y; sagitta; ln σ of the core; ln σ of the glow; ln amplitude;
+/// glow ratio; tone exponent; floor; pedestal. The solver moves them in fitted coordinates
+/// (see [`fitted`]).
 const PARAMS: usize = 12;
 /// The glow starts this many times wider than the core, and this bright relative to it.
 const GLOW_WIDTH0: f32 = 3.0;
@@ -65,6 +73,13 @@ const GLOW_RATIO0: f32 = 0.05;
 /// The tone exponent starts at that of a gamma-2.2 camera.
 const TONE0: f32 = 0.45;
 
+/// The amplitude's index in the parameters, held as its logarithm: on a clipped streak it
+/// runs to hundreds or thousands of times its start, and the fitted coordinates (see
+/// [`fitted`]) scale it by the tone exponent.
+const LN_AMPLITUDE: usize = 7;
+/// The amplitude's start, and the least it may fall to.
+const AMPLITUDE0: f32 = 2.0;
+const MIN_AMPLITUDE: f32 = 1e-3;
 /// The glow ratio's index in the parameters.
 const GLOW_RATIO: usize = 8;
 /// The flat floor's index in the parameters.
@@ -131,7 +146,7 @@ pub fn fit(
     let floor0 = low_percentile(&samples);
     let sigma0 = (0.3 * rough.thickness_px).clamp(0.7, 6.0);
     let [a, b] = rough.ends_px;
-    let mut p = Params::from_column_slice(&[
+    let p = Params::from_column_slice(&[
         a.0,
         a.1,
         b.0,
@@ -139,12 +154,13 @@ pub fn fit(
         sagitta_of(a, b, rough.mid_px),
         sigma0.ln(),
         (GLOW_WIDTH0 * sigma0).ln(),
-        2.0,
+        AMPLITUDE0.ln(),
         GLOW_RATIO0,
         TONE0,
         (floor0 / clip).clamp(0.01, 0.95).powf(1.0 / TONE0),
         0.0,
     ]);
+    let mut p = fitted(&p);
     // First the core alone (no glow), which has one clear minimum near the start; then
     // everything, from there. Started together, a wide core and a glow can settle into a
     // wrong minimum that stretches the path.
@@ -174,7 +190,7 @@ pub fn fit(
             normal[(i, i)] = 1.0;
         }
     }
-    let sigma = p[5].exp();
+    let sigma = native(&p)[5].exp();
     let ends_px = [(p[0], p[1]), (p[2], p[3])];
     // The skeleton's ends of a fat blob (a glow that saturates) lie up to its width from the
     // path's: the thinning stops half a width short of each end and may curl sideways.
@@ -194,7 +210,7 @@ pub fn fit(
     let end_var = (covariance[(0, 0)] + covariance[(1, 1)])
         .max(covariance[(2, 2)] + covariance[(3, 3)])
         .max(0.0);
-    let path = Path::new(&p, true);
+    let path = Path::new(&native(&p), true);
     let measured = samples.floor_ln.iter().take(samples.len).flatten().count();
     Some(PathFit {
         ends_px,
@@ -216,12 +232,46 @@ fn clamp_params(mut p: Params) -> Params {
     p[5] = p[5].clamp(SIGMA_RANGE_PX.0.ln(), SIGMA_RANGE_PX.1.ln());
     // The glow is the wider and the dimmer of the two components.
     p[6] = p[6].clamp(p[5], (2.0 * SIGMA_RANGE_PX.1).ln());
-    p[7] = p[7].max(1e-3);
+    p[LN_AMPLITUDE] = p[LN_AMPLITUDE].max(MIN_AMPLITUDE.ln());
     p[8] = p[8].clamp(0.0, 1.0);
     p[9] = p[9].clamp(TONE_RANGE.0, TONE_RANGE.1);
     p[10] = p[10].clamp(0.0, 1.0);
     p[11] = p[11].clamp(0.0, 1.0);
     p
+}
+
+/// The tone index in the parameters.
+const TONE: usize = 9;
+
+/// The fitted parameters of the model's `p`: the spot's widths and amplitude as the pixels
+/// see them through the tone curve: `ln σ − ½ ln k` for each width (a Gaussian seen through
+/// `v^k` is `1/√k` as wide) and `k ln A` for the amplitude (its peak's log luma). The model is
+/// nearly unchanged along `σ²/k` and `A^k` constant (exactly so across the path, on a dark
+/// floor), a curved valley in `(ln σ, ln A, k)` that Levenberg–Marquardt's straight steps
+/// crept along to the iteration cap; in these coordinates the valley runs along `k` alone.
+fn fitted(p: &Params) -> Params {
+    let mut t = *p;
+    let half_ln_k = 0.5 * p[TONE].ln();
+    t[5] -= half_ln_k;
+    t[6] -= half_ln_k;
+    t[LN_AMPLITUDE] *= p[TONE];
+    t
+}
+
+/// The model's parameters of the fitted `t` (the inverse of [`fitted`]).
+fn native(t: &Params) -> Params {
+    let mut p = *t;
+    let half_ln_k = 0.5 * t[TONE].ln();
+    p[5] += half_ln_k;
+    p[6] += half_ln_k;
+    p[LN_AMPLITUDE] /= t[TONE];
+    p
+}
+
+/// [`clamp_params`] on fitted parameters.
+fn clamp_fitted(mut t: Params) -> Params {
+    t[TONE] = t[TONE].clamp(TONE_RANGE.0, TONE_RANGE.1);
+    fitted(&clamp_params(native(&t)))
 }
 
 /// Levenberg–Marquardt from `p` over the parameters marked `active` (the others stay
@@ -255,14 +305,16 @@ fn levenberg_marquardt(
                 continue;
             };
             // A trust region on the path: no point of it moves more than a few pixels a step.
-            let reach = step.rows(0, 5).amax();
+            let reach = step.rows(0, PATH_PARAMS).amax();
             if reach > MAX_PATH_STEP_PX {
                 step *= MAX_PATH_STEP_PX / reach;
             }
-            let trial = clamp_params(p + step);
+            let trial = clamp_fitted(p + step);
             match cost_of(samples, &trial, clip, active, cost) {
                 Some(c) if c < cost => {
-                    let converged = (cost - c) < 1e-4 * cost;
+                    let path_moved_px = (trial - p).rows(0, PATH_PARAMS).amax();
+                    let converged = (cost - c) < CONVERGED_COST * cost
+                        || (path_moved_px < SETTLED_PATH_PX && (cost - c) < SETTLED_COST * cost);
                     p = trial;
                     cost = c;
                     lambda = (lambda * 0.3).max(1e-6);
@@ -581,7 +633,7 @@ fn model(
 ) -> (f32, (f32, f32)) {
     let (core, glow) = path.light2(x, y);
     let q = core + p[8].max(0.0) * glow;
-    let v = (floor_of(p, floor_ln) + p[7] * q).max(1e-6);
+    let v = (floor_of(p, floor_ln) + p[LN_AMPLITUDE].exp() * q).max(1e-6);
     (clip * (p[9] * v.ln()).exp(), (q, glow))
 }
 
@@ -601,6 +653,7 @@ fn residual(luma: f32, model: f32, clip: f32) -> f32 {
 /// only when its cost is below the current one, and a sum of squares only grows, so the
 /// pixels after that point cannot change the verdict: a rejected trial mostly stops early.
 fn cost_of(s: &Samples, p: &Params, clip: f32, active: &[bool; PARAMS], bound: f32) -> Option<f32> {
+    let p = &native(p);
     let path = Path::new(p, active[GLOW_RATIO]);
     let mut cost = 0.0;
     for ((&xy, &luma), &floor_ln) in s.xy.iter().zip(&s.luma).zip(&s.floor_ln).take(s.len) {
@@ -621,15 +674,19 @@ fn normal_equations(
     clip: f32,
     active: &[bool; PARAMS],
 ) -> Option<(Normal, Params)> {
+    let fit = p;
+    let p = &native(fit);
     let path = Path::new(p, active[GLOW_RATIO]);
     let ratio = p[GLOW_RATIO].max(0.0);
+    let inv_k = 1.0 / p[TONE];
+    let amplitude = p[LN_AMPLITUDE].exp();
     let mut jtj = Normal::zeros();
     let mut jtr = Params::zeros();
     for ((&(x, y), &luma), &floor_ln) in s.xy.iter().zip(&s.luma).zip(&s.floor_ln).take(s.len) {
         let [core, glow] = path.lights(x, y);
         let q = core.value + ratio * glow.value;
         let floor = floor_of(p, floor_ln);
-        let v = (floor + p[7] * q).max(1e-6);
+        let v = (floor + amplitude * q).max(1e-6);
         let m = clip * (p[9] * v.ln()).exp();
         // A clipped pixel the model already reaches carries no gradient.
         if luma >= clip && m >= clip {
@@ -637,15 +694,15 @@ fn normal_equations(
         }
         let r = residual(luma, m, clip);
         let slope = p[9] * m / v;
-        let light_slope = slope * p[7];
+        let light_slope = slope * amplitude;
         let mut row = Params::zeros();
         for (j, (c, g)) in core.d_path.iter().zip(&glow.d_path).enumerate() {
             row[j] = light_slope * (c + ratio * g);
         }
         row[5] = light_slope * core.d_ln_sigma;
         row[6] = light_slope * ratio * glow.d_ln_sigma;
-        row[7] = slope * q;
-        row[8] = slope * p[7] * glow.value;
+        row[LN_AMPLITUDE] = light_slope * q;
+        row[8] = light_slope * glow.value;
         row[9] = m * v.ln();
         match floor_ln {
             // A measured floor moves with the tone curve: d floor / dk = -floor · l / k².
@@ -655,6 +712,10 @@ fn normal_equations(
             }
             None => row[10] = slope,
         }
+        // To the fitted parameters (see [`fitted`]).
+        row[TONE] +=
+            0.5 * inv_k * (row[5] + row[6]) - row[LN_AMPLITUDE] * fit[LN_AMPLITUDE] * inv_k * inv_k;
+        row[LN_AMPLITUDE] *= inv_k;
         for (value, &on) in row.iter_mut().zip(active) {
             if !on {
                 *value = 0.0;
@@ -840,7 +901,7 @@ mod tests {
             sagitta,
             sigma.ln(),
             (3.0 * sigma).ln(),
-            1.5,
+            1.5f32.ln(),
             0.1,
             0.45,
             0.08,
@@ -955,7 +1016,7 @@ mod tests {
             let s = samples_of(&truth, clip);
             let mut p = truth;
             p[0] += 0.7;
-            p[7] *= 1.3;
+            p[LN_AMPLITUDE] += 1.3f32.ln();
             let full = cost_of(&s, &p, clip, &all, f32::INFINITY).expect("finite");
             for bound in [0.1 * full, 0.5 * full, 0.99 * full] {
                 let bounded = cost_of(&s, &p, clip, &all, bound).expect("finite");
@@ -973,6 +1034,29 @@ mod tests {
                 let bounded = cost_of(&s, &p, clip, &all, bound).expect("finite");
                 assert_eq!(bounded, full, "{truth:?}: bounded at {bound}");
             }
+        }
+    }
+
+    /// The fitted coordinates read back as the model's, and a step in the tone alone keeps
+    /// the spot as the pixels see it: its width `σ/√k` and its peak `A^k`.
+    #[test]
+    fn the_fitted_parameters_read_back() {
+        for p in paths() {
+            let back = native(&fitted(&p));
+            for j in 0..PARAMS {
+                assert!(
+                    (back[j] - p[j]).abs() < 1e-5 * (1.0 + p[j].abs()),
+                    "{p:?}: {back:?}"
+                );
+            }
+            let mut steeper = fitted(&p);
+            steeper[TONE] *= 1.5;
+            let moved = native(&steeper);
+            assert!(
+                (moved[5] - p[5] - 0.5 * 1.5f32.ln()).abs() < 1e-5,
+                "{moved:?}"
+            );
+            assert!((moved[TONE] * moved[LN_AMPLITUDE] - p[TONE] * p[LN_AMPLITUDE]).abs() < 1e-5);
         }
     }
 
