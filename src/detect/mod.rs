@@ -10,6 +10,7 @@ pub mod bitimage;
 pub mod blobs;
 pub mod cascade;
 pub mod fit;
+mod flat_floor;
 pub mod floor_bg;
 mod level_falls;
 pub mod line_profile;
@@ -139,12 +140,14 @@ pub struct Detector {
     labeled: bool,
     /// The background model, for [`MaskMethod::BackgroundDifference`].
     background: Option<Background>,
-    /// The floor without the light, for the streak fit ([`StreakModel::Fit`] and
-    /// [`StreakModel::Auto`]).
-    floor: Option<FloorBackground>,
+    /// The floor without the light: the streak fit's model of the floor, and what the ramps'
+    /// symmetric middle and rim weights take off the floor's texture (`flat_floor`).
+    floor: FloorBackground,
     /// Whether the floor is kept learned after its first frames (which learn it everywhere):
     /// always for the fit; for the cascade once it has fitted a streak ([`cascade`]), so that
-    /// a camera whose LED the ramps read does not pay for its upkeep on every frame.
+    /// a camera whose LED the ramps read does not pay for its upkeep on every frame (3.7 M
+    /// instructions a 640×480 frame; the ramps read the floor of the first frames, which under
+    /// a fixed camera stays the floor).
     floor_learning: bool,
     /// The static bright pixels learned by the automatic threshold.
     statics: StaticMap,
@@ -182,7 +185,7 @@ impl Detector {
             max_area_px: (size.pixels() as f32 * MAX_BLOB_FRACTION) as u32,
             labeled: false,
             background,
-            floor: (config.streak_model != StreakModel::Ramps).then(|| FloorBackground::new(size)),
+            floor: FloorBackground::new(size),
             floor_learning: config.streak_model == StreakModel::Fit,
             statics: StaticMap::new(size.width(), size.height()),
             keep_out: heapless::Vec::new(),
@@ -308,19 +311,16 @@ impl Detector {
     /// Learns the floor (for the streak fit) from `frame` away from the blobs just labelled:
     /// none of the pixels the fit will read in this frame is learned from it.
     fn learn_floor(&mut self, frame: &Frame<'_>) {
-        let Some(floor) = self
-            .floor
-            .as_mut()
-            .filter(|f| self.floor_learning || f.learns_everywhere())
-        else {
+        if !(self.floor_learning || self.floor.learns_everywhere()) {
             return;
-        };
+        }
         let blobs = if self.labeled {
             self.labeler.blobs()
         } else {
             &[]
         };
-        floor.update(frame, blobs.iter(), fit::sample_margin_px);
+        self.floor
+            .update(frame, blobs.iter(), fit::sample_margin_px);
     }
 
     /// The automatic threshold, blob by blob: a low first cut, its blobs, and each blob cut
@@ -470,7 +470,7 @@ impl Detector {
             levels,
             self.config.skeleton,
             self.config.streak_model,
-            self.floor.as_ref(),
+            Some(&self.floor),
             self.optics.as_deref(),
             &mut self.streak,
         );
@@ -502,9 +502,9 @@ impl Detector {
         self.labeler.blobs()
     }
 
-    /// The floor learned without the light, for the streak fit (`None` with the ramps).
-    pub fn floor_background(&self) -> Option<&FloorBackground> {
-        self.floor.as_ref()
+    /// The floor learned without the light.
+    pub fn floor_background(&self) -> &FloorBackground {
+        &self.floor
     }
 
     /// The pixels learned as static bright things (automatic threshold only).
