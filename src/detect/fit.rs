@@ -4,8 +4,9 @@
 //! The streak is the LED's blur spot swept along a path during the exposure, then clipped by
 //! the sensor and bent by the camera's unknown tone curve. The model says exactly that:
 //!
-//! - the path is a quadratic arc from `start` through `mid` to `end` (a straight line when
-//!   `mid` lies on the chord), swept at constant speed;
+//! - the path is a circular arc from `start` through `mid` to `end` (a straight line when
+//!   `mid` lies on the chord), swept at constant speed, as a robot turning steadily moves
+//!   ([`ArcPieces`]: drawn by as few straight pieces as keep within 0.05 px of it);
 //! - the spot is a Gaussian core of standard deviation `σ` in a wider, dimmer Gaussian glow,
 //!   so the swept light at a pixel is their line integral along the path, in closed form per
 //!   straight piece (an error-function difference times a Gaussian across);
@@ -30,6 +31,7 @@
 
 use nalgebra::{SMatrix, SVector};
 
+use super::arc_path::{ArcPieces, MAX_PIECES, PATH_PARAMS};
 use super::floor_bg::FloorBackground;
 use super::normal::{normal_cdf, normal_cdf_and_density};
 use crate::frame::Frame;
@@ -50,8 +52,6 @@ const SETTLED_PATH_PX: f32 = 0.03;
 const SETTLED_COST: f32 = 1e-2;
 /// The most the path's parameters may move in one step.
 const MAX_PATH_STEP_PX: f32 = 2.0;
-/// Straight pieces the arc is drawn with.
-const PIECES: usize = 4;
 /// Pixels farther than this from the rough path, beyond the streak's half thickness, are left
 /// out: the spot's light has faded into the floor there.
 const REACH_PX: f32 = 3.0;
@@ -214,7 +214,7 @@ pub fn fit(
     let measured = samples.floor_ln.iter().take(samples.len).flatten().count();
     Some(PathFit {
         ends_px,
-        mid_px: path.mid,
+        mid_px: path.arc.mid,
         path_length_px: path.length(),
         spot_sigma_px: sigma,
         uncertainty_px: (end_var * residual_var).sqrt(),
@@ -346,22 +346,18 @@ fn sagitta_of(a: (f32, f32), b: (f32, f32), mid: (f32, f32)) -> f32 {
     ((mid.0 - mx) * -dy + (mid.1 - my) * dx) / len
 }
 
-/// The arc of parameters `p`, drawn as [`PIECES`] straight pieces.
+/// The arc of parameters `p`, drawn as straight pieces ([`ArcPieces`]).
 struct Path {
-    /// Each piece's start, unit direction and length.
-    pieces: [Piece; PIECES],
+    /// Each piece's start, unit direction and length; the first `arc.count` are drawn.
+    pieces: [Piece; MAX_PIECES],
     length: f32,
-    mid: (f32, f32),
+    /// The corners and their slopes in the path's parameters, for the derivatives.
+    arc: ArcPieces,
     /// The core's and the glow's σ.
     sigmas: [f32; 2],
     /// Components whose light is drawn: the core alone while the glow is left out (the
     /// first stage), which halves that stage's cost.
     components: usize,
-    /// The chord's unit direction from start to end, its length and the sagitta: what the
-    /// pieces' corners are made of, for the derivatives.
-    chord_unit: (f32, f32),
-    chord_px: f32,
-    sagitta_px: f32,
 }
 
 #[derive(Clone, Copy, Default)]
@@ -374,27 +370,15 @@ struct Piece {
 impl Path {
     /// The path of `p`, with the glow's light drawn when `glow` (else it reads zero).
     fn new(p: &Params, glow: bool) -> Path {
-        let (a, b) = ((p[0], p[1]), (p[2], p[3]));
-        let (dx, dy) = (b.0 - a.0, b.1 - a.1);
-        let len = dx.hypot(dy).max(1e-6);
-        let mid = (
-            0.5 * (a.0 + b.0) - p[4] * dy / len,
-            0.5 * (a.1 + b.1) + p[4] * dx / len,
-        );
-        // The quadratic Bézier through a, mid (at t = 1/2) and b.
-        let c = (
-            2.0 * mid.0 - 0.5 * (a.0 + b.0),
-            2.0 * mid.1 - 0.5 * (a.1 + b.1),
-        );
-        let point = |i: usize| {
-            let t = i as f32 / PIECES as f32;
-            let (u, v, w) = ((1.0 - t) * (1.0 - t), 2.0 * t * (1.0 - t), t * t);
-            (u * a.0 + v * c.0 + w * b.0, u * a.1 + v * c.1 + w * b.1)
-        };
-        let mut pieces = [Piece::default(); PIECES];
+        let arc = ArcPieces::new([p[0], p[1], p[2], p[3], p[4]]);
+        let mut pieces = [Piece::default(); MAX_PIECES];
         let mut length = 0.0;
-        for (i, piece) in pieces.iter_mut().enumerate() {
-            let (s, e) = (point(i), point(i + 1));
+        for (piece, ends) in pieces
+            .iter_mut()
+            .zip(arc.corners.windows(2))
+            .take(arc.count)
+        {
+            let (s, e) = (ends[0], ends[1]);
             let l = dist(s, e);
             let unit = if l > 1e-6 {
                 ((e.0 - s.0) / l, (e.1 - s.1) / l)
@@ -411,12 +395,9 @@ impl Path {
         Path {
             pieces,
             length,
-            mid,
+            arc,
             sigmas: [p[5].exp(), p[6].exp()],
             components: if glow { 2 } else { 1 },
-            chord_unit: (dx / len, dy / len),
-            chord_px: len,
-            sagitta_px: p[4],
         }
     }
 
@@ -431,12 +412,12 @@ impl Path {
         for (light, &sigma) in out.iter_mut().zip(&self.sigmas).take(self.components) {
             let inv = 1.0 / sigma;
             if self.length < STILL_PATH_SIGMAS * sigma {
-                let (dx, dy) = (x - self.mid.0, y - self.mid.1);
+                let (dx, dy) = (x - self.arc.mid.0, y - self.arc.mid.1);
                 *light = (-0.5 * (dx * dx + dy * dy) * inv * inv).exp();
                 continue;
             }
             let mut sum = 0.0;
-            for piece in &self.pieces {
+            for piece in self.pieces.iter().take(self.arc.count) {
                 if piece.length < MIN_PIECE_PX {
                     continue;
                 }
@@ -474,15 +455,13 @@ impl Path {
     /// A still spot at the middle, `exp(−r²/2σ²)`: its slope in the middle is `r/σ² ·` that.
     fn still_light(&self, x: f32, y: f32, sigma: f32) -> Light {
         let inv2 = 1.0 / (sigma * sigma);
-        let (dx, dy) = (x - self.mid.0, y - self.mid.1);
+        let (dx, dy) = (x - self.arc.mid.0, y - self.arc.mid.1);
         let r2 = (dx * dx + dy * dy) * inv2;
         let value = (-0.5 * r2).exp();
         // The middle is the arc's point at half time.
-        let mut at_corners = [(0.0f32, 0.0f32); PIECES + 1];
-        if let Some(mid) = at_corners.get_mut(PIECES / 2) {
-            *mid = (value * dx * inv2, value * dy * inv2);
-        }
-        let path = self.path_gradient(&at_corners);
+        let path = self
+            .arc
+            .mid_gradient((value * dx * inv2, value * dy * inv2));
         Light {
             value,
             d_path: path,
@@ -500,9 +479,9 @@ impl Path {
         let inv = 1.0 / sigma;
         let (mut sum, mut d_sigma_sum) = (0.0f32, 0.0f32);
         // ∂(Σ I)/∂ corner, and the path's length per corner (∂L/∂E = d, ∂L/∂S = −d).
-        let mut at_corners = [(0.0f32, 0.0f32); PIECES + 1];
-        let mut length_at_corners = [(0.0f32, 0.0f32); PIECES + 1];
-        for (k, piece) in self.pieces.iter().enumerate() {
+        let mut at_corners = [(0.0f32, 0.0f32); MAX_PIECES + 1];
+        let mut length_at_corners = [(0.0f32, 0.0f32); MAX_PIECES + 1];
+        for (k, piece) in self.pieces.iter().enumerate().take(self.arc.count) {
             let d = piece.unit;
             if let Some(s) = length_at_corners.get_mut(k) {
                 *s = (s.0 - d.0, s.1 - d.1);
@@ -557,36 +536,9 @@ impl Path {
         }
         Light {
             value,
-            d_path: self.path_gradient(&at_corners),
+            d_path: self.arc.gradient(&at_corners),
             d_ln_sigma: sigma * d_sigma_sum * inv_length,
         }
-    }
-
-    /// A gradient in the pieces' corners, carried to the path's parameters (start x, y, end
-    /// x, y, sagitta). The corner at time `τ` is `α a + β b + γ s N`, the quadratic Bézier of
-    /// [`Path::new`] with `α = (1−τ)² + τ(1−τ)`, `β = τ² + τ(1−τ)`, `γ = 4τ(1−τ)`, and the
-    /// chord's normal `N` turns with the ends: `∂N/∂b = −D Nᵀ / |b − a| = −∂N/∂a`.
-    fn path_gradient(&self, at_corners: &[(f32, f32); PIECES + 1]) -> [f32; PATH_PARAMS] {
-        let d = self.chord_unit;
-        let n = (-d.1, d.0);
-        let turn = self.sagitta_px / self.chord_px;
-        let mut out = [0.0f32; PATH_PARAMS];
-        for (i, g) in at_corners.iter().enumerate() {
-            let tau = i as f32 / PIECES as f32;
-            let half_bend = tau * (1.0 - tau);
-            let (alpha, beta, gamma) = (
-                (1.0 - tau) * (1.0 - tau) + half_bend,
-                tau * tau + half_bend,
-                4.0 * half_bend,
-            );
-            let swing = gamma * turn * (d.0 * g.0 + d.1 * g.1);
-            out[0] += alpha * g.0 + swing * n.0;
-            out[1] += alpha * g.1 + swing * n.1;
-            out[2] += beta * g.0 - swing * n.0;
-            out[3] += beta * g.1 - swing * n.1;
-            out[4] += gamma * (n.0 * g.0 + n.1 * g.1);
-        }
-        out
     }
 }
 
@@ -600,8 +552,6 @@ struct Light {
     d_ln_sigma: f32,
 }
 
-/// The path's parameters lead the parameter vector.
-const PATH_PARAMS: usize = 5;
 /// A path shorter than this many σ is drawn as a still spot at its middle.
 const STILL_PATH_SIGMAS: f32 = 1e-3;
 /// A piece shorter than this draws nothing.
@@ -924,7 +874,7 @@ mod tests {
     fn pixels_around(p: &Params) -> impl Iterator<Item = (f32, f32)> {
         let (a, b) = ((p[0], p[1]), (p[2], p[3]));
         let path = Path::new(p, true);
-        let mid = path.mid;
+        let mid = path.arc.mid;
         let spread = 2.0 * p[5].exp();
         [a, b, mid, (0.5 * (a.0 + mid.0), 0.5 * (a.1 + mid.1))]
             .into_iter()

@@ -4,6 +4,7 @@
 //! [`Detector`] owns every buffer the stage needs, sized once from the frame size, and runs
 //! the stages in order on each frame without allocating.
 
+mod arc_path;
 pub mod aruco;
 pub mod bgdiff;
 pub mod bitimage;
