@@ -13,7 +13,7 @@
 /// Most straight pieces an arc is drawn with.
 pub const MAX_PIECES: usize = 16;
 /// The most a piece may stray from the arc it stands for, at its middle.
-const PIECE_SAGITTA_PX: f64 = 0.05;
+const PIECE_SAGITTA_PX: f64 = 0.1;
 /// The path's parameters: start x, y, end x, y, sagitta.
 pub const PATH_PARAMS: usize = 5;
 /// The step the corners' slopes in the parameters are taken over (central differences, in
@@ -35,21 +35,38 @@ pub struct ArcPieces {
 }
 
 impl ArcPieces {
-    /// The arc of `params` (start x, y, end x, y, sagitta).
-    pub fn new(params: [f32; PATH_PARAMS]) -> ArcPieces {
+    /// The arc of `params` (start x, y, end x, y, sagitta), with the corners' slopes in them
+    /// when `with_slopes` (the normal equations need them; a cost evaluation does not, and
+    /// they take ten times the corners' work).
+    pub fn new(params: [f32; PATH_PARAMS], with_slopes: bool) -> ArcPieces {
         let p = params.map(f64::from);
         let count = piece_count(p);
+        let (corners, mid) = points_of(p, count);
         let mut out = ArcPieces {
             corners: [(0.0, 0.0); MAX_PIECES + 1],
             count,
             slopes: [[[0.0; PATH_PARAMS]; 2]; MAX_PIECES + 1],
-            mid: to_f32(arc_point(p, 0.5)),
-            mid_slopes: slopes_at(p, 0.5),
+            mid: to_f32(mid),
+            mid_slopes: [[0.0; PATH_PARAMS]; 2],
         };
-        for i in 0..=count {
-            let tau = i as f64 / count as f64;
-            out.corners[i] = to_f32(arc_point(p, tau));
-            out.slopes[i] = slopes_at(p, tau);
+        for (c, &point) in out.corners.iter_mut().zip(&corners).take(count + 1) {
+            *c = to_f32(point);
+        }
+        if with_slopes {
+            // Central differences, the piece count held.
+            for j in 0..PATH_PARAMS {
+                let (mut up, mut down) = (p, p);
+                up[j] += SLOPE_STEP_PX;
+                down[j] -= SLOPE_STEP_PX;
+                let ((cu, mu), (cd, md)) = (points_of(up, count), points_of(down, count));
+                let slope = |a: f64, b: f64| ((a - b) / (2.0 * SLOPE_STEP_PX)) as f32;
+                for i in 0..=count {
+                    out.slopes[i][0][j] = slope(cu[i].0, cd[i].0);
+                    out.slopes[i][1][j] = slope(cu[i].1, cd[i].1);
+                }
+                out.mid_slopes[0][j] = slope(mu.0, md.0);
+                out.mid_slopes[1][j] = slope(mu.1, md.1);
+            }
         }
         out
     }
@@ -122,21 +139,23 @@ fn arc_of(p: [f64; PATH_PARAMS]) -> Arc {
     }
 }
 
-/// The point a fraction `tau` of the way along the arc. With `k = 2τ − 1` and `φ = kθ`, it
-/// lies `R sin φ = A k sinc φ` along the chord from its middle and `s − R(1 − cos φ) = s − A k²
-/// θ/2 · sinc²(φ/2)` along its left normal: at `τ = 0` that is `−h` and `0`, the start.
-fn arc_point(p: [f64; PATH_PARAMS], tau: f64) -> (f64, f64) {
-    let arc = arc_of(p);
-    let k = 2.0 * tau - 1.0;
-    let phi = k * arc.half_turn;
-    let along = arc.half_length * k * sinc(phi);
-    let half = sinc(0.5 * phi);
-    let across = arc.sagitta - arc.half_length * k * k * 0.5 * arc.half_turn * half * half;
-    let (d, n) = (arc.unit, (-arc.unit.1, arc.unit.0));
-    (
-        arc.mid.0 + along * d.0 + across * n.0,
-        arc.mid.1 + along * d.1 + across * n.1,
-    )
+impl Arc {
+    /// The point a fraction `tau` of the way along the arc. With `k = 2τ − 1` and `φ = kθ`,
+    /// it lies `R sin φ = A k sinc φ` along the chord from its middle and `s − R(1 − cos φ) =
+    /// s − A k² θ/2 · sinc²(φ/2)` along its left normal: at `τ = 0` that is `−h` and `0`, the
+    /// start.
+    fn point(&self, tau: f64) -> (f64, f64) {
+        let k = 2.0 * tau - 1.0;
+        let phi = k * self.half_turn;
+        let along = self.half_length * k * sinc(phi);
+        let half = sinc(0.5 * phi);
+        let across = self.sagitta - self.half_length * k * k * 0.5 * self.half_turn * half * half;
+        let (d, n) = (self.unit, (-self.unit.1, self.unit.0));
+        (
+            self.mid.0 + along * d.0 + across * n.0,
+            self.mid.1 + along * d.1 + across * n.1,
+        )
+    }
 }
 
 fn sinc(x: f64) -> f64 {
@@ -161,18 +180,14 @@ fn piece_count(p: [f64; PATH_PARAMS]) -> usize {
     }
 }
 
-/// The slopes of the point at `tau` in each parameter, by central differences.
-fn slopes_at(p: [f64; PATH_PARAMS], tau: f64) -> [[f32; PATH_PARAMS]; 2] {
-    let mut out = [[0.0f32; PATH_PARAMS]; 2];
-    for j in 0..PATH_PARAMS {
-        let (mut up, mut down) = (p, p);
-        up[j] += SLOPE_STEP_PX;
-        down[j] -= SLOPE_STEP_PX;
-        let (a, b) = (arc_point(up, tau), arc_point(down, tau));
-        out[0][j] = ((a.0 - b.0) / (2.0 * SLOPE_STEP_PX)) as f32;
-        out[1][j] = ((a.1 - b.1) / (2.0 * SLOPE_STEP_PX)) as f32;
+/// The corners `0..=count` of the arc of `p` at equal steps along it, and its middle.
+fn points_of(p: [f64; PATH_PARAMS], count: usize) -> ([(f64, f64); MAX_PIECES + 1], (f64, f64)) {
+    let arc = arc_of(p);
+    let mut corners = [(0.0, 0.0); MAX_PIECES + 1];
+    for (i, c) in corners.iter_mut().enumerate().take(count + 1) {
+        *c = arc.point(i as f64 / count as f64);
     }
-    out
+    (corners, arc.point(0.5))
 }
 
 #[cfg(test)]
@@ -207,7 +222,7 @@ mod tests {
     fn the_corners_lie_on_the_circle_at_equal_steps() {
         let centre = (100.0, 80.0);
         for (radius, turn) in [(25.0, 2.4), (25.0, -2.4), (60.0, 0.5), (120.0, -0.2)] {
-            let pieces = ArcPieces::new(on_circle(centre, radius, 0.7, turn));
+            let pieces = ArcPieces::new(on_circle(centre, radius, 0.7, turn), false);
             assert!(pieces.count > 1, "{radius} {turn}");
             for (i, &c) in pieces.corners.iter().take(pieces.count + 1).enumerate() {
                 let a = 0.7 + turn * i as f64 / pieces.count as f64;
@@ -231,25 +246,25 @@ mod tests {
 
     #[test]
     fn a_straight_path_is_one_piece_at_constant_speed() {
-        let pieces = ArcPieces::new([10.0, 20.0, 70.0, 20.0, 0.0]);
+        let pieces = ArcPieces::new([10.0, 20.0, 70.0, 20.0, 0.0], false);
         assert_eq!(pieces.count, 1);
         assert_eq!(pieces.corners[0], (10.0, 20.0));
         assert_eq!(pieces.corners[1], (70.0, 20.0));
         assert_eq!(pieces.mid, (40.0, 20.0));
         // A sagitta far below the tolerance keeps it one piece, and on the chord.
-        let nearly = ArcPieces::new([10.0, 20.0, 70.0, 20.0, 1e-3]);
+        let nearly = ArcPieces::new([10.0, 20.0, 70.0, 20.0, 1e-3], false);
         assert_eq!(nearly.count, 1);
     }
 
     #[test]
     fn the_slopes_are_those_of_the_corners() {
         let p = on_circle((50.0, 50.0), 30.0, 0.2, 1.5);
-        let pieces = ArcPieces::new(p);
+        let pieces = ArcPieces::new(p, true);
         for j in 0..PATH_PARAMS {
             let (mut up, mut down) = (p, p);
             up[j] += 0.01;
             down[j] -= 0.01;
-            let (u, d) = (ArcPieces::new(up), ArcPieces::new(down));
+            let (u, d) = (ArcPieces::new(up, false), ArcPieces::new(down, false));
             assert_eq!((u.count, d.count), (pieces.count, pieces.count));
             for i in 0..=pieces.count {
                 for axis in 0..2 {

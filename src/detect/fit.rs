@@ -6,7 +6,7 @@
 //!
 //! - the path is a circular arc from `start` through `mid` to `end` (a straight line when
 //!   `mid` lies on the chord), swept at constant speed, as a robot turning steadily moves
-//!   ([`ArcPieces`]: drawn by as few straight pieces as keep within 0.05 px of it);
+//!   ([`ArcPieces`]: drawn by as few straight pieces as keep within 0.1 px of it);
 //! - the spot is a Gaussian core of standard deviation `σ` in a wider, dimmer Gaussian glow,
 //!   so the swept light at a pixel is their line integral along the path, in closed form per
 //!   straight piece (an error-function difference times a Gaussian across);
@@ -370,7 +370,17 @@ struct Piece {
 impl Path {
     /// The path of `p`, with the glow's light drawn when `glow` (else it reads zero).
     fn new(p: &Params, glow: bool) -> Path {
-        let arc = ArcPieces::new([p[0], p[1], p[2], p[3], p[4]]);
+        Path::drawn(p, glow, false)
+    }
+
+    /// The path of `p` with its corners' slopes in the path's parameters, for
+    /// [`Path::lights`].
+    fn with_slopes(p: &Params, glow: bool) -> Path {
+        Path::drawn(p, glow, true)
+    }
+
+    fn drawn(p: &Params, glow: bool, slopes: bool) -> Path {
+        let arc = ArcPieces::new([p[0], p[1], p[2], p[3], p[4]], slopes);
         let mut pieces = [Piece::default(); MAX_PIECES];
         let mut length = 0.0;
         for (piece, ends) in pieces
@@ -427,6 +437,9 @@ impl Path {
                     continue;
                 }
                 let along = (px * piece.unit.0 + py * piece.unit.1) * inv;
+                if beyond_piece(along, piece.length * inv) {
+                    continue;
+                }
                 let span = normal_cdf(along) - normal_cdf(along - piece.length * inv);
                 if span > 0.0 {
                     sum += (-0.5 * across * across).exp() * span;
@@ -500,6 +513,9 @@ impl Path {
             }
             let along = (px * d.0 + py * d.1) * inv;
             let length = piece.length * inv;
+            if beyond_piece(along, length) {
+                continue;
+            }
             let (cdf_s, density_s) = normal_cdf_and_density(along);
             let (cdf_e, density_e) = normal_cdf_and_density(along - length);
             let span = cdf_s - cdf_e;
@@ -556,10 +572,18 @@ struct Light {
 const STILL_PATH_SIGMAS: f32 = 1e-3;
 /// A piece shorter than this draws nothing.
 const MIN_PIECE_PX: f32 = 1e-6;
-/// Pixels farther than this many σ across a piece get none of its light.
+/// Pixels farther than this many σ across a piece, or beyond its ends, get none of its light.
 const ACROSS_REACH_SIGMAS: f32 = 5.0;
 
 const SQRT_TAU: f32 = 2.506_628_3;
+
+/// Whether a pixel `along` σ along a piece `length` σ long lies beyond either end by more than
+/// [`ACROSS_REACH_SIGMAS`]: the piece's light and slopes there are below 3·10⁻⁷ of a still
+/// spot's, and an arc drawn by many pieces would otherwise evaluate every piece at every pixel.
+#[inline]
+fn beyond_piece(along: f32, length: f32) -> bool {
+    along < -ACROSS_REACH_SIGMAS || along - length > ACROSS_REACH_SIGMAS
+}
 
 /// The floor in the model's linear light: where known, the measured one seen through the
 /// fitted tone curve plus the fitted pedestal, else the fitted flat floor.
@@ -626,7 +650,7 @@ fn normal_equations(
 ) -> Option<(Normal, Params)> {
     let fit = p;
     let p = &native(fit);
-    let path = Path::new(p, active[GLOW_RATIO]);
+    let path = Path::with_slopes(p, active[GLOW_RATIO]);
     let ratio = p[GLOW_RATIO].max(0.0);
     let inv_k = 1.0 / p[TONE];
     let amplitude = p[LN_AMPLITUDE].exp();
@@ -894,7 +918,7 @@ mod tests {
     #[test]
     fn the_lights_slopes_are_those_of_its_values() {
         for p in paths() {
-            let path = Path::new(&p, true);
+            let path = Path::with_slopes(&p, true);
             // A still path stays still under the step: f32 cannot resolve the light of a
             // path a few thousandths of a pixel long, which is why that is drawn as a spot.
             let path_h = if path.length < 0.1 { 5e-4 } else { 2e-3 };
