@@ -524,7 +524,7 @@ fn options_that_need_too_much_memory_are_refused_up_front() {
         ),
         (
             &["run", "--input", "-", "--size", "16384x16384"],
-            "the learned floor (--size 16384x16384) takes 800 MB",
+            "the frame buffer (--size 16384x16384) takes 512 MB",
         ),
         (
             &[
