@@ -184,10 +184,9 @@ pub fn background_bytes(size: FrameSize, frames: usize) -> u64 {
     (frames as u64 + 1).saturating_mul(size.pixels() as u64)
 }
 
-/// The floor learned without the light (the streak fit's model of the floor, and the ramps'
-/// flat floor): a 16-bit mean and an 8-bit count per pixel, and a bit image of where the
-/// frame's light is.
-pub fn floor_bytes(size: FrameSize) -> u64 {
+/// The streak fit's learned floor (`--streak-model fit`): a 16-bit mean and an 8-bit count
+/// per pixel, and a bit image of where the frame's light is.
+pub fn fit_floor_bytes(size: FrameSize) -> u64 {
     3 * size.pixels() as u64 + bit_image_bytes(size)
 }
 

@@ -19,7 +19,7 @@ use glint::frame::FrameSize;
 use glint::geometry::CalibrationFile;
 use glint::identify::IdentifyConfig;
 use glint::monitor::{self, Monitor};
-use glint::options::{parse_fps, LedArgs};
+use glint::options::{parse_fps, LedArgs, StreakModelArg};
 use glint::pipeline::{self, Pipeline, PipelineConfig, RunSummary};
 use glint::sink::mavlink::{self, Identity, ToLocal};
 use glint::sink::serial::RobotLines;
@@ -228,11 +228,11 @@ impl TrackSettings {
                 budget::led_detector_bytes(size),
             ),
         }
-        if self.detector != DetectorArg::Aruco {
+        if self.detector != DetectorArg::Aruco && self.led.streak_model != StreakModelArg::Ramps {
             plan.add(
-                "the learned floor",
-                format!("--size {size}"),
-                budget::floor_bytes(size),
+                "the streak fit's learned floor",
+                format!("--streak-model fit or auto, --size {size}"),
+                budget::fit_floor_bytes(size),
             );
         }
         // A calibration with a marker map re-detects its markers while tracking; whether the
