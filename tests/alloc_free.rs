@@ -78,10 +78,6 @@ fn replay_allocates_nothing_per_frame() {
         "the scenes were tracked: {summary:?}"
     );
     assert_eq!(allocations, 0, "allocations during {count} frames");
-    // The ramps read the floor learned in the run's first frames (the symmetric middle and
-    // the rim weights), and that learning was among the frames counted.
-    let floor = pipeline.detector().unwrap().floor_background();
-    assert!(floor.luma(5, 5).is_some(), "the ramps' floor was learned");
 }
 
 /// The CSV sink, the seed's morphological skeleton and the fitted streak model (with the floor
@@ -112,7 +108,7 @@ fn the_fitted_streak_model_allocates_nothing_per_frame() {
         assert!(s.found > s.frames / 2, "{s:?}");
     });
     assert_eq!(allocations, 0);
-    let floor = pipeline.detector().unwrap().floor_background();
+    let floor = pipeline.detector().unwrap().floor_background().unwrap();
     assert!(floor.luma(5, 5).is_some(), "the fit's floor was learned");
 }
 

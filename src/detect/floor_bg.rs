@@ -1,6 +1,5 @@
 //! The floor as it looks without the light: a per-pixel running mean of the luma, learned
-//! wherever no light is, for the streak fit ([`super::fit`]), and for the ramps, which take the
-//! floor's texture off the light they read a long streak's middle from (`flat_floor`).
+//! wherever no light is, for the streak fit ([`super::fit`]).
 //!
 //! The fit's model of a streak is the LED's light on a floor. A flat floor is wrong on a
 //! textured one: the texture under the streak reads as light and pulls the fitted ends by up

@@ -50,29 +50,8 @@ pub fn first_falls<const N: usize>(
     reach_px: f32,
     armed: Armed,
 ) -> [Option<Fall>; N] {
-    first_falls_of(
-        |x, y| luma_at(frame, x, y),
-        start,
-        d,
-        levels,
-        reach_px,
-        armed,
-    )
-}
-
-/// [`first_falls`] through `light(x, y)` instead of the frame's luma (the symmetric middle
-/// reads the light above a learned floor); `None` from it ends the walk as the frame's edge
-/// does.
-pub fn first_falls_of<const N: usize>(
-    light: impl Fn(f32, f32) -> Option<f32>,
-    start: (f32, f32),
-    d: (f32, f32),
-    levels: &[f32; N],
-    reach_px: f32,
-    armed: Armed,
-) -> [Option<Fall>; N] {
     let mut found: [Option<Fall>; N] = [None; N];
-    let Some(mut prev) = light(start.0, start.1) else {
+    let Some(mut prev) = luma_at(frame, start.0, start.1) else {
         return found;
     };
     // Levels the walk has been at or above, and levels still to be crossed.
@@ -87,7 +66,7 @@ pub fn first_falls_of<const N: usize>(
             break;
         }
         let u = i as f32 * STEP_PX;
-        let Some(v) = light(start.0 + u * d.0, start.1 + u * d.1) else {
+        let Some(v) = luma_at(frame, start.0 + u * d.0, start.1 + u * d.1) else {
             break;
         };
         for (((slot, o), a), &level) in found

@@ -16,15 +16,10 @@
 //! rim, and on a 60 px streak a rim pixel 25 px from the middle whose luma the floor's texture
 //! or the read noise moves carries that lever arm: on the sweep's 60 px streaks (seed 11) the
 //! centroid was 0.13 / 0.56 px off along the streak (median / p95), the crossings here
-//! 0.07 / 0.55 px. What was left was mostly blooms: where a glow reaches the levels on its own,
+//! 0.07 / 0.55 px. What is left is mostly blooms: where a glow reaches the levels on its own,
 //! every crossing is on its shallow flank, which the floor's texture moves by tenths of a pixel.
-//! Where the floor under the lines has been learned, it is read as a flat floor instead
-//! (`flat_floor`): middle p95 on the 60 px streaks 0.820 → 0.558 px (seed 11) and 0.694 →
-//! 0.409 px (seed 12), with the rim weights read the same way.
 
-use super::flat_floor::FlatFloor;
-use super::floor_bg::FloorBackground;
-use super::level_falls::{first_falls_of, Armed, Fall};
+use super::level_falls::{first_falls, Armed};
 use super::ray_floor;
 use super::tips::luma_at;
 use crate::frame::Frame;
@@ -56,11 +51,9 @@ const BEYOND_CHORD_PX: f32 = ray_floor::MAX_REACH_PX;
 /// cross-section of a streak is mirror-symmetric about its path too: exactly on a straight
 /// one, and on an arc of radius `r` to within its width over `r`). `top_luma` is the frame's
 /// clip level. `None` when the floor cannot be read beside the middle, the light at the middle
-/// is no brighter than it, or no level is crossed on both sides of any line. With a learned
-/// `learned` floor, the light is read as it would be on a flat floor (`flat_floor`).
+/// is no brighter than it, or no level is crossed on both sides of any line.
 pub fn centre(
     frame: &Frame<'_>,
-    learned: Option<&FloorBackground>,
     mid: (f32, f32),
     along: (f32, f32),
     across: (f32, f32),
@@ -78,13 +71,9 @@ pub fn centre(
     if span < 1.0 {
         return None;
     }
-    let light = Light {
-        frame,
-        flat: learned.map(|l| FlatFloor::new(l, floor, top_luma)),
-    };
-    let levels = LEVELS.map(|f| light.level(floor + f * span));
+    let levels = LEVELS.map(|f| floor + f * span);
     let along_px = mirror_offset(
-        &light,
+        frame,
         mid,
         (along, across),
         &ALONG_LINES_PX,
@@ -93,7 +82,7 @@ pub fn centre(
     )?;
     let on_bisector = (mid.0 + along_px * along.0, mid.1 + along_px * along.1);
     let across_px = mirror_offset(
-        &light,
+        frame,
         on_bisector,
         (across, along),
         &ACROSS_LINES_PX,
@@ -111,7 +100,7 @@ pub fn centre(
 /// midpoints of the first falls through a level on either side, each walked out to
 /// `reach_px`. `None` when no level is crossed on both sides of any line.
 fn mirror_offset(
-    light: &Light<'_, '_>,
+    frame: &Frame<'_>,
     point: (f32, f32),
     (d, n): ((f32, f32), (f32, f32)),
     offsets: &[f32],
@@ -121,12 +110,10 @@ fn mirror_offset(
     let (mut sum, mut weights) = (0.0f32, 0.0f32);
     for offset in offsets {
         let start = (point.0 + offset * n.0, point.1 + offset * n.1);
-        let at = |x, y| light.at(x, y);
-        let forward = first_falls_of(at, start, d, levels, reach_px, Armed::AtStart);
-        let back = first_falls_of(at, start, (-d.0, -d.1), levels, reach_px, Armed::AtStart);
-        for ((f, b), level) in forward.iter().zip(&back).zip(levels) {
+        let forward = first_falls(frame, start, d, levels, reach_px, Armed::AtStart);
+        let back = first_falls(frame, start, (-d.0, -d.1), levels, reach_px, Armed::AtStart);
+        for (f, b) in forward.iter().zip(&back) {
             if let (Some(f), Some(b)) = (f, b) {
-                let (f, b) = (light.in_luma(*f, *level), light.in_luma(*b, *level));
                 // A crossing moves by the luma's error over the slope there: each midpoint
                 // counts by the inverse of its variance, so that a glow's shallow flank, where
                 // the floor's texture and the noise move a crossing by pixels, counts little
@@ -139,49 +126,4 @@ fn mirror_offset(
         }
     }
     (weights > 0.0).then(|| sum / weights)
-}
-
-/// The light the lines are read in: the frame's luma, or, where the floor has been learned,
-/// the linear light on a flat floor of the floor beside the middle ([`FlatFloor`]).
-struct Light<'f, 'a> {
-    frame: &'f Frame<'a>,
-    flat: Option<FlatFloor<'f>>,
-}
-
-impl Light<'_, '_> {
-    /// Level `luma` on the light's scale.
-    fn level(&self, luma: f32) -> f32 {
-        self.flat.map_or(luma, |f| f.light(luma))
-    }
-
-    /// A fall through level `level` (the light's scale) with its slope as the luma's.
-    fn in_luma(&self, fall: Fall, level: f32) -> Fall {
-        match self.flat {
-            None => fall,
-            Some(f) => Fall {
-                at_px: fall.at_px,
-                slope_per_px: fall.slope_per_px / f.light_per_luma(level),
-            },
-        }
-    }
-
-    /// The light at `(x, y)`, bilinear between pixels.
-    #[inline]
-    fn at(&self, x: f32, y: f32) -> Option<f32> {
-        let Some(flat) = self.flat else {
-            return luma_at(self.frame, x, y);
-        };
-        if x < 0.0 || y < 0.0 {
-            return None;
-        }
-        let (x0, y0) = (x.floor() as usize, y.floor() as usize);
-        let (fx, fy) = (x - x0 as f32, y - y0 as f32);
-        let p = |xx: usize, yy: usize| {
-            let luma = f32::from(self.frame.luma(xx, yy)?);
-            Some(flat.light_at(xx, yy, luma))
-        };
-        let top = p(x0, y0)? * (1.0 - fx) + p(x0 + 1, y0)? * fx;
-        let bottom = p(x0, y0 + 1)? * (1.0 - fx) + p(x0 + 1, y0 + 1)? * fx;
-        Some(top * (1.0 - fy) + bottom * fy)
-    }
 }

@@ -11,7 +11,6 @@ pub mod bitimage;
 pub mod blobs;
 pub mod cascade;
 pub mod fit;
-mod flat_floor;
 pub mod floor_bg;
 mod level_falls;
 pub mod line_profile;
@@ -141,14 +140,12 @@ pub struct Detector {
     labeled: bool,
     /// The background model, for [`MaskMethod::BackgroundDifference`].
     background: Option<Background>,
-    /// The floor without the light: the streak fit's model of the floor, and what the ramps'
-    /// symmetric middle and rim weights take off the floor's texture (`flat_floor`).
-    floor: FloorBackground,
+    /// The floor without the light, for the streak fit ([`StreakModel::Fit`] and
+    /// [`StreakModel::Auto`]).
+    floor: Option<FloorBackground>,
     /// Whether the floor is kept learned after its first frames (which learn it everywhere):
     /// always for the fit; for the cascade once it has fitted a streak ([`cascade`]), so that
-    /// a camera whose LED the ramps read does not pay for its upkeep on every frame (3.7 M
-    /// instructions a 640×480 frame; the ramps read the floor of the first frames, which under
-    /// a fixed camera stays the floor).
+    /// a camera whose LED the ramps read does not pay for its upkeep on every frame.
     floor_learning: bool,
     /// The static bright pixels learned by the automatic threshold.
     statics: StaticMap,
@@ -186,7 +183,7 @@ impl Detector {
             max_area_px: (size.pixels() as f32 * MAX_BLOB_FRACTION) as u32,
             labeled: false,
             background,
-            floor: FloorBackground::new(size),
+            floor: (config.streak_model != StreakModel::Ramps).then(|| FloorBackground::new(size)),
             floor_learning: config.streak_model == StreakModel::Fit,
             statics: StaticMap::new(size.width(), size.height()),
             keep_out: heapless::Vec::new(),
@@ -312,16 +309,19 @@ impl Detector {
     /// Learns the floor (for the streak fit) from `frame` away from the blobs just labelled:
     /// none of the pixels the fit will read in this frame is learned from it.
     fn learn_floor(&mut self, frame: &Frame<'_>) {
-        if !(self.floor_learning || self.floor.learns_everywhere()) {
+        let Some(floor) = self
+            .floor
+            .as_mut()
+            .filter(|f| self.floor_learning || f.learns_everywhere())
+        else {
             return;
-        }
+        };
         let blobs = if self.labeled {
             self.labeler.blobs()
         } else {
             &[]
         };
-        self.floor
-            .update(frame, blobs.iter(), fit::sample_margin_px);
+        floor.update(frame, blobs.iter(), fit::sample_margin_px);
     }
 
     /// The automatic threshold, blob by blob: a low first cut, its blobs, and each blob cut
@@ -471,7 +471,7 @@ impl Detector {
             levels,
             self.config.skeleton,
             self.config.streak_model,
-            Some(&self.floor),
+            self.floor.as_ref(),
             self.optics.as_deref(),
             &mut self.streak,
         );
@@ -503,9 +503,9 @@ impl Detector {
         self.labeler.blobs()
     }
 
-    /// The floor learned without the light.
-    pub fn floor_background(&self) -> &FloorBackground {
-        &self.floor
+    /// The floor learned without the light, for the streak fit (`None` with the ramps).
+    pub fn floor_background(&self) -> Option<&FloorBackground> {
+        self.floor.as_ref()
     }
 
     /// The pixels learned as static bright things (automatic threshold only).

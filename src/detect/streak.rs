@@ -25,7 +25,6 @@ use super::bitimage::{BitImage, Window, NEIGHBOURS_8};
 use super::blobs::{Blob, BoundingBox, Labeler};
 use super::cascade;
 use super::fit::{self, Rough};
-use super::flat_floor::FlatFloor;
 use super::floor_bg::FloorBackground;
 use super::mirror_middle;
 use super::moments::{Moments, StadiumPath};
@@ -255,15 +254,7 @@ pub fn analyze(
         window,
     );
 
-    // The ramps read the middle on a flat floor; the fit, which starts from it, measured worse
-    // so (seed 11: 38 → 41 points out of a bound) and models the floor itself.
-    let flat_floor = background.filter(|_| model != StreakModel::Fit);
-    let weights = Weights::new(
-        threshold_luma,
-        floor_around(frame, b, margin),
-        flat_floor,
-        levels.top_luma,
-    );
+    let weights = Weights::new(threshold_luma, floor_around(frame, b, margin));
     let centroid_px =
         weighted_centroid(frame, &scratch.halo, window, &weights).unwrap_or(blob.mass_centre_px);
     let source = if scratch.skeleton.window_is_empty(window) {
@@ -305,7 +296,6 @@ pub fn analyze(
         seed_point_px,
         thickness_px,
         levels.top_luma,
-        flat_floor,
     );
     let spans = spans_its_middle(ends_px, mid_px);
     let ramps = |scratch: &StreakScratch| {
@@ -523,26 +513,14 @@ fn floor_around(frame: &Frame<'_>, b: BoundingBox, margin_px: usize) -> Option<(
 
 /// Rim weighting: 1 at and above the threshold, falling linearly to 0 at the floor level (the
 /// higher of a fixed fraction of the threshold and the measured floor around the blob).
-struct Weights<'f> {
+struct Weights {
     floor_luma: f32,
     span_luma: f32,
-    /// The learned floor exchanged for a flat one at the floor's mean, where it is known.
-    flat: Option<FlatFloor<'f>>,
 }
 
-impl<'f> Weights<'f> {
-    /// Weights for a blob cut at `threshold_luma` on a floor of `floor` (mean, deviation),
-    /// read on a flat floor where the floor under a pixel has been learned (`learned`; the
-    /// camera clips at `clip_luma`).
-    fn new(
-        threshold_luma: u8,
-        floor: Option<(f32, f32)>,
-        learned: Option<&'f FloorBackground>,
-        clip_luma: u8,
-    ) -> Self {
-        let flat = learned
-            .zip(floor)
-            .map(|(l, (mean, _))| FlatFloor::new(l, mean, clip_luma));
+impl Weights {
+    /// Weights for a blob cut at `threshold_luma` on a floor of `floor` (mean, deviation).
+    fn new(threshold_luma: u8, floor: Option<(f32, f32)>) -> Self {
         let threshold = f32::from(threshold_luma);
         // A bright floor beside the streak is no light of the LED's: the weights start above it.
         let floor_luma = floor.map_or(0.0, |(mean, deviation)| mean + FLOOR_DEVIATIONS * deviation);
@@ -552,18 +530,12 @@ impl<'f> Weights<'f> {
         Weights {
             floor_luma,
             span_luma: (threshold - floor_luma).max(1.0),
-            flat,
         }
     }
 
-    /// The weight of pixel `(x, y)` of luma `luma`.
     #[inline]
-    fn of(&self, x: usize, y: usize, luma: u8) -> f32 {
-        let luma = match self.flat {
-            Some(flat) => flat.luma_at(x, y, f32::from(luma)),
-            None => f32::from(luma),
-        };
-        ((luma - self.floor_luma) / self.span_luma).clamp(0.0, 1.0)
+    fn of(&self, luma: u8) -> f32 {
+        ((f32::from(luma) - self.floor_luma) / self.span_luma).clamp(0.0, 1.0)
     }
 }
 
@@ -579,7 +551,7 @@ fn for_each_weighted(
         let Some(luma) = frame.luma(x, y) else {
             continue;
         };
-        let w = weights.of(x, y, luma);
+        let w = weights.of(luma);
         if w > 0.0 {
             f(x as f32, y as f32, w);
         }
@@ -684,7 +656,6 @@ fn middle(
     seed_point: (u16, u16),
     thickness_px: f32,
     top_luma: u8,
-    learned: Option<&FloorBackground>,
 ) -> (f32, f32) {
     let chord = (ends[1].0 - ends[0].0, ends[1].1 - ends[0].1);
     let length = (chord.0 * chord.0 + chord.1 * chord.1).sqrt();
@@ -715,5 +686,5 @@ fn middle(
     if length < ELONGATED_WIDTHS * thickness_px {
         return rough;
     }
-    mirror_middle::centre(frame, learned, rough, d, n, 0.5 * length, top_luma).unwrap_or(rough)
+    mirror_middle::centre(frame, rough, d, n, 0.5 * length, top_luma).unwrap_or(rough)
 }
