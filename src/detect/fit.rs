@@ -6,7 +6,7 @@
 //!
 //! - the path is a circular arc from `start` through `mid` to `end` (a straight line when
 //!   `mid` lies on the chord), swept at constant speed, as a robot turning steadily moves
-//!   ([`ArcPieces`]: drawn by as few straight pieces as keep within 0.1 px of it);
+//!   (`arc_path::ArcPieces`: drawn by as few straight pieces as keep within 0.1 px of it);
 //! - the spot is a Gaussian core of standard deviation `σ` in a wider, dimmer Gaussian glow,
 //!   so the swept light at a pixel is their line integral along the path, in closed form per
 //!   straight piece (an error-function difference times a Gaussian across);
