@@ -40,8 +40,9 @@ impl ArcPieces {
     /// they take ten times the corners' work).
     pub fn new(params: [f32; PATH_PARAMS], with_slopes: bool) -> ArcPieces {
         let p = params.map(f64::from);
-        let count = piece_count(p);
-        let (corners, mid) = points_of(p, count);
+        let arc = arc_of(p);
+        let count = arc.piece_count();
+        let (corners, mid) = arc.points(count);
         let mut out = ArcPieces {
             corners: [(0.0, 0.0); MAX_PIECES + 1],
             count,
@@ -58,7 +59,7 @@ impl ArcPieces {
                 let (mut up, mut down) = (p, p);
                 up[j] += SLOPE_STEP_PX;
                 down[j] -= SLOPE_STEP_PX;
-                let ((cu, mu), (cd, md)) = (points_of(up, count), points_of(down, count));
+                let ((cu, mu), (cd, md)) = (arc_of(up).points(count), arc_of(down).points(count));
                 let slope = |a: f64, b: f64| ((a - b) / (2.0 * SLOPE_STEP_PX)) as f32;
                 for i in 0..=count {
                     out.slopes[i][0][j] = slope(cu[i].0, cd[i].0);
@@ -156,6 +157,28 @@ impl Arc {
             self.mid.1 + along * d.1 + across * n.1,
         )
     }
+
+    /// As many pieces as keep each piece's sagitta, `R(1 − cos(θ/n)) ≈ Rθ²/2n²`, within
+    /// [`PIECE_SAGITTA_PX`]: `n = √(Aθ / 2·tolerance)`.
+    fn piece_count(&self) -> usize {
+        let n = (self.half_length * self.half_turn.abs() / (2.0 * PIECE_SAGITTA_PX))
+            .sqrt()
+            .ceil();
+        if n.is_finite() {
+            (n as usize).clamp(1, MAX_PIECES)
+        } else {
+            MAX_PIECES
+        }
+    }
+
+    /// The corners `0..=count` at equal steps along the arc, and its middle.
+    fn points(&self, count: usize) -> ([(f64, f64); MAX_PIECES + 1], (f64, f64)) {
+        let mut corners = [(0.0, 0.0); MAX_PIECES + 1];
+        for (i, c) in corners.iter_mut().enumerate().take(count + 1) {
+            *c = self.point(i as f64 / count as f64);
+        }
+        (corners, self.point(0.5))
+    }
 }
 
 fn sinc(x: f64) -> f64 {
@@ -164,30 +187,6 @@ fn sinc(x: f64) -> f64 {
     } else {
         x.sin() / x
     }
-}
-
-/// As many pieces as keep each piece's sagitta, `R(1 − cos(θ/n)) ≈ Rθ²/2n²`, within
-/// [`PIECE_SAGITTA_PX`]: `n = √(Aθ / 2·tolerance)`.
-fn piece_count(p: [f64; PATH_PARAMS]) -> usize {
-    let arc = arc_of(p);
-    let n = (arc.half_length * arc.half_turn.abs() / (2.0 * PIECE_SAGITTA_PX))
-        .sqrt()
-        .ceil();
-    if n.is_finite() {
-        (n as usize).clamp(1, MAX_PIECES)
-    } else {
-        MAX_PIECES
-    }
-}
-
-/// The corners `0..=count` of the arc of `p` at equal steps along it, and its middle.
-fn points_of(p: [f64; PATH_PARAMS], count: usize) -> ([(f64, f64); MAX_PIECES + 1], (f64, f64)) {
-    let arc = arc_of(p);
-    let mut corners = [(0.0, 0.0); MAX_PIECES + 1];
-    for (i, c) in corners.iter_mut().enumerate().take(count + 1) {
-        *c = arc.point(i as f64 / count as f64);
-    }
-    (corners, arc.point(0.5))
 }
 
 #[cfg(test)]
