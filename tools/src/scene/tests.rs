@@ -15,6 +15,7 @@ fn static_scene(at: Point, peak: f64, range: Range) -> Scene {
     config.led = Led {
         radius_px: 3.5,
         spot: Spot::Disk,
+        squeeze: Squeeze::NONE,
         peak,
         glow_peak: 0.0,
         glow_radius_px: 0.0,
