@@ -15,8 +15,8 @@
 //! It measures `--streak-model fit` (`GLINT_STREAK_MODEL=ramps` measures the default ramps,
 //! `GLINT_STREAK_MODEL=auto` the cascade of both).
 //! To see where the errors come from: `GLINT_SWEEP_ONLY=5,13` runs only those points,
-//! `GLINT_SWEEP_FLAT_FLOOR=1` renders the floor without texture and `GLINT_SWEEP_NO_NOISE=1`
-//! without read noise.
+//! `GLINT_SWEEP_FLAT_FLOOR=1` renders the floor without texture, `GLINT_SWEEP_NO_NOISE=1`
+//! without read noise, and `GLINT_SWEEP_NO_OPTICS=1` keeps the lens from the detector.
 //!
 //! NOT YET HELD: neither model holds these bounds on every point of the sweep yet (README,
 //! "Accuracy over the sweep"), so the test is ignored by default and run on purpose with
@@ -78,9 +78,10 @@ impl SpotOptics for SweepLens {
 }
 
 /// The lens of `point` for the detector: `None` where it leaves the spot round (no lens to
-/// tell, as for an uncalibrated or ideal camera).
+/// tell, as for an uncalibrated or ideal camera), or with `GLINT_SWEEP_NO_OPTICS` (what the
+/// lens costs a detector that is not told of it).
 fn optics(point: &SweepPoint) -> Option<Box<dyn SpotOptics>> {
-    if point.lens.is_none() {
+    if point.lens.is_none() || std::env::var_os("GLINT_SWEEP_NO_OPTICS").is_some() {
         return None;
     }
     let m = point.lens.image_to_round().map(|row| row.map(|v| v as f32));
