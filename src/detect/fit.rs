@@ -132,7 +132,7 @@ pub struct PathFit {
 /// frame to the next, so the next frame's fit starts from it (see `Start::warm`): one stage
 /// of everything, where a cold start fits the core alone first and then everything (up to
 /// ten iterations each), sometimes twice. Where the warm fit ends more than
-/// [`WARM_COST_RATIO`] times worse per pixel than this one did, the cold fit is run too.
+/// `WARM_COST_RATIO` times worse per pixel than this one did, the cold fit is run too.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SpotFit {
     /// The model's parameters after the path's, as fitted.
