@@ -9,7 +9,7 @@ use glint::frame::{Frame, FrameSize};
 use glint::pipeline::{Pipeline, PipelineConfig};
 use glint::source::FrameMeta;
 use glint::track::TrackerConfig;
-use glint_tools::scene::{Scene, SweepPoint, Visibility};
+use glint_tools::scene::{Scene, Squeeze, SweepPoint, Visibility};
 
 /// Per visible frame in which the LED was found: whether its streak was fitted, and the head's
 /// error in px (in frames after the first found, which has no previous position).
@@ -62,13 +62,21 @@ fn median_p95(values: &mut [f64]) -> (f64, f64) {
     (at(0.5), at(0.95))
 }
 
+/// `point` at the picture's centre, where the lens leaves its spot round: these tests hold
+/// one case of the models' choice each (the sweep's lens is tested by the sweep, with the
+/// detector told the lens's map).
+fn round(mut point: SweepPoint) -> SweepPoint {
+    point.lens = Squeeze::NONE;
+    point
+}
+
 /// Point 14 of seed 11: a 60 px streak of a spot in a glow 4.2× its core, which the ramps
 /// read 0.69 / 1.03 px off at the head (median / p95; the bound 0.5 / 1.5 px) and the
 /// fit 0.15 / 0.19 px. Its edge falls over the glow's flank, pixels wide: every frame is
 /// fitted, and the head holds the bound.
 #[test]
 fn a_streak_in_a_glow_the_ramps_misread_is_fitted() {
-    let point = SweepPoint::sweep(11, 15).remove(14);
+    let point = round(SweepPoint::sweep(11, 15).remove(14));
     let scene = Scene::new(point.config()).unwrap();
     let frames = run(&scene, usize::MAX);
     assert!(
@@ -107,7 +115,7 @@ fn a_sharp_disk_s_streak_is_left_to_the_ramps() {
 /// other frames stay with the ramps, and the head holds the bound in every frame.
 #[test]
 fn a_streak_the_ramps_call_still_across_their_own_path_is_fitted() {
-    let point = SweepPoint::sweep(11, 180).remove(179);
+    let point = round(SweepPoint::sweep(11, 180).remove(179));
     let scene = Scene::new(point.config()).unwrap();
     let frames = run(&scene, usize::MAX);
     assert!(

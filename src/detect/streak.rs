@@ -30,6 +30,7 @@ use super::mirror_middle;
 use super::moments::{Moments, StadiumPath};
 use super::morph::{self, Kernel};
 use super::skeleton::{self, SkeletonMethod, SkeletonScratch, SEED_PRE_DILATIONS};
+use super::spot_memory::SpotMemory;
 use super::spot_shape::{self, SpotOptics, SpotShape};
 use super::threshold::Levels;
 use super::tips;
@@ -221,6 +222,7 @@ pub fn analyze(
     model: StreakModel,
     background: Option<&FloorBackground>,
     optics: Option<&dyn SpotOptics>,
+    spots: &mut SpotMemory,
     scratch: &mut StreakScratch,
 ) -> Streak {
     let threshold_luma = levels.threshold_luma.unwrap_or(levels.top_luma);
@@ -308,7 +310,7 @@ pub fn analyze(
             optics,
         )
     };
-    let fitted = || {
+    let mut fitted = || {
         let moments = Moments::of_runs(labeler.runs_of(index).map(|r| (r.y, r.x0, r.x1)));
         fitted_path(
             frame,
@@ -317,7 +319,7 @@ pub fn analyze(
             moments.map(|m| m.stadium()),
             levels,
             background,
-            shape_at(optics, mid_px),
+            (shape_at(optics, mid_px), spots),
         )
     };
     let (mid_px, path, fitted_now) = match model {
@@ -405,7 +407,7 @@ fn fitted_path(
     stadium: Option<StadiumPath>,
     levels: Levels,
     background: Option<&FloorBackground>,
-    shape: SpotShape,
+    (shape, spots): (SpotShape, &mut SpotMemory),
 ) -> ((f32, f32), Option<StreakPath>) {
     // A round blob's skeleton is a dot, and area over length is then its area: its width is
     // at most the diameter of a disk of that area.
@@ -425,7 +427,9 @@ fn fitted_path(
         },
         _ => skeleton,
     };
-    let Some(f) = fit::fit(frame, &rough, levels.top_luma, background, shape) else {
+    let Some(f) = spots.fit_at(rough.mid_px, |warm| {
+        fit::fit(frame, &rough, levels.top_luma, background, shape, warm)
+    }) else {
         return (mid_px, None);
     };
     let spot_width_px = FWHM_PER_SIGMA * f.spot_sigma_px;
