@@ -654,11 +654,6 @@ fn farthest_along(
     farthest
 }
 
-/// The streak's middle: the centroid moved across the streak to the centre of its
-/// cross-section through the centroid, perpendicular to the chord between the ends; for a
-/// streak at least [`ELONGATED_WIDTHS`] times longer than thick, that point moved to where the
-/// symmetry of the light puts the middle ([`mirror_middle::centre`]).
-#[allow(clippy::too_many_arguments)]
 /// A streak is bent when its middle lies more than this many thicknesses from the chord
 /// through its skeleton's ends. A line through the middle parallel to the chord then meets
 /// each round cap more than half its radius off the cap's axis, where a crossing moves along
@@ -689,6 +684,11 @@ fn bent(bend_px: f32, thickness_px: f32) -> bool {
     bend_px.abs() > BENT_THICKNESSES * thickness_px
 }
 
+/// The streak's middle: the centroid moved across the streak to the centre of its
+/// cross-section through the centroid, perpendicular to the chord between the ends; for a
+/// streak at least [`ELONGATED_WIDTHS`] times longer than thick, that point moved to where the
+/// symmetry of the light puts the middle ([`mirror_middle::centre`]).
+#[allow(clippy::too_many_arguments)]
 fn middle(
     frame: &Frame<'_>,
     region: &BitImage,
