@@ -9,13 +9,9 @@
 
 mod common;
 
-use common::quantile;
+use common::{in_process, quantile};
 use glint::detect::streak::StreakModel;
-use glint::detect::DetectorConfig;
 use glint::frame::{Frame, FrameSize};
-use glint::pipeline::{Pipeline, PipelineConfig};
-use glint::source::FrameMeta;
-use glint::track::TrackerConfig;
 use glint_tools::scene::{Scene, SpotKind, Squeeze, SweepPath, SweepPoint, Visibility};
 
 const MID_MEDIAN_MAX_PX: f64 = 0.2;
@@ -25,31 +21,13 @@ const ARC_PX: f64 = 60.0;
 /// The middle's error in every visible frame in which the LED was found.
 fn middles(scene: &Scene) -> Vec<f64> {
     let size = FrameSize::new(scene.width_px(), scene.height_px()).unwrap();
-    let config = PipelineConfig {
-        tracker: TrackerConfig {
-            exposure_us: Some(scene.exposure_us()),
-        },
-        detector: DetectorConfig {
-            streak_model: StreakModel::Auto,
-            ..DetectorConfig::default()
-        },
-    };
-    let mut pipeline = Pipeline::new(size, config).unwrap();
+    let mut pipeline = in_process::pipeline(scene, StreakModel::Auto);
     let mut bytes = vec![0u8; scene.frame_len_bytes()];
-    let period_us = (1e6 / scene.fps()) as u64;
     let mut out = Vec::new();
     for index in 0..scene.frame_count() {
         let truth = scene.render(index, &mut bytes).unwrap();
         let frame = Frame::new_checked(&bytes, size, size.row_bytes()).unwrap();
-        let t_us = index as u64 * period_us;
-        let meta = FrameMeta {
-            index: index as u64,
-            sequence: index as u64,
-            dropped: 0,
-            timestamp_us: t_us,
-            monotonic_us: t_us,
-        };
-        let report = pipeline.process(&frame, meta);
+        let report = pipeline.process(&frame, in_process::meta(scene, index));
         let (Some(e), Visibility::Visible) = (report.position, truth.visible) else {
             continue;
         };

@@ -4,43 +4,24 @@
 //! `fast-line` is read by the ramps alone, at the ramps' cost, as are `circles`' arcs of one
 //! across a grout line.
 
+mod common;
+
+use common::in_process;
 use glint::detect::streak::StreakModel;
-use glint::detect::DetectorConfig;
 use glint::frame::{Frame, FrameSize};
-use glint::pipeline::{Pipeline, PipelineConfig};
-use glint::source::FrameMeta;
-use glint::track::TrackerConfig;
 use glint_tools::scene::{Scene, Squeeze, SweepPoint, Visibility};
 
 /// Per visible frame in which the LED was found: whether its streak was fitted, and the head's
 /// error in px (in frames after the first found, which has no previous position).
 fn run(scene: &Scene, frames: usize) -> Vec<(bool, Option<f64>)> {
     let size = FrameSize::new(scene.width_px(), scene.height_px()).unwrap();
-    let config = PipelineConfig {
-        tracker: TrackerConfig {
-            exposure_us: Some(scene.exposure_us()),
-        },
-        detector: DetectorConfig {
-            streak_model: StreakModel::Auto,
-            ..DetectorConfig::default()
-        },
-    };
-    let mut pipeline = Pipeline::new(size, config).unwrap();
+    let mut pipeline = in_process::pipeline(scene, StreakModel::Auto);
     let mut bytes = vec![0u8; scene.frame_len_bytes()];
-    let period_us = (1e6 / scene.fps()) as u64;
     let mut out = Vec::new();
     for index in 0..frames.min(scene.frame_count()) {
         let truth = scene.render(index, &mut bytes).unwrap();
         let frame = Frame::new_checked(&bytes, size, size.row_bytes()).unwrap();
-        let t_us = index as u64 * period_us;
-        let meta = FrameMeta {
-            index: index as u64,
-            sequence: index as u64,
-            dropped: 0,
-            timestamp_us: t_us,
-            monotonic_us: t_us,
-        };
-        let report = pipeline.process(&frame, meta);
+        let report = pipeline.process(&frame, in_process::meta(scene, index));
         let (Some(e), Some((_, streak))) = (report.position, report.detection.best) else {
             continue;
         };
