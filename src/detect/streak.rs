@@ -330,8 +330,9 @@ pub fn analyze(
         }
         StreakModel::Auto => {
             // A resolved edge first: the ramps are not read where they would be dropped. A
-            // bent streak is fitted too: the ramps' middle is read for a straight one.
-            let straight = !bent(bend_px(ends_px, mid_px), thickness_px);
+            // bent streak is fitted too: the ramps' middle is read for a straight one (a blob
+            // whose ends do not span its middle has no axis to be bent along).
+            let straight = !(spans && bent(bend_px(ends_px, mid_px), thickness_px));
             let tips = (straight
                 && cascade::edge_is_sharp(frame, mid_px, ends_px, levels.top_luma, spans))
             .then(|| ramps(scratch));
