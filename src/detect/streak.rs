@@ -731,11 +731,11 @@ fn middle(
         return rough;
     }
     let bend = bend_px(ends, rough);
-    let chord_offset_px = if bent(bend, thickness_px) {
+    let lines_offset_px = if bent(bend, thickness_px) {
         0.5 * bend
     } else {
         0.0
     };
-    mirror_middle::centre(frame, rough, d, n, 0.5 * length, chord_offset_px, top_luma)
+    mirror_middle::centre(frame, rough, d, n, 0.5 * length, lines_offset_px, top_luma)
         .unwrap_or(rough)
 }
