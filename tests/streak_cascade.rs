@@ -1,6 +1,7 @@
 //! `--streak-model auto` fits the streaks whose ramps' reading is doubtful and only those
 //! (`src/detect/cascade.rs`): a spot whose edge is resolved (a glow) is fitted, so is a frame
-//! whose ramps contradict themselves (still, with tips a streak apart), and the sharp disk of
+//! whose ramps contradict themselves (still, with tips a streak apart; short lines of sharp
+//! disks keep their single-frame speed so), and the sharp disk of
 //! `fast-line` is read by the ramps alone, at the ramps' cost, as are `circles`' arcs of one
 //! across a grout line.
 
@@ -9,11 +10,13 @@ mod common;
 use common::in_process;
 use glint::detect::streak::StreakModel;
 use glint::frame::{Frame, FrameSize};
+use glint::track::VelocityMethod;
 use glint_tools::scene::{Scene, Squeeze, SweepPoint, Visibility};
 
-/// Per visible frame in which the LED was found: whether its streak was fitted, and the head's
-/// error in px (in frames after the first found, which has no previous position).
-fn run(scene: &Scene, frames: usize) -> Vec<(bool, Option<f64>)> {
+/// Per visible frame in which the LED was found: whether its streak was fitted, the head's
+/// error in px (in frames after the first found, which has no previous position), and whether
+/// its velocity was read from its own streak.
+fn run(scene: &Scene, frames: usize) -> Vec<(bool, Option<f64>, bool)> {
     let size = FrameSize::new(scene.width_px(), scene.height_px()).unwrap();
     let mut pipeline = in_process::pipeline(scene, StreakModel::Auto);
     let mut bytes = vec![0u8; scene.frame_len_bytes()];
@@ -31,7 +34,8 @@ fn run(scene: &Scene, frames: usize) -> Vec<(bool, Option<f64>)> {
         let (x, y) = (truth.x_px.unwrap(), truth.y_px.unwrap());
         let head = (!out.is_empty())
             .then(|| (f64::from(e.position_px.0) - x).hypot(f64::from(e.position_px.1) - y));
-        out.push((streak.fitted(), head));
+        let from_streak = matches!(e.velocity_px_s, Some((_, VelocityMethod::Streak)));
+        out.push((streak.fitted(), head, from_streak));
     }
     out
 }
@@ -67,7 +71,7 @@ fn a_streak_in_a_glow_the_ramps_misread_is_fitted() {
         frames.len()
     );
     assert!(
-        frames.iter().all(|&(fitted, _)| fitted),
+        frames.iter().all(|&(fitted, _, _)| fitted),
         "{point}: fitted {:?}",
         frames.iter().map(|f| f.0).collect::<Vec<_>>()
     );
@@ -141,4 +145,30 @@ fn a_grout_line_along_the_ray_does_not_make_a_sharp_edge_resolved() {
         "{fitted} of {} frames fitted",
         frames.len()
     );
+}
+
+/// Short lines of sharp disks, sweep points 37 and 161 of seed 11 and 97 of seed 12 (1.4–2.2
+/// px disks at 2.8–13× the clip on 8–10 px lines). In a frame or two of each, the ramps call
+/// the blob still by its caps while their own tips lie a whole streak apart; with that reading
+/// taken, the frame has no single-frame speed (the velocity comes from the middles' motion):
+/// two, two and four frames of ten without the rule. That reading contradicts itself and is fitted, and every frame after the
+/// first reads its speed from its streak.
+#[test]
+fn short_disk_streaks_the_ramps_call_still_keep_their_speed() {
+    for (seed, index) in [(11, 37), (11, 161), (12, 97)] {
+        let point = round(SweepPoint::sweep(seed, index + 1).remove(index));
+        let scene = Scene::new(point.config()).unwrap();
+        let frames = run(&scene, usize::MAX);
+        assert!(
+            frames.len() >= 4,
+            "{point}: found in {} frames",
+            frames.len()
+        );
+        let without: Vec<usize> = (1..frames.len()).filter(|&i| !frames[i].2).collect();
+        assert!(
+            without.is_empty(),
+            "{point}: frames {without:?} of {} without a speed from the streak",
+            frames.len()
+        );
+    }
 }
