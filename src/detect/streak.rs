@@ -65,6 +65,10 @@ const MEASURED_PATH_FRACTION: f32 = 0.03;
 /// A blob whose skeleton's chord is at least this many times its thickness is a streak with
 /// an axis, whose middle is placed by the symmetry of its light ([`mirror_middle`]).
 const ELONGATED_WIDTHS: f32 = 2.0;
+/// A skeleton's chord more than 45° off an elongated blob's axis lies across it (halfway
+/// between along and across; on point 182 of the sweep's seed 11 a spur's chord lay about 85°
+/// off).
+const ACROSS_AXIS_COS: f32 = core::f32::consts::FRAC_1_SQRT_2;
 
 /// Skeleton pixels the walk to the ends may visit; more belong to no LED.
 pub const MAX_SKELETON_PX: usize = 2048;
@@ -422,13 +426,19 @@ fn fitted_path(
         thickness_px: thickness_px.min(disk_diameter_px),
     };
     // The skeleton of a blob no longer than it is wide is noise: the stadium of its moments
-    // is the better start there (a short streak in a wide glow).
+    // is the better start there (a short streak in a wide glow). So is a skeleton whose ends
+    // lie across the stadium of an elongated blob: thinning a blob tens of pixels thick leaves
+    // spurs, and a spur's end taken for the streak's starts the fit across the streak.
     let rough = match stadium {
-        Some(s) if dist(s.ends_px[0], s.ends_px[1]) < s.width_px => Rough {
-            ends_px: s.ends_px,
-            mid_px: s.mid_px,
-            thickness_px: s.width_px,
-        },
+        Some(s)
+            if dist(s.ends_px[0], s.ends_px[1]) < s.width_px || chord_lies_across(ends_px, s) =>
+        {
+            Rough {
+                ends_px: s.ends_px,
+                mid_px: s.mid_px,
+                thickness_px: s.width_px,
+            }
+        }
         _ => skeleton,
     };
     let Some(f) = spots.fit_at(rough.mid_px, |warm| {
@@ -467,10 +477,26 @@ fn fitted_path(
 /// (a path bent by up to a half turn). Thinning a round blob (a still LED in a wide glow) can
 /// leave a short spur on its rim, whose "ends" lie a radius from its middle: ramps read from
 /// there made a path of 25–36 px of a still LED.
+/// Whether the chord between the skeleton's `ends` lies across the axis of `stadium`, an
+/// elongated blob's (a path at least as long as the stadium is wide): more than
+/// [`ACROSS_AXIS_COS`]'s angle off it. A streak's skeleton runs along its blob.
+fn chord_lies_across(ends: [(f32, f32); 2], stadium: StadiumPath) -> bool {
+    let axis = sub(stadium.ends_px[1], stadium.ends_px[0]);
+    let chord = sub(ends[1], ends[0]);
+    let (axis_px, chord_px) = (axis.0.hypot(axis.1), chord.0.hypot(chord.1));
+    axis_px >= stadium.width_px
+        && chord_px > 0.0
+        && (axis.0 * chord.0 + axis.1 * chord.1).abs() < ACROSS_AXIS_COS * axis_px * chord_px
+}
+
 fn spans_its_middle(ends: [(f32, f32); 2], mid: (f32, f32)) -> bool {
     let chord_px = dist(ends[0], ends[1]);
     let centre = (0.5 * (ends[0].0 + ends[1].0), 0.5 * (ends[0].1 + ends[1].1));
     chord_px >= MIN_CHORD_PX && dist(centre, mid) <= 0.5 * chord_px
+}
+
+fn sub(a: (f32, f32), b: (f32, f32)) -> (f32, f32) {
+    (a.0 - b.0, a.1 - b.1)
 }
 
 fn dist(a: (f32, f32), b: (f32, f32)) -> f32 {
