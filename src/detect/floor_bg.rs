@@ -286,6 +286,8 @@ fn gather_luma(row: &[u8], start: usize, step: usize, luma: &mut [u8; RUN_PX]) -
 
 /// Pixels learned together: one word of the light's mask.
 const RUN_PX: usize = 64;
+// The steady run sums its deviations' bytes in 16 bits (see `learn_steady_run`).
+const _: () = assert!(RUN_PX * 0xff <= u16::MAX as usize);
 
 /// Learns one run of at most [`RUN_PX`] pixels (`luma`, the means and counts, and the `lit`
 /// bits of the run's mask word) with the gate `gate_fixed` in the mean's fixed point. This is
@@ -359,8 +361,10 @@ fn learn_steady_run(
 ) -> (u32, u32) {
     const SHIFT: u32 = MEAN_FRAMES.trailing_zeros();
     const REST: u16 = (1 << SHIFT) - 1;
-    let mut n = 0u16;
-    let (mut restarted, mut deviations) = ([0u16; RUN_PX], [0u16; RUN_PX]);
+    // The learned deviations' sum, as the sums of their high and low bytes: 64 of either
+    // fit 16 bits, so the sums stay in the loop's 16-bit lanes.
+    let (mut n, mut high, mut low) = (0u16, 0u16, 0u16);
+    let mut restarted = [0u16; RUN_PX];
     for i in 0..RUN_PX {
         let value = u16::from(luma[i]) << 8;
         let old = means[i];
@@ -375,11 +379,12 @@ fn learn_steady_run(
         let stepped = old.wrapping_add(brighter >> SHIFT).wrapping_sub(down);
         means[i] = (value & restart) | (stepped & learned) | (old & !(restart | learned));
         restarted[i] = restart;
-        deviations[i] = (brighter | darker) & learned;
+        let deviation = (brighter | darker) & learned;
+        high += deviation >> 8;
+        low += deviation & 0xff;
         n += learned & 1;
     }
-    // Summed apart: a 32-bit sum in the loop above halved its lanes.
-    let sum = deviations.iter().map(|&d| u32::from(d)).sum();
+    let sum = (u32::from(high) << 8) + u32::from(low);
     // Rare (light learned into a mean has left): the counts are not written otherwise, which
     // keeps every lane of the loop above 16 bits wide.
     if restarted.iter().fold(0, |any, &r| any | r) != 0 {
