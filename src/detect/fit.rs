@@ -1054,9 +1054,10 @@ fn collect(
     // The columns of row `y` worth testing: every pixel `near` accepts, and fewer than the
     // box's (the box of a diagonal streak is mostly beyond its reach).
     let columns = |y: usize| {
-        row_span(rough, y as f32, reach + 1.0).map_or(1..=0, |(left, right)| {
+        let span = row_span(rough, y as f32, reach + 1.0).map(|(left, right)| {
             (left.floor().max(0.0) as usize).max(x0)..=(right.ceil().max(0.0) as usize).min(x1)
-        })
+        });
+        span.into_iter().flatten()
     };
     // First pass: count both kinds of pixel, to subsample each evenly.
     let (mut caps, mut body) = (0usize, 0usize);
