@@ -3,15 +3,17 @@
 //! plugin, twice with different frame counts, and divides the difference by the extra frames,
 //! so set-up (rendering the frames, allocation, process start) cancels out.
 //!
-//! `cargo run --release --example frame_cost -- STAGE FRAMES [SCENE]`
+//! `cargo run --release --example frame_cost -- STAGE FRAMES [SCENE [SPOT]]`
 //!
 //! STAGE is `pipeline` (the whole `Pipeline::process` on each frame of the scene, by default
 //! `fast-line`, a 60 px streak at 640×480, in order so the tracker follows it), `pipeline-fit`
 //! (the same with `--streak-model fit`), `pipeline-auto` (with `--streak-model auto`),
 //! `threshold` (the automatic threshold alone, on YUYV frames), `threshold-uyvy` and
 //! `threshold-grey` (the same frames repacked as UYVY and as GREY), or `none` (set-up only).
-//! SCENE is any preset (`hd-720` for 1280×720). The pipeline stages print how many frames had
-//! their streak fitted.
+//! SCENE is any preset (`hd-720` for 1280×720). SPOT, `gaussian`, renders the LED as a
+//! Gaussian spot of the preset's radius instead of its own (as `glint-scene --spot gaussian`:
+//! a spot `--streak-model auto` fits on every frame). The pipeline stages print how many
+//! frames had their streak fitted.
 
 use std::hint::black_box;
 
@@ -23,13 +25,13 @@ use glint::frame::{Frame, FrameSize, PixelFormat};
 use glint::pipeline::{Pipeline, PipelineConfig};
 use glint::source::FrameMeta;
 use glint::track::TrackerConfig;
-use glint_tools::scene::Scene;
+use glint_tools::scene::{Scene, Spot};
 
 /// Frames rendered up front (and cycled through): the same set whatever FRAMES is, so the
 /// rendering cost is the same in every run and cancels out of the difference.
 const RENDERED_FRAMES: usize = 16;
 const SCENE: &str = "fast-line";
-const USAGE: &str = "usage: frame_cost pipeline|pipeline-fit|pipeline-auto|threshold|threshold-uyvy|threshold-grey|none FRAMES [SCENE]";
+const USAGE: &str = "usage: frame_cost pipeline|pipeline-fit|pipeline-auto|threshold|threshold-uyvy|threshold-grey|none FRAMES [SCENE [gaussian]]";
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args = std::env::args().skip(1);
@@ -38,6 +40,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let scene_name = args.next().unwrap_or_else(|| SCENE.to_string());
 
     let mut config = Scene::preset_config(&scene_name).ok_or("unknown scene")?;
+    match args.next().as_deref() {
+        None => {}
+        Some("gaussian") => {
+            config.led.spot = Spot::Gaussian {
+                sigma_px: config.led.radius_px,
+            };
+            // The old lens glow is the spot's job now (as `glint-scene --spot`).
+            config.led.glow_peak = 0.0;
+        }
+        Some(_) => return Err(USAGE.into()),
+    }
     // Frames from the middle of the scene, where the LED is in view and streaked.
     let first = config.frame_count / 2;
     config.frame_count = first + RENDERED_FRAMES;

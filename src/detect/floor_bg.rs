@@ -22,7 +22,7 @@ use crate::frame::{Frame, FrameSize};
 /// The mean follows the last this many observations of a pixel (then it is an exponential
 /// mean with this time constant, so a floor that changes slowly is followed).
 const MEAN_FRAMES: u8 = 16;
-// The steady mean's step is a shift (see `learn_steady_pixel`).
+// The steady mean's step is a shift (see `learn_steady_run`).
 const _: () = assert!(MEAN_FRAMES.is_power_of_two());
 /// A pixel more than this many noise deviations off its mean is light arriving (brighter) or
 /// leaving (darker).
@@ -261,8 +261,15 @@ fn gather_luma(row: &[u8], start: usize, step: usize, luma: &mut [u8; RUN_PX]) -
         }
         // The luma row ends on a luma byte: a full run reads 2 × 64 − 1 bytes.
         2 if rest.len() >= 2 * RUN_PX - 1 => {
-            for (dst, &src) in luma.iter_mut().zip(rest.iter().step_by(2)) {
-                *dst = src;
+            // A fixed-size span, which the compiler reads as vectors (through a slice's
+            // iterator it copied one byte at a time).
+            if let Some(Ok(span)) = rest
+                .get(..2 * RUN_PX - 1)
+                .map(<&[u8; 2 * RUN_PX - 1]>::try_from)
+            {
+                for (i, dst) in luma.iter_mut().enumerate() {
+                    *dst = span[2 * i];
+                }
             }
             RUN_PX
         }
@@ -279,13 +286,15 @@ fn gather_luma(row: &[u8], start: usize, step: usize, luma: &mut [u8; RUN_PX]) -
 
 /// Pixels learned together: one word of the light's mask.
 const RUN_PX: usize = 64;
+// The steady run sums its deviations' bytes in 16 bits (see `learn_steady_run`).
+const _: () = assert!(RUN_PX * 0xff <= u16::MAX as usize);
 
 /// Learns one run of at most [`RUN_PX`] pixels (`luma`, the means and counts, and the `lit`
 /// bits of the run's mask word) with the gate `gate_fixed` in the mean's fixed point. This is
-/// every pixel of every frame: a whole run with no light in it (nearly all of them) is
-/// learned on fixed-size arrays, without a branch per pixel and with integer sums, which the
-/// compiler turns into vector code. Returns the sum of the learned deviations (fixed point)
-/// and their count, for the noise.
+/// every pixel of every frame: a whole run whose unlit pixels were all seen [`MEAN_FRAMES`]
+/// times (nearly all of them) is learned on fixed-size arrays, without a branch per pixel and
+/// with 16-bit integer lanes, which the compiler turns into vector code. Returns the sum of
+/// the learned deviations (fixed point) and their count, for the noise.
 fn learn_run(
     luma: &[u8; RUN_PX],
     means: &mut [u16],
@@ -293,61 +302,159 @@ fn learn_run(
     lit: u64,
     gate_fixed: i32,
 ) -> (u64, u64) {
-    let (mut sum, mut n) = (0u32, 0u32);
-    match (
-        lit,
+    if let (Ok(means), Ok(counts)) = (
         <&mut [u16; RUN_PX]>::try_from(&mut *means),
         <&mut [u8; RUN_PX]>::try_from(&mut *counts),
     ) {
-        // Seen often enough everywhere: the mean moves by a power-of-two share of the
-        // deviation, a shift, and the whole run is integer arithmetic.
-        (0, Ok(means), Ok(counts))
-            if counts
-                .iter()
-                .fold(true, |all, &count| all & (count == MEAN_FRAMES)) =>
-        {
-            for i in 0..RUN_PX {
-                let (deviation, learned) =
-                    learn_steady_pixel(luma[i], &mut means[i], &mut counts[i], gate_fixed);
-                sum += deviation;
-                n += learned;
-            }
-        }
-        _ => {
-            let pixels = luma.iter().zip(means.iter_mut()).zip(counts.iter_mut());
-            for (i, ((&luma, mean), count)) in pixels.enumerate() {
-                let lit = (lit >> i) & 1 == 1;
-                let (deviation, learned) = learn_pixel(luma, mean, count, lit, gate_fixed);
-                sum += deviation;
-                n += u32::from(learned);
-            }
-        }
+        let kept = lit_lanes(lit);
+        let steady = counts.iter().zip(&kept).fold(true, |all, (&count, &kept)| {
+            all & ((count == MEAN_FRAMES) | (kept != 0))
+        });
+        let (sum, n) = if steady {
+            let gate = gate_fixed.clamp(0, i32::from(u16::MAX)) as u16;
+            learn_steady_run(luma, means, counts, &kept, gate)
+        } else {
+            learn_young_run(luma, means, counts, &kept, gate_fixed)
+        };
+        return (u64::from(sum), u64::from(n));
+    }
+    // The frame's last run, when the width is not a multiple of the run.
+    let (mut sum, mut n) = (0u32, 0u32);
+    let pixels = luma.iter().zip(means.iter_mut()).zip(counts.iter_mut());
+    for (i, ((&luma, mean), count)) in pixels.enumerate() {
+        let lit = (lit >> i) & 1 == 1;
+        let (deviation, learned) = learn_pixel(luma, mean, count, lit, gate_fixed);
+        sum += deviation;
+        n += u32::from(learned);
     }
     (u64::from(sum), u64::from(n))
 }
 
-/// [`learn_pixel`] for a pixel not lit and seen [`MEAN_FRAMES`] times: its mean moves by
-/// `deviation / MEAN_FRAMES` (then truncated, as there), which is an arithmetic shift. Every
-/// choice is a select of values computed either way, so that a run of these is vector code
-/// (a branch per choice kept it scalar, at 16 instructions a pixel).
+/// All ones when `on`, else zero: a lane's choice as a mask.
 #[inline(always)]
-fn learn_steady_pixel(luma: u8, mean: &mut u16, count: &mut u8, gate_fixed: i32) -> (u32, u32) {
-    const SHIFT: u32 = MEAN_FRAMES.trailing_zeros();
-    let value = i32::from(luma) << 8;
-    let old = i32::from(*mean);
-    let deviation = value - old;
-    let restart = deviation < -gate_fixed;
-    let learned = !restart & (deviation <= gate_fixed);
-    let kept = if learned {
-        old + (deviation >> SHIFT)
-    } else {
-        old
-    };
-    *mean = if restart { value } else { kept } as u16;
-    *count = if restart { 1 } else { MEAN_FRAMES };
-    let magnitude = deviation.unsigned_abs();
-    (if learned { magnitude } else { 0 }, u32::from(learned))
+fn mask(on: bool) -> u16 {
+    0u16.wrapping_sub(u16::from(on))
 }
+
+/// The `lit` bits of a run as lanes: all ones where lit, zero elsewhere.
+#[inline]
+fn lit_lanes(lit: u64) -> [u16; RUN_PX] {
+    if lit == 0 {
+        return [0; RUN_PX];
+    }
+    core::array::from_fn(|i| mask((lit >> i) & 1 == 1))
+}
+
+/// [`learn_pixel`] on a run whose pixels are lit (`kept` all ones) or seen [`MEAN_FRAMES`]
+/// times: a mean moves by `deviation / MEAN_FRAMES`, rounded towards minus infinity as an
+/// arithmetic shift of the deviation would, and a pixel darker than its mean by more than
+/// `gate` starts again. The deviation is kept as its two saturated halves (brighter and
+/// darker), so that every lane is 16 bits wide (eight pixels a vector instruction where 32-bit
+/// lanes took four) and every choice is a select.
+#[inline(always)]
+fn learn_steady_run(
+    luma: &[u8; RUN_PX],
+    means: &mut [u16; RUN_PX],
+    counts: &mut [u8; RUN_PX],
+    kept: &[u16; RUN_PX],
+    gate: u16,
+) -> (u32, u32) {
+    const SHIFT: u32 = MEAN_FRAMES.trailing_zeros();
+    const REST: u16 = (1 << SHIFT) - 1;
+    // The learned deviations' sum, as the sums of their high and low bytes: 64 of either
+    // fit 16 bits, so the sums stay in the loop's 16-bit lanes.
+    let (mut n, mut high, mut low) = (0u16, 0u16, 0u16);
+    let mut restarted = [0u16; RUN_PX];
+    for i in 0..RUN_PX {
+        let value = u16::from(luma[i]) << 8;
+        let old = means[i];
+        let brighter = value.saturating_sub(old);
+        let darker = old.saturating_sub(value);
+        // Each choice as a lane mask (all ones or zero), each store unconditional: written
+        // with `if`, the stores stayed conditional and the loop scalar.
+        let free = !kept[i];
+        let restart = free & mask(darker > gate);
+        let learned = free & !restart & mask(brighter <= gate);
+        let down = (darker >> SHIFT) + u16::from(darker & REST != 0);
+        let stepped = old.wrapping_add(brighter >> SHIFT).wrapping_sub(down);
+        means[i] = (value & restart) | (stepped & learned) | (old & !(restart | learned));
+        restarted[i] = restart;
+        let deviation = (brighter | darker) & learned;
+        high += deviation >> 8;
+        low += deviation & 0xff;
+        n += learned & 1;
+    }
+    let sum = (u32::from(high) << 8) + u32::from(low);
+    // Rare (light learned into a mean has left): the counts are not written otherwise, which
+    // keeps every lane of the loop above 16 bits wide.
+    if restarted.iter().fold(0, |any, &r| any | r) != 0 {
+        for (count, &restart) in counts.iter_mut().zip(&restarted) {
+            if restart != 0 {
+                *count = 1;
+            }
+        }
+    }
+    (sum, u32::from(n))
+}
+
+/// [`learn_pixel`] on a whole run, lit where `kept` is all ones, some of whose pixels were
+/// seen fewer than [`MEAN_FRAMES`] times (the first frames, and light that has just left): the
+/// same means and counts, in 32-bit lanes without a branch per pixel (one at a time, with its
+/// float division and conversions, it cost about 50 instructions a pixel, and these runs are
+/// most of a frame's around the moving light).
+///
+/// `learn_pixel` truncates `old + deviation / frames`, computed in `f32`; that value lies
+/// between two means, both within `0..=u16::MAX`, and is an integer or at least `1 / frames ≥
+/// 1/16` from one, while the float's rounding errors stay below `1/128`. So the truncation is
+/// rounding to nearest after subtracting [`BELOW_HALF`] (just under a half less than any
+/// fraction it can have), and the rounding is the float's own, by adding [`ROUND_TO_INTEGER`]:
+/// the same integer, without a conversion the compiler can only do one lane at a time.
+#[inline(always)]
+fn learn_young_run(
+    luma: &[u8; RUN_PX],
+    means: &mut [u16; RUN_PX],
+    counts: &mut [u8; RUN_PX],
+    kept: &[u16; RUN_PX],
+    gate_fixed: i32,
+) -> (u32, u32) {
+    let mut n = 0u32;
+    let mut deviations = [0u32; RUN_PX];
+    for i in 0..RUN_PX {
+        let value = i32::from(luma[i]) << 8;
+        let old = i32::from(means[i]);
+        let frames_seen = i32::from(counts[i]);
+        let deviation = value - old;
+        let known = frames_seen > 0;
+        let keep = (kept[i] != 0) | (known & (deviation > gate_fixed));
+        let restart = !known | (deviation < -gate_fixed);
+        let frames = (frames_seen + 1).min(i32::from(MEAN_FRAMES));
+        let exact = old as f32 + deviation as f32 / frames as f32 - BELOW_HALF;
+        let stepped = ((exact + ROUND_TO_INTEGER).to_bits() as i32)
+            .wrapping_sub(ROUND_TO_INTEGER.to_bits() as i32);
+        let learned = lane(!keep & !restart);
+        let restarted = lane(!keep & restart);
+        let unchanged = !(learned | restarted);
+        means[i] = ((stepped & learned) | (value & restarted) | (old & unchanged)) as u16;
+        counts[i] = ((frames & learned) | (1 & restarted) | (frames_seen & unchanged)) as u8;
+        deviations[i] = deviation.unsigned_abs() & learned as u32;
+        n += (learned & 1) as u32;
+    }
+    (deviations.iter().sum(), n)
+}
+
+/// All ones when `on`, else zero, in a 32-bit lane.
+#[inline(always)]
+fn lane(on: bool) -> i32 {
+    -i32::from(on)
+}
+
+/// What [`learn_young_run`] subtracts before rounding to nearest, so that the rounding
+/// truncates: below a half by more than the float's error, above a half less the least
+/// fraction, `1/16`, by as much.
+const BELOW_HALF: f32 = 15.0 / 32.0;
+/// `1.5 · 2²³`: a float in `±2²²` plus this lands where the float's step is 1, rounded to the
+/// nearest integer, which its bits then read off.
+const ROUND_TO_INTEGER: f32 = 12_582_912.0;
 
 /// Learns one pixel, unless `lit`. Returns its absolute deviation from the mean (fixed
 /// point) if it was learned into the mean (not lit, not light arriving, not restarted), else
@@ -457,6 +564,55 @@ mod tests {
             },
             mass_centre_px: (x0 as f32, y0 as f32),
             elongation: 1.0,
+        }
+    }
+
+    /// The run kernels learn exactly what [`learn_pixel`] learns one pixel at a time: random
+    /// runs, most pixels near their means (as on a floor), some far above or below (light
+    /// arriving or leaving), some lit, some never seen, some seen a few times, at several gates.
+    #[test]
+    fn the_run_kernels_learn_what_the_pixel_rule_learns() {
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = move |bound: u32| {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state % u64::from(bound)) as u32
+        };
+        for round in 0..4000 {
+            let gate_fixed = [0, 768, 1021, 5000, 70_000][round % 5];
+            let steady = round % 2 == 0;
+            let mut luma = [0u8; RUN_PX];
+            let mut means = [0u16; RUN_PX];
+            let mut counts = [0u8; RUN_PX];
+            for i in 0..RUN_PX {
+                means[i] = next(65_536) as u16;
+                let near = (i32::from(means[i] >> 8) + next(9) as i32 - 4).clamp(0, 255);
+                luma[i] = if next(4) == 0 { next(256) } else { near as u32 } as u8;
+                counts[i] = if steady { MEAN_FRAMES } else { next(17) as u8 };
+            }
+            let lit = match round % 3 {
+                0 => 0,
+                1 => u64::from(next(u32::MAX)) << 32 | u64::from(next(u32::MAX)),
+                _ => (1u64 << next(64)).wrapping_sub(1),
+            };
+            let (mut want_means, mut want_counts) = (means, counts);
+            let (mut want_sum, mut want_n) = (0u64, 0u64);
+            for i in 0..RUN_PX {
+                let (d, learned) = learn_pixel(
+                    luma[i],
+                    &mut want_means[i],
+                    &mut want_counts[i],
+                    (lit >> i) & 1 == 1,
+                    gate_fixed,
+                );
+                want_sum += u64::from(d);
+                want_n += u64::from(learned);
+            }
+            let got = learn_run(&luma, &mut means, &mut counts, lit, gate_fixed);
+            assert_eq!(means, want_means, "round {round}: means");
+            assert_eq!(counts, want_counts, "round {round}: counts");
+            assert_eq!(got, (want_sum, want_n), "round {round}: deviations");
         }
     }
 
