@@ -1320,9 +1320,6 @@ mod tests {
         }
     }
 
-    /// The offset of a fitted path against a rough one puts the same rough path back on the
-    /// fitted one; the rough ends in the other order give the same path the other way; and
-    /// a streak turned (rough and fitted together) is offset turned with it.
     /// Every pixel within reach of a rough streak lies in its row's span (what the pixel
     /// collection tests), for straight and bent streaks at every angle, and some rows' spans
     /// are narrower than the streak's box (else the span saves nothing).
@@ -1364,6 +1361,9 @@ mod tests {
         assert!(narrower > 100, "{narrower} rows narrower than half the box");
     }
 
+    /// The offset of a fitted path against a rough one puts the same rough path back on the
+    /// fitted one; the rough ends in the other order give the same path the other way; and
+    /// a streak turned (rough and fitted together) is offset turned with it.
     #[test]
     fn a_path_offset_carries_over() {
         for p in paths() {
