@@ -377,14 +377,23 @@ fn ramp_along(frame: &Frame<'_>, start: (f32, f32), d: (f32, f32), clip: f32) ->
 }
 
 /// Bilinearly interpolated luma at `(x, y)`; `None` outside the frame.
+///
+/// The ramps and the falls read it thousands of times a frame, so it takes each of
+/// its two rows once, and floors by truncation: the same for the non-negative coordinates
+/// it reads, where `floor` is a library call on baseline x86-64 (no SSE4.1).
 pub(super) fn luma_at(frame: &Frame<'_>, x: f32, y: f32) -> Option<f32> {
     if x < 0.0 || y < 0.0 {
         return None;
     }
-    let (x0, y0) = (x.floor() as usize, y.floor() as usize);
+    let (x0, y0) = (x as usize, y as usize);
+    if x0 >= frame.size().width().saturating_sub(1) {
+        return None;
+    }
     let (fx, fy) = (x - x0 as f32, y - y0 as f32);
-    let p = |xx: usize, yy: usize| frame.luma(xx, yy).map(f32::from);
-    let top = p(x0, y0)? * (1.0 - fx) + p(x0 + 1, y0)? * fx;
-    let bottom = p(x0, y0 + 1)? * (1.0 - fx) + p(x0 + 1, y0 + 1)? * fx;
+    let (upper, lower) = (frame.luma_row(y0)?, frame.luma_row(y0.checked_add(1)?)?);
+    let (left, right) = (x0 * frame.luma_step(), (x0 + 1) * frame.luma_step());
+    let p = |row: &[u8], i: usize| row.get(i).copied().map(f32::from);
+    let top = p(upper, left)? * (1.0 - fx) + p(upper, right)? * fx;
+    let bottom = p(lower, left)? * (1.0 - fx) + p(lower, right)? * fx;
     Some(top * (1.0 - fy) + bottom * fy)
 }
