@@ -106,12 +106,13 @@ impl Streak {
 pub enum StreakModel {
     /// The brightness ramps at the streak's ends, extrapolated to the floor
     /// ([`tips`]): built for a sharp-edged disk spot.
-    #[default]
     Ramps,
     /// A swept-spot model fitted to the pixels ([`fit`]): the spot's width, brightness and
     /// the camera's tone come from the frame itself.
     Fit,
-    /// The ramps, and the fit where the ramps' reading is doubtful ([`cascade`]).
+    /// The ramps, and the fit where the ramps' reading is doubtful ([`cascade`]). The default:
+    /// it holds nearly as much of the sweep as the fit, at the ramps' cost on a sharp disk.
+    #[default]
     Auto,
 }
 
