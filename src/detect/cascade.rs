@@ -17,10 +17,10 @@
 //! So the cascade measures the fall across the streak's middle, perpendicular to the skeleton's
 //! chord (along the rows for a blob without an axis, whose light falls alike every way): from
 //! 0.8 to 0.2 of the way from the floor to the clip, on both sides, where the floor is where
-//! the light has died away (`ray_floor`). A fall wider than [`SHARP_EDGE_PX`] is a resolved
-//! edge, and the streak is fitted. So is one whose floor cannot be reached (the light still
-//! falling `ray_floor::MAX_REACH_PX` (64 px) out: a glow wider than the ramps read), and a streak
-//! with an axis whose ramps could not be read at all.
+//! the light has died away (`ray_floor`), the brighter of the two sides' reads. A fall wider
+//! than [`SHARP_EDGE_PX`] is a resolved edge, and the streak is fitted. So is one whose floor
+//! cannot be reached (the light still falling `ray_floor::MAX_REACH_PX` (64 px) out: a glow
+//! wider than the ramps read), and a streak with an axis whose ramps could not be read at all.
 //!
 //! A sharp edge is not enough: the ramps also judge whether the blob is the spot itself (a
 //! still LED, whose head the tracker carries from the middle), from its caps' outline and its
@@ -66,26 +66,43 @@ pub fn edge_is_sharp(
         (1.0, 0.0)
     };
     let clip = f32::from(clip_luma);
-    let sides = [across, (-across.0, -across.1)].map(|d| fall_px(frame, mid_px, d, clip));
-    match sides {
+    let rays = [across, (-across.0, -across.1)];
+    let [Some(a), Some(b)] = rays.map(|d| ray_floor::along(frame, mid_px, d)) else {
+        return false;
+    };
+    // The light falls to one floor on both sides; the brighter of the two reads is it. A dark
+    // grout line that a ray runs along (crossed at a grazing angle, longer than the floor's
+    // window) drags that side's read below the floor beside the streak, and its lower level
+    // is then crossed only where the floor itself darkens, pixels out: on `circles`' tight
+    // arcs of a sharp disk a fall of 8.9 px on one side against 1.2 px on the other.
+    let floor_luma = a.luma.max(b.luma);
+    let falls = [(rays[0], a.reach_px), (rays[1], b.reach_px)]
+        .map(|(d, reach_px)| fall_px(frame, mid_px, d, clip, floor_luma, reach_px));
+    match falls {
         [Some(a), Some(b)] => 0.5 * (a + b) <= SHARP_EDGE_PX,
         _ => false,
     }
 }
 
 /// How far the luma along the ray from `start` along unit vector `d` takes to fall from the
-/// upper to the lower of [`FALL_LEVELS`], between `clip` and the floor the ray reaches; `None`
-/// when the floor is not reached, the light spans less than a level, `start` is below the upper
-/// level (not inside the light: nothing to read), or the ray does not fall through both levels
-/// before the floor.
-fn fall_px(frame: &Frame<'_>, start: (f32, f32), d: (f32, f32), clip: f32) -> Option<f32> {
-    let floor = ray_floor::along(frame, start, d)?;
-    let span = clip - floor.luma;
+/// upper to the lower of [`FALL_LEVELS`], between `clip` and `floor_luma`, within `reach_px`
+/// (where the ray's light died away); `None` when the light spans less than a level, `start`
+/// is below the upper level (not inside the light: nothing to read), or the ray does not fall
+/// through both levels within its reach.
+fn fall_px(
+    frame: &Frame<'_>,
+    start: (f32, f32),
+    d: (f32, f32),
+    clip: f32,
+    floor_luma: f32,
+    reach_px: f32,
+) -> Option<f32> {
+    let span = clip - floor_luma;
     if span < 1.0 {
         return None;
     }
-    let levels = FALL_LEVELS.map(|f| floor.luma + f * span);
-    match first_falls(frame, start, d, &levels, floor.reach_px, Armed::AtStart) {
+    let levels = FALL_LEVELS.map(|f| floor_luma + f * span);
+    match first_falls(frame, start, d, &levels, reach_px, Armed::AtStart) {
         [Some(upper), Some(lower)] => Some(lower.at_px - upper.at_px),
         _ => None,
     }
