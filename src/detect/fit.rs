@@ -14,6 +14,10 @@
 //!   the amplitude `A` absorbs the LED's brightness, the exponent `k` the tone curve (a
 //!   Gaussian seen through `v^(1/γ)` is a Gaussian `√γ` wider, and `k` lets the flanks and the
 //!   ends share one `σ`);
+//! - the spot is round where the lens has not squeezed it: the pixels are placed by the lens's
+//!   local linear map around the streak ([`SpotShape`]), the model is fitted there, and its
+//!   path is mapped back to the image (near a wide lens's corners a round spot is imaged up to
+//!   a third shorter radially, and a round model then reads a still LED as a short streak);
 //! - the floor is measured: where the floor was seen without the light in earlier frames
 //!   ([`FloorBackground`]), its luma seen back through the fitted tone curve, plus one fitted
 //!   pedestal (a glow wider than the fitted pixels); elsewhere (the first frame, an LED still
@@ -34,6 +38,7 @@ use nalgebra::{SMatrix, SVector};
 use super::arc_path::{ArcPieces, MAX_PIECES, PATH_PARAMS};
 use super::floor_bg::FloorBackground;
 use super::normal::{normal_cdf, normal_cdf_and_density};
+use super::spot_shape::SpotShape;
 use crate::frame::Frame;
 
 /// Pixels the fit uses at most: both end caps and a subsample of the body.
@@ -102,7 +107,9 @@ pub struct Rough {
     pub thickness_px: f32,
 }
 
-/// The fitted path.
+/// The fitted path: its points and length in image pixels; the spot, the path's length beside
+/// it and the uncertainty in ideal pixels, where the lens keeps the spot round (image pixels
+/// without a lens), so that a path is compared with the spot in one unit.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PathFit {
     /// The LED at the two ends of the exposure, in the order of the rough ends.
@@ -111,11 +118,14 @@ pub struct PathFit {
     pub mid_px: (f32, f32),
     /// Length of the path.
     pub path_length_px: f32,
-    /// The spot's fitted standard deviation, in the model's linear light (before the fitted tone
-    /// curve, through which a Gaussian shows `1/√k` times wider).
+    /// Length of the path in ideal pixels.
+    pub ideal_path_length_px: f32,
+    /// The spot's fitted standard deviation in ideal pixels, in the model's linear light
+    /// (before the fitted tone curve, through which a Gaussian shows `1/√k` times wider).
     pub spot_sigma_px: f32,
-    /// One standard deviation of the ends' positions (the larger of the two), from the fit's
-    /// residual and its curvature: a frame whose model does not match its pixels shows here.
+    /// One standard deviation of the ends' positions (the larger of the two) in ideal pixels,
+    /// from the fit's residual and its curvature: a frame whose model does not match its pixels
+    /// shows here.
     pub uncertainty_px: f32,
     /// The fraction of the fitted pixels whose floor was measured (seen without the light in
     /// earlier frames); the others shared one fitted flat floor.
@@ -131,21 +141,49 @@ struct Samples {
     len: usize,
 }
 
+/// The lens's local linear map around a point of the image: ideal pixels there are where a
+/// round spot is round.
+#[derive(Clone, Copy)]
+struct Local {
+    shape: SpotShape,
+    centre_px: (f32, f32),
+}
+
+impl Local {
+    fn to_ideal(&self, p: (f32, f32)) -> (f32, f32) {
+        let c = self.centre_px;
+        let d = self.shape.to_ideal((p.0 - c.0, p.1 - c.1));
+        (c.0 + d.0, c.1 + d.1)
+    }
+
+    fn to_image(&self, q: (f32, f32)) -> (f32, f32) {
+        let c = self.centre_px;
+        let d = self.shape.to_image((q.0 - c.0, q.1 - c.1));
+        (c.0 + d.0, c.1 + d.1)
+    }
+}
+
 /// Fits the streak model around `rough` on `frame`, whose clipped pixels read `clip_luma`,
-/// on the floor `background` where it has been measured (a flat fitted floor elsewhere).
-/// `None` when the fit fails (too few pixels, no convergence, a result the pixels do not
-/// support).
+/// on the floor `background` where it has been measured (a flat fitted floor elsewhere), for
+/// the spot `shape` the lens makes of a round one there ([`SpotShape::identity`] without a
+/// lens). `None` when the fit fails (too few pixels, no convergence, a result the pixels do
+/// not support).
 pub fn fit(
     frame: &Frame<'_>,
     rough: &Rough,
     clip_luma: u8,
     background: Option<&FloorBackground>,
+    shape: SpotShape,
 ) -> Option<PathFit> {
     let clip = f32::from(clip_luma);
-    let samples = collect(frame, rough, background, clip)?;
+    let local = Local {
+        shape,
+        centre_px: rough.mid_px,
+    };
+    let samples = collect(frame, rough, background, clip, &local)?;
     let floor0 = low_percentile(&samples);
     let sigma0 = (0.3 * rough.thickness_px).clamp(0.7, 6.0);
-    let [a, b] = rough.ends_px;
+    let [a, b] = rough.ends_px.map(|end| local.to_ideal(end));
     let p = Params::from_column_slice(&[
         a.0,
         a.1,
@@ -191,13 +229,13 @@ pub fn fit(
         }
     }
     let sigma = native(&p)[5].exp();
-    let ends_px = [(p[0], p[1]), (p[2], p[3])];
+    let ends = [(p[0], p[1]), (p[2], p[3])];
     // The skeleton's ends of a fat blob (a glow that saturates) lie up to its width from the
     // path's: the thinning stops half a width short of each end and may curl sideways.
     let max_shift_px = MAX_END_SHIFT_PX.max(rough.thickness_px);
     let sane = p.iter().all(|v| v.is_finite())
-        && dist(ends_px[0], a).min(dist(ends_px[0], b)) <= max_shift_px
-        && dist(ends_px[1], b).min(dist(ends_px[1], a)) <= max_shift_px;
+        && dist(ends[0], a).min(dist(ends[0], b)) <= max_shift_px
+        && dist(ends[1], b).min(dist(ends[1], a)) <= max_shift_px;
     if !sane {
         return None;
     }
@@ -212,10 +250,18 @@ pub fn fit(
         .max(0.0);
     let path = Path::new(&native(&p), true);
     let measured = samples.floor_ln.iter().take(samples.len).flatten().count();
+    let corners = path.arc.corners.iter().take(path.arc.count + 1);
+    let image_corners = corners.map(|&c| local.to_image(c));
+    let path_length_px = image_corners
+        .clone()
+        .zip(image_corners.skip(1))
+        .map(|(s, e)| dist(s, e))
+        .sum();
     Some(PathFit {
-        ends_px,
-        mid_px: path.arc.mid,
-        path_length_px: path.length(),
+        ends_px: ends.map(|end| local.to_image(end)),
+        mid_px: local.to_image(path.arc.mid),
+        path_length_px,
+        ideal_path_length_px: path.length(),
         spot_sigma_px: sigma,
         uncertainty_px: (end_var * residual_var).sqrt(),
         floor_measured: measured as f32 / samples.len.max(1) as f32,
@@ -743,13 +789,14 @@ fn clipped_inside(frame: &Frame<'_>, x: usize, y: usize, clip: f32) -> bool {
 }
 
 /// The pixels around the rough streak: every pixel of both end caps, and an even subsample
-/// of the body, [`MAX_FIT_PX`] at most. Clipped pixels inside the clipped region are left
-/// out (see [`clipped_inside`]).
+/// of the body, [`MAX_FIT_PX`] at most, each placed in `local`'s ideal pixels. Clipped pixels
+/// inside the clipped region are left out (see [`clipped_inside`]).
 fn collect(
     frame: &Frame<'_>,
     rough: &Rough,
     background: Option<&FloorBackground>,
     clip: f32,
+    local: &Local,
 ) -> Option<Samples> {
     let half = 0.5 * rough.thickness_px;
     let reach = half + REACH_PX;
@@ -820,7 +867,7 @@ fn collect(
             ) else {
                 continue;
             };
-            *xy = (fx, fy);
+            *xy = local.to_ideal((fx, fy));
             *l = f32::from(luma);
             // A floor at or above the clip level says nothing the clip does not.
             *f = background

@@ -76,6 +76,19 @@ impl SpotShape {
         (a * d.0 + b * d.1).hypot(c * d.0 + e * d.1)
     }
 
+    /// The displacement `d` in image pixels, in ideal pixels: `A d`.
+    pub fn to_ideal(&self, d: (f32, f32)) -> (f32, f32) {
+        let [[a, b], [c, e]] = self.image_to_ideal;
+        (a * d.0 + b * d.1, c * d.0 + e * d.1)
+    }
+
+    /// The displacement `d` in ideal pixels, in image pixels: `A⁻¹ d` (`A` is one-to-one).
+    pub fn to_image(&self, d: (f32, f32)) -> (f32, f32) {
+        let [[a, b], [c, e]] = self.image_to_ideal;
+        let det = a * e - b * c;
+        ((e * d.0 - b * d.1) / det, (a * d.1 - c * d.0) / det)
+    }
+
     /// A round spot's extent along the unit image direction `d` over its extent across it,
     /// both in image pixels: `|det A| / |A d|²`.
     pub fn along_over_across(&self, d: (f32, f32)) -> f32 {
@@ -162,6 +175,26 @@ mod tests {
     /// `t` through `shape`, its skeleton ending where its round reading put the tips.
     fn seen(t: Tips, shape: SpotShape) -> Option<Tips> {
         through_lens(t, t.tips_px, (0.0, 0.0), shape)
+    }
+
+    #[test]
+    fn image_and_ideal_displacements_map_back() {
+        let shape = SpotShape::new([[1.3, -0.2], [0.1, 0.8]]).unwrap();
+        for d in [(1.0, 0.0), (0.0, -2.0), (3.5, 1.25)] {
+            let ideal = shape.to_ideal(d);
+            let length = d.0.hypot(d.1);
+            let unit = (d.0 / length, d.1 / length);
+            let expected = shape.ideal_per_image_px(unit) * length;
+            assert!(
+                (ideal.0.hypot(ideal.1) - expected).abs() < 1e-5,
+                "{d:?} {ideal:?}"
+            );
+            let back = shape.to_image(ideal);
+            assert!(
+                (back.0 - d.0).abs() < 1e-5 && (back.1 - d.1).abs() < 1e-5,
+                "{d:?} {back:?}"
+            );
+        }
     }
 
     #[test]

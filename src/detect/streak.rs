@@ -318,6 +318,7 @@ pub fn analyze(
             moments.map(|m| m.stadium()),
             levels,
             background,
+            shape_at(optics, mid_px),
         )
     };
     let (mid_px, path, fitted_now) = match model {
@@ -373,12 +374,15 @@ fn ramps_path(
     spans
         .then(|| tips::refine(frame, skeleton, window, ends_px, mid_px, levels.top_luma))
         .flatten()
-        .and_then(|t| {
-            let shape = optics
-                .and_then(|o| o.spot_shape_at(mid_px))
-                .unwrap_or_else(SpotShape::identity);
-            spot_shape::through_lens(t, ends_px, mid_px, shape)
-        })
+        .and_then(|t| spot_shape::through_lens(t, ends_px, mid_px, shape_at(optics, mid_px)))
+}
+
+/// The shape `optics` makes of a round spot at `px`; round without a lens, or where the lens
+/// cannot say.
+fn shape_at(optics: Option<&dyn SpotOptics>, px: (f32, f32)) -> SpotShape {
+    optics
+        .and_then(|o| o.spot_shape_at(px))
+        .unwrap_or_else(SpotShape::identity)
 }
 
 /// The path of the ramps' tips. A still LED has no path: its ends would only be the spot's
@@ -392,8 +396,9 @@ fn ramps_streak_path(tips: Option<tips::Tips>) -> Option<StreakPath> {
     })
 }
 
-/// The middle and the path from the fitted streak model, with the still rule; the streak's
-/// own middle and no path when the fit fails.
+/// The middle and the path from the fitted streak model of a spot of the lens's `shape`, with
+/// the still rule (judged in ideal pixels, where the spot is round); the streak's own middle
+/// and no path when the fit fails.
 fn fitted_path(
     frame: &Frame<'_>,
     blob: &Blob,
@@ -401,6 +406,7 @@ fn fitted_path(
     stadium: Option<StadiumPath>,
     levels: Levels,
     background: Option<&FloorBackground>,
+    shape: SpotShape,
 ) -> ((f32, f32), Option<StreakPath>) {
     // A round blob's skeleton is a dot, and area over length is then its area: its width is
     // at most the diameter of a disk of that area.
@@ -420,13 +426,13 @@ fn fitted_path(
         },
         _ => skeleton,
     };
-    let Some(f) = fit::fit(frame, &rough, levels.top_luma, background) else {
+    let Some(f) = fit::fit(frame, &rough, levels.top_luma, background, shape) else {
         return (mid_px, None);
     };
     let spot_width_px = FWHM_PER_SIGMA * f.spot_sigma_px;
     // No longer than the spot is wide, within the fit's uncertainty: still, and both ends
     // are the middle.
-    let still = f.path_length_px <= spot_width_px + STILL_UNCERTAINTIES * f.uncertainty_px;
+    let still = f.ideal_path_length_px <= spot_width_px + STILL_UNCERTAINTIES * f.uncertainty_px;
     // On a streak a few spots long, the light's symmetric centre is a steadier middle than
     // the fitted path's, which trades length against the spot's width; unless the fit pinned
     // the moving path's ends to a small fraction of its length, so that the trade did not
@@ -434,8 +440,8 @@ fn fitted_path(
     // fitted spot is the glow, a few glows make a 60 px streak "short", and its light's centre,
     // read over a wide glow on a floor whose texture lifts one flank more than the other, was
     // 0.5-1.3 px off where the fitted middle is within a few tenths.
-    let measured = !still && f.uncertainty_px <= MEASURED_PATH_FRACTION * f.path_length_px;
-    let mid = if f.path_length_px <= SHORT_STREAK_SPOTS * spot_width_px && !measured {
+    let measured = !still && f.uncertainty_px <= MEASURED_PATH_FRACTION * f.ideal_path_length_px;
+    let mid = if f.ideal_path_length_px <= SHORT_STREAK_SPOTS * spot_width_px && !measured {
         mid_px
     } else {
         f.mid_px
