@@ -319,7 +319,6 @@ pub fn analyze(
             levels,
             background,
             shape_at(optics, mid_px),
-            &scratch.blob,
         )
     };
     let (mid_px, path, fitted_now) = match model {
@@ -405,13 +404,8 @@ fn ramps_streak_path(tips: Option<tips::Tips>) -> Option<StreakPath> {
 
 /// The middle and the path from the fitted streak model of a spot of the lens's `shape`, with
 /// the still rule (judged in ideal pixels, where the spot is round); the streak's own middle
-/// and no path when the fit fails, when its ends' deviation exceeds the spot's width, or when a
-/// moving path's end lies off the saturated blob
-/// (`blob_bits`). The LED's centre at either end of its path is inside that blob (the premise
-/// of the ramps' guard, `spot_shape::through_lens`): a fitted end outside it took light that
-/// runs on into something bright beside the LED (a marker's white square, which made the
-/// fitted path 3 px too long, `tests/bright_beside.rs`) for the streak's.
-#[allow(clippy::too_many_arguments)]
+/// and no path when the fit fails, or when both its path and its ends' deviation exceed the
+/// spot's width.
 fn fitted_path(
     frame: &Frame<'_>,
     blob: &Blob,
@@ -420,7 +414,6 @@ fn fitted_path(
     levels: Levels,
     background: Option<&FloorBackground>,
     shape: SpotShape,
-    blob_bits: &BitImage,
 ) -> ((f32, f32), Option<StreakPath>) {
     // A round blob's skeleton is a dot, and area over length is then its area: its width is
     // at most the diameter of a disk of that area.
@@ -444,10 +437,12 @@ fn fitted_path(
         return (mid_px, None);
     };
     let spot_width_px = FWHM_PER_SIGMA * f.spot_sigma_px;
-    // Ends uncertain by more than the spot is wide are not measured: such a fit's still rule
-    // (its path within the spot's width plus two deviations) holds of any path, and read a
-    // moving streak beside a white square still, both ends 8 px off at the middle.
-    if f.uncertainty_px > spot_width_px {
+    // A path longer than the spot is wide, with ends uncertain by more than that width, is
+    // not measured: the still rule below (the path within the width plus two deviations)
+    // would call it still on the deviation alone, as it did a 16 px streak beside a white
+    // square, both ends 8 px off at the middle. (A path within the width is still whatever
+    // the deviation: the still Blooms' deviations reach 3.6 px.)
+    if f.ideal_path_length_px > spot_width_px && f.uncertainty_px > spot_width_px {
         return (mid_px, None);
     }
     // No longer than the spot is wide, within the fit's uncertainty: still, and both ends
@@ -460,9 +455,6 @@ fn fitted_path(
     // fitted spot is the glow, a few glows make a 60 px streak "short", and its light's centre,
     // read over a wide glow on a floor whose texture lifts one flank more than the other, was
     // 0.5-1.3 px off where the fitted middle is within a few tenths.
-    if !still && !f.ends_px.iter().all(|&end| on_pixel_of(blob_bits, end)) {
-        return (mid_px, None);
-    }
     let measured = !still && f.uncertainty_px <= MEASURED_PATH_FRACTION * f.ideal_path_length_px;
     let mid = if f.ideal_path_length_px <= SHORT_STREAK_SPOTS * spot_width_px && !measured {
         mid_px
@@ -487,12 +479,6 @@ fn spans_its_middle(ends: [(f32, f32); 2], mid: (f32, f32)) -> bool {
     let chord_px = dist(ends[0], ends[1]);
     let centre = (0.5 * (ends[0].0 + ends[1].0), 0.5 * (ends[0].1 + ends[1].1));
     chord_px >= MIN_CHORD_PX && dist(centre, mid) <= 0.5 * chord_px
-}
-
-/// Whether the pixel holding image point `p` is set in `bits` (false off the image).
-fn on_pixel_of(bits: &BitImage, p: (f32, f32)) -> bool {
-    let (x, y) = (p.0.round(), p.1.round());
-    x >= 0.0 && y >= 0.0 && bits.get(x as usize, y as usize)
 }
 
 fn dist(a: (f32, f32), b: (f32, f32)) -> f32 {
