@@ -150,13 +150,13 @@ struct Local {
 }
 
 impl Local {
-    fn to_ideal(&self, p: (f32, f32)) -> (f32, f32) {
+    fn to_ideal(self, p: (f32, f32)) -> (f32, f32) {
         let c = self.centre_px;
         let d = self.shape.to_ideal((p.0 - c.0, p.1 - c.1));
         (c.0 + d.0, c.1 + d.1)
     }
 
-    fn to_image(&self, q: (f32, f32)) -> (f32, f32) {
+    fn to_image(self, q: (f32, f32)) -> (f32, f32) {
         let c = self.centre_px;
         let d = self.shape.to_image((q.0 - c.0, q.1 - c.1));
         (c.0 + d.0, c.1 + d.1)
