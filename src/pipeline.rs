@@ -9,6 +9,7 @@ use std::io;
 
 use crate::detect::bgdiff::BackgroundError;
 use crate::detect::blobs::{Blob, Overflow};
+use crate::detect::spot_shape::SpotOptics;
 use crate::detect::streak::Streak;
 use crate::detect::threshold::Levels;
 use crate::detect::{Detection, Detector, DetectorConfig};
@@ -117,13 +118,19 @@ impl Pipeline {
     /// the lens gives a round spot there.
     pub fn with_floor(mut self, floor: FloorStage) -> Self {
         let lens = floor.camera().map(|c| c.lens).filter(|l| !l.is_ideal());
-        if let (Some(lens), Front::Led { detector, .. } | Front::Leds { detector, .. }) =
-            (lens, &mut self.front)
-        {
-            detector.set_optics(Box::new(lens));
+        if let Some(lens) = lens {
+            self.set_optics(Box::new(lens));
         }
         self.floor = Some(floor);
         self
+    }
+
+    /// Tells the LED detector the lens's local shape of a round spot (as [`Pipeline::with_floor`]
+    /// does with a calibrated camera's lens); nothing to do when tracking a marker.
+    pub fn set_optics(&mut self, optics: Box<dyn SpotOptics>) {
+        if let Front::Led { detector, .. } | Front::Leds { detector, .. } = &mut self.front {
+            detector.set_optics(optics);
+        }
     }
 
     /// Adds the re-check of the calibration's markers (with a floor stage that has a camera

@@ -18,7 +18,7 @@ use glint::pipeline::{Pipeline, PipelineConfig};
 use glint::source::FrameMeta;
 use glint::track::{PositionMethod, TrackerConfig};
 use glint_tools::scene::{
-    Led, Point, Scene, SceneConfig, Spot, StaticLight, Trajectory, Visibility,
+    Led, Point, Scene, SceneConfig, Spot, Squeeze, StaticLight, Trajectory, Visibility,
 };
 
 /// The detector's glare limit (`glint::detect::MAX_BLOB_FRACTION`).
@@ -70,6 +70,7 @@ fn config(case: Case, angle_rad: f64) -> SceneConfig {
             glow_sigma_px: case.glow_width * case.core_sigma_px,
             glow_ratio: case.glow_ratio,
         },
+        squeeze: Squeeze::NONE,
         peak: case.saturation * case.streak_px / core_span_px,
         glow_peak: 0.0,
         glow_radius_px: 0.0,

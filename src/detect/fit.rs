@@ -85,6 +85,9 @@ const LN_AMPLITUDE: usize = 7;
 /// The amplitude's start, and the least it may fall to.
 const AMPLITUDE0: f32 = 2.0;
 const MIN_AMPLITUDE: f32 = 1e-3;
+/// The indices of the core's and the glow's `ln σ` in the parameters.
+const CORE_WIDTH: usize = 5;
+const GLOW_WIDTH: usize = 6;
 /// The glow ratio's index in the parameters.
 const GLOW_RATIO: usize = 8;
 /// The flat floor's index in the parameters.
@@ -130,7 +133,110 @@ pub struct PathFit {
     /// The fraction of the fitted pixels whose floor was measured (seen without the light in
     /// earlier frames); the others shared one fitted flat floor.
     pub floor_measured: f32,
+    /// The fitted spot, to start the next frame's fit of the same LED from.
+    pub spot: SpotFit,
 }
+
+/// A fitted spot's shape (its core's width, amplitude, tone and pedestal), where its path lay
+/// against the rough one, and how well it fitted. The same LED's spot barely changes from one
+/// frame to the next, so the next frame's fit starts from it (see `Start::warm`): one stage
+/// of everything, where a cold start fits the core alone first and then everything (up to
+/// ten iterations each), sometimes twice. Where the warm fit ends more than
+/// `WARM_COST_RATIO` times worse per pixel than this one did, the cold fit is run too.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SpotFit {
+    /// The model's parameters after the path's, as fitted.
+    shape: [f32; PARAMS - PATH_PARAMS],
+    /// The fit's cost per fitted pixel.
+    cost_per_px: f32,
+    /// The fitted path against the rough one it started from (see [`PathOffset`]).
+    offset: PathOffset,
+}
+
+#[cfg(test)]
+impl SpotFit {
+    /// A spot that fitted with `cost_per_px`, for tests of what keeps it.
+    pub(crate) fn with_cost(cost_per_px: f32) -> SpotFit {
+        SpotFit {
+            shape: [0.0; PARAMS - PATH_PARAMS],
+            cost_per_px,
+            offset: PathOffset {
+                ends_px: [(0.0, 0.0); 2],
+                chord_px: (1.0, 0.0),
+                sagitta_px: 0.0,
+            },
+        }
+    }
+}
+
+/// Where the fitted path lay against the rough one: the skeleton stops about half the blob's
+/// width short of the path's ends and off its line by a fraction of a pixel, the same way
+/// from one frame to the next, and the path's trust region took several steps to cover that.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct PathOffset {
+    /// The fitted ends less the rough ones, in the rough ends' order.
+    ends_px: [(f32, f32); 2],
+    /// The rough ends' chord, which tells whether the next rough ends come in the same order.
+    chord_px: (f32, f32),
+    /// The fitted path's sagitta (signed along the rough chord's left normal).
+    sagitta_px: f32,
+}
+
+impl PathOffset {
+    fn of(rough: [(f32, f32); 2], fitted: &Params) -> PathOffset {
+        let [a, b] = rough;
+        let outwards = |end: (f32, f32), other: (f32, f32), at: (f32, f32)| {
+            outward_frame(end, other).map_or((0.0, 0.0), |(u, n)| {
+                let d = (at.0 - end.0, at.1 - end.1);
+                (d.0 * u.0 + d.1 * u.1, d.0 * n.0 + d.1 * n.1)
+            })
+        };
+        PathOffset {
+            ends_px: [
+                outwards(a, b, (fitted[0], fitted[1])),
+                outwards(b, a, (fitted[2], fitted[3])),
+            ],
+            chord_px: (b.0 - a.0, b.1 - a.1),
+            sagitta_px: fitted[4],
+        }
+    }
+
+    /// The path's parameters from the rough `path`, offset as this fit's were: the ends
+    /// swapped when the rough chord turned round (the skeleton's ends came the other way).
+    fn apply(&self, path: [f32; PATH_PARAMS]) -> [f32; PATH_PARAMS] {
+        let [ax, ay, bx, by, _] = path;
+        let (a, b) = ((ax, ay), (bx, by));
+        let same_way = (bx - ax) * self.chord_px.0 + (by - ay) * self.chord_px.1 >= 0.0;
+        let ([da, db], sagitta) = if same_way {
+            (self.ends_px, self.sagitta_px)
+        } else {
+            ([self.ends_px[1], self.ends_px[0]], -self.sagitta_px)
+        };
+        let moved = |end: (f32, f32), other: (f32, f32), (out, left): (f32, f32)| {
+            outward_frame(end, other).map_or(end, |(u, n)| {
+                (
+                    end.0 + out * u.0 + left * n.0,
+                    end.1 + out * u.1 + left * n.1,
+                )
+            })
+        };
+        let (a1, b1) = (moved(a, b, da), moved(b, a, db));
+        [a1.0, a1.1, b1.0, b1.1, sagitta]
+    }
+}
+
+/// The unit vector from `other` out through `end`, and its left normal; `None` when the two
+/// are too close to give a direction.
+fn outward_frame(end: (f32, f32), other: (f32, f32)) -> Option<((f32, f32), (f32, f32))> {
+    let length_px = dist(end, other);
+    (length_px >= MIN_CHORD_PX).then(|| {
+        let u = ((end.0 - other.0) / length_px, (end.1 - other.1) / length_px);
+        (u, (-u.1, u.0))
+    })
+}
+
+/// A rough chord shorter than this has no direction to place the ends along.
+const MIN_CHORD_PX: f32 = 1.0;
 
 /// The pixels the fit uses: position, luma, and where known the floor's luma there as
 /// `ln(floor / clip)` (the floor in the model's linear light is then `exp(that / k)`).
@@ -166,14 +272,16 @@ impl Local {
 /// Fits the streak model around `rough` on `frame`, whose clipped pixels read `clip_luma`,
 /// on the floor `background` where it has been measured (a flat fitted floor elsewhere), for
 /// the spot `shape` the lens makes of a round one there ([`SpotShape::identity`] without a
-/// lens). `None` when the fit fails (too few pixels, no convergence, a result the pixels do
-/// not support).
+/// lens), from the spot `warm` fitted to the same LED in a recent frame when there is one
+/// (see [`SpotFit`]). `None` when the fit fails (too few pixels, no convergence, a result the
+/// pixels do not support).
 pub fn fit(
     frame: &Frame<'_>,
     rough: &Rough,
     clip_luma: u8,
     background: Option<&FloorBackground>,
     shape: SpotShape,
+    warm: Option<&SpotFit>,
 ) -> Option<PathFit> {
     let clip = f32::from(clip_luma);
     let local = Local {
@@ -182,47 +290,56 @@ pub fn fit(
     };
     let samples = collect(frame, rough, background, clip, &local)?;
     let floor0 = low_percentile(&samples);
-    let sigma0 = (0.3 * rough.thickness_px).clamp(0.7, 6.0);
+    // The path in ideal pixels, where the model's spot is round.
     let [a, b] = rough.ends_px.map(|end| local.to_ideal(end));
-    let p = Params::from_column_slice(&[
-        a.0,
-        a.1,
-        b.0,
-        b.1,
-        sagitta_of(a, b, rough.mid_px),
-        sigma0.ln(),
-        (GLOW_WIDTH0 * sigma0).ln(),
-        AMPLITUDE0.ln(),
-        GLOW_RATIO0,
-        TONE0,
-        (floor0 / clip).clamp(0.01, 0.95).powf(1.0 / TONE0),
-        0.0,
-    ]);
-    let mut p = fitted(&p);
-    // First the core alone (no glow), which has one clear minimum near the start; then
-    // everything, from there. Started together, a wide core and a glow can settle into a
-    // wrong minimum that stretches the path.
+    let path0 = [a.0, a.1, b.0, b.1, sagitta_of(a, b, rough.mid_px)];
     // The flat floor is fitted only when some pixel's floor was not measured.
     // The pedestal, only when some pixel's floor was.
     let mut all = [true; PARAMS];
     let floors = samples.floor_ln.iter().take(samples.len);
     all[FLAT_FLOOR] = floors.clone().any(Option::is_none);
     all[PEDESTAL] = floors.clone().any(Option::is_some);
-    let mut core_only = all;
-    core_only[6] = false;
-    core_only[8] = false;
-    p[8] = 0.0;
-    let (core, core_cost) = levenberg_marquardt(&samples, p, clip, &core_only)?;
-    let mut p = core;
-    p[8] = GLOW_RATIO0;
-    let (mut p, mut cost) = levenberg_marquardt(&samples, p, clip, &all)?;
-    // The glow, started at its usual share, can upset a spot that has none (its core's
-    // amplitude and tone) and end worse than the core alone did: then again from the core
-    // alone, with no glow to start with, which can only end better.
-    if cost > core_cost {
-        (p, cost) = levenberg_marquardt(&samples, core, clip, &all)?;
-    }
-    let mut normal = normal_equations(&samples, &p, clip, &all)?.0;
+    let start = Start {
+        samples: &samples,
+        path: path0,
+        floor_luma: floor0,
+        clip,
+        all: &all,
+    };
+    let warm_fit = warm.and_then(|w| start.warm(w).map(|found| (found, w.cost_per_px)));
+    let (p, cost) = match warm_fit {
+        Some((found, before)) if found.1 <= WARM_COST_RATIO * before * samples.len as f32 => found,
+        // The spot changed more than a frame's light and noise explain (another LED, a
+        // glow that began to clip): from scratch, keeping the better of the two.
+        Some((found, _)) => match start.cold(rough.thickness_px) {
+            Some(cold) if cold.1 < found.1 => cold,
+            _ => found,
+        },
+        None => start.cold(rough.thickness_px)?,
+    };
+    finish(
+        &samples,
+        (&local, [a, b], rough.thickness_px),
+        p,
+        cost,
+        clip,
+        &all,
+    )
+}
+
+/// The fitted path's ends, middle, length and uncertainty, and its spot, from the fitted `p`
+/// of cost `cost`, fitted in `local`'s ideal pixels from the rough ends `[a, b]` (ideal too)
+/// of a streak `thickness_px` thick; `None` when the ends moved farther from the rough ones
+/// than the pixels support, or the curvature cannot be inverted.
+fn finish(
+    samples: &Samples,
+    (local, [a, b], thickness_px): (&Local, [(f32, f32); 2], f32),
+    p: Params,
+    cost: f32,
+    clip: f32,
+    all: &[bool; PARAMS],
+) -> Option<PathFit> {
+    let mut normal = normal_equations(samples, &p, clip, all)?.0;
     for i in [FLAT_FLOOR, PEDESTAL] {
         if !all[i] {
             normal[(i, i)] = 1.0;
@@ -232,7 +349,7 @@ pub fn fit(
     let ends = [(p[0], p[1]), (p[2], p[3])];
     // The skeleton's ends of a fat blob (a glow that saturates) lie up to its width from the
     // path's: the thinning stops half a width short of each end and may curl sideways.
-    let max_shift_px = MAX_END_SHIFT_PX.max(rough.thickness_px);
+    let max_shift_px = MAX_END_SHIFT_PX.max(thickness_px);
     let sane = p.iter().all(|v| v.is_finite())
         && dist(ends[0], a).min(dist(ends[0], b)) <= max_shift_px
         && dist(ends[1], b).min(dist(ends[1], a)) <= max_shift_px;
@@ -265,7 +382,93 @@ pub fn fit(
         spot_sigma_px: sigma,
         uncertainty_px: (end_var * residual_var).sqrt(),
         floor_measured: measured as f32 / samples.len.max(1) as f32,
+        spot: SpotFit {
+            shape: core::array::from_fn(|i| native(&p)[PATH_PARAMS + i]),
+            cost_per_px: cost / samples.len.max(1) as f32,
+            offset: PathOffset::of([a, b], &p),
+        },
     })
+}
+
+/// A warm start's fit is kept when its cost per pixel is at most this many times the spot's
+/// it started from; above, the fit is also run from scratch and the better one kept.
+const WARM_COST_RATIO: f32 = 4.0;
+
+/// What a fit starts from: the samples, the rough path, the floor around it.
+struct Start<'a> {
+    samples: &'a Samples,
+    path: [f32; PATH_PARAMS],
+    /// The samples' low percentile, the flat floor's start.
+    floor_luma: f32,
+    clip: f32,
+    /// The parameters fitted in the full stage.
+    all: &'a [bool; PARAMS],
+}
+
+impl Start<'_> {
+    /// The model's parameters with the rough path, the spot `shape` and the flat floor at
+    /// the samples' low percentile seen through the shape's tone curve.
+    fn params(&self, shape: &[f32; PARAMS - PATH_PARAMS]) -> Params {
+        let mut p = Params::zeros();
+        for (v, &x) in p.iter_mut().zip(self.path.iter().chain(shape)) {
+            *v = x;
+        }
+        p[FLAT_FLOOR] = (self.floor_luma / self.clip)
+            .clamp(0.01, 0.95)
+            .powf(1.0 / p[TONE]);
+        fitted(&p)
+    }
+
+    /// From the spot of a recent frame, with the path where the rough one lies against it
+    /// as that fit's did: everything at once, one stage. The glow starts afresh at its usual
+    /// width and share around the core: carried over, a glow that had collapsed onto the core
+    /// (the two then trade light freely) stayed there, and the path's uncertainty, read
+    /// through that nearly singular curvature, ran to tens of pixels, which the still rule
+    /// then took for a still LED.
+    fn warm(&self, spot: &SpotFit) -> Option<(Params, f32)> {
+        let start = Start {
+            path: spot.offset.apply(self.path),
+            ..*self
+        };
+        let mut shape = spot.shape;
+        shape[GLOW_WIDTH - PATH_PARAMS] = shape[CORE_WIDTH - PATH_PARAMS] + GLOW_WIDTH0.ln();
+        shape[GLOW_RATIO - PATH_PARAMS] = GLOW_RATIO0;
+        let p = clamp_fitted(start.params(&shape));
+        levenberg_marquardt(self.samples, p, self.clip, self.all)
+    }
+
+    /// From scratch: the spot's width from the streak's `thickness_px`, its usual glow and
+    /// tone.
+    fn cold(&self, thickness_px: f32) -> Option<(Params, f32)> {
+        let (samples, clip, all) = (self.samples, self.clip, self.all);
+        let sigma0 = (0.3 * thickness_px).clamp(0.7, 6.0);
+        let mut p = self.params(&[
+            sigma0.ln(),
+            (GLOW_WIDTH0 * sigma0).ln(),
+            AMPLITUDE0.ln(),
+            0.0,
+            TONE0,
+            0.0,
+            0.0,
+        ]);
+        // First the core alone (no glow), which has one clear minimum near the start; then
+        // everything, from there. Started together, a wide core and a glow can settle into a
+        // wrong minimum that stretches the path.
+        let mut core_only = *all;
+        core_only[6] = false;
+        core_only[8] = false;
+        let (core, core_cost) = levenberg_marquardt(samples, p, clip, &core_only)?;
+        p = core;
+        p[8] = GLOW_RATIO0;
+        let (p, cost) = levenberg_marquardt(samples, p, clip, all)?;
+        // The glow, started at its usual share, can upset a spot that has none (its core's
+        // amplitude and tone) and end worse than the core alone did: then again from the core
+        // alone, with no glow to start with, which can only end better.
+        if cost > core_cost {
+            return levenberg_marquardt(samples, core, clip, all);
+        }
+        Some((p, cost))
+    }
 }
 
 /// Keeps the spot's widths, the amplitude, glow ratio, tone exponent and floor where they
@@ -1079,6 +1282,89 @@ mod tests {
             );
             assert!((moved[TONE] * moved[LN_AMPLITUDE] - p[TONE] * p[LN_AMPLITUDE]).abs() < 1e-5);
         }
+    }
+
+    /// The offset of a fitted path against a rough one puts the same rough path back on the
+    /// fitted one; the rough ends in the other order give the same path the other way; and
+    /// a streak turned (rough and fitted together) is offset turned with it.
+    #[test]
+    fn a_path_offset_carries_over() {
+        for p in paths() {
+            let rough = [(p[0] + 1.3, p[1] - 0.4), (p[2] - 0.9, p[3] + 0.6)];
+            let rough_path = [rough[0].0, rough[0].1, rough[1].0, rough[1].1, 0.0];
+            let offset = PathOffset::of(rough, &p);
+            if dist(rough[0], rough[1]) < MIN_CHORD_PX {
+                continue;
+            }
+            let same = offset.apply(rough_path);
+            let swapped = offset.apply([rough[1].0, rough[1].1, rough[0].0, rough[0].1, 0.0]);
+            let expected = [p[0], p[1], p[2], p[3], p[4]];
+            let expected_swapped = [p[2], p[3], p[0], p[1], -p[4]];
+            for j in 0..PATH_PARAMS {
+                assert!((same[j] - expected[j]).abs() < 1e-3, "{p:?}: {same:?}");
+                assert!(
+                    (swapped[j] - expected_swapped[j]).abs() < 1e-3,
+                    "{p:?}: {swapped:?}"
+                );
+            }
+            // A quarter turn about the origin: (x, y) -> (-y, x).
+            let turn = |(x, y): (f32, f32)| (-y, x);
+            let (ta, tb) = (turn(rough[0]), turn(rough[1]));
+            let turned = offset.apply([ta.0, ta.1, tb.0, tb.1, 0.0]);
+            let (fa, fb) = (turn((p[0], p[1])), turn((p[2], p[3])));
+            for (j, v) in [fa.0, fa.1, fb.0, fb.1, p[4]].into_iter().enumerate() {
+                assert!((turned[j] - v).abs() < 1e-3, "{p:?} turned: {turned:?}");
+            }
+        }
+    }
+
+    /// A warm start from the spot of a cold fit of the same pixels, at a rough path a pixel
+    /// or two off, ends about as well as the cold fit did, with its ends on the cold fit's.
+    /// Checked on the paths whose cold fit found the truth's ends (the test's pixels are few
+    /// and rippled: on the bent path the cold fit's own ends are 2 px off), at least one.
+    #[test]
+    fn a_warm_start_finds_the_spot_again() {
+        let clip = 250.0;
+        let mut checked = 0;
+        for truth in paths()
+            .into_iter()
+            .filter(|p| dist((p[0], p[1]), (p[2], p[3])) > 5.0)
+        {
+            let s = samples_of(&truth, clip);
+            let mut all = [true; PARAMS];
+            all[FLAT_FLOOR] = s.floor_ln.iter().take(s.len).any(Option::is_none);
+            all[PEDESTAL] = s.floor_ln.iter().take(s.len).any(Option::is_some);
+            let rough = [(truth[0] + 1.5, truth[1]), (truth[2] - 1.0, truth[3] + 0.5)];
+            let start = Start {
+                samples: &s,
+                path: [rough[0].0, rough[0].1, rough[1].0, rough[1].1, 0.0],
+                floor_luma: low_percentile(&s),
+                clip,
+                all: &all,
+            };
+            let (cold, cold_cost) = start.cold(4.0).expect("a cold fit");
+            if (0..4).any(|j| (cold[j] - truth[j]).abs() > 1.0) {
+                continue;
+            }
+            checked += 1;
+            let spot = SpotFit {
+                shape: core::array::from_fn(|i| native(&cold)[PATH_PARAMS + i]),
+                cost_per_px: cold_cost / s.len as f32,
+                offset: PathOffset::of(rough, &native(&cold)),
+            };
+            let (warm, warm_cost) = start.warm(&spot).expect("a warm fit");
+            assert!(
+                warm_cost <= WARM_COST_RATIO * cold_cost,
+                "{truth:?}: warm cost {warm_cost}, cold {cold_cost}"
+            );
+            for j in 0..4 {
+                assert!(
+                    (warm[j] - cold[j]).abs() < 0.3,
+                    "{truth:?}: warm {warm:?}, cold {cold:?}"
+                );
+            }
+        }
+        assert!(checked > 0, "no cold fit found its path");
     }
 
     #[test]

@@ -31,7 +31,15 @@ use crate::frame::Frame;
 const LEVELS: [f32; 7] = [0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9];
 
 /// The lines parallel to the chord that place the middle along it, as offsets across from the
-/// middle, in pixels: three, so that the pixel grid's sampling and the read noise average out.
+/// line the caller places them about, in pixels: three, so that the pixel grid's sampling and
+/// the read noise average out.
+///
+/// That line runs through the middle of a straight streak. On an arc, a line through the
+/// middle leaves the streak through its sides, where it meets the light at a grazing angle and
+/// a tenth of a pixel across moves a crossing by pixels along (a 60 px arc on a 115 px circle,
+/// bent 3.9 px: the middle 0.4–2.2 px off along it); there the caller places it halfway to the
+/// chord, within half the bend of the path from the middle to both caps, whose outer edges are
+/// mirror images on an arc as on a line.
 const ALONG_LINES_PX: [f32; 3] = [-0.5, 0.0, 0.5];
 
 /// The lines across the streak that place the middle across it, as offsets along the chord
@@ -45,8 +53,9 @@ const ACROSS_LINES_PX: [f32; 5] = [-1.0, -0.5, 0.0, 0.5, 1.0];
 const BEYOND_CHORD_PX: f32 = ray_floor::MAX_REACH_PX;
 
 /// The streak's middle, from `mid` near it: moved along `along` (a unit vector parallel to the
-/// chord, which is `half_chord_px` long on either side of `mid`) to the bisector by the level
-/// crossings on lines parallel to the chord, then across (`across`, the unit normal) to the
+/// chord, which is `half_chord_px` long on either side of the bisector) to the bisector by the
+/// level crossings on lines parallel to the chord about the line `lines_offset_px` from `mid`
+/// along `across` (see `ALONG_LINES_PX`), then across (`across`, the unit normal) to the
 /// centre of the cross-section there, by the crossings on short lines across it (the
 /// cross-section of a streak is mirror-symmetric about its path too: exactly on a straight
 /// one, and on an arc of radius `r` to within its width over `r`). `top_luma` is the frame's
@@ -58,6 +67,7 @@ pub fn centre(
     along: (f32, f32),
     across: (f32, f32),
     half_chord_px: f32,
+    lines_offset_px: f32,
     top_luma: u8,
 ) -> Option<(f32, f32)> {
     // The floor: the brighter of the floors on the two sides of the middle, so that every
@@ -72,9 +82,13 @@ pub fn centre(
         return None;
     }
     let levels = LEVELS.map(|f| floor + f * span);
+    let lines_centre = (
+        mid.0 + lines_offset_px * across.0,
+        mid.1 + lines_offset_px * across.1,
+    );
     let along_px = mirror_offset(
         frame,
-        mid,
+        lines_centre,
         (along, across),
         &ALONG_LINES_PX,
         &levels,

@@ -20,6 +20,7 @@ pub mod morph;
 mod normal;
 mod ray_floor;
 pub mod skeleton;
+pub mod spot_memory;
 pub mod spot_shape;
 pub mod streak;
 pub mod threshold;
@@ -31,6 +32,7 @@ use blobs::{Blob, Labeler, Overflow};
 use floor_bg::FloorBackground;
 use morph::Kernel;
 use skeleton::SkeletonMethod;
+use spot_memory::SpotMemory;
 use spot_shape::SpotOptics;
 use streak::{Streak, StreakModel, StreakScratch};
 use threshold::large_blob::{LastBlobs, MovedLarge};
@@ -147,6 +149,8 @@ pub struct Detector {
     /// always for the fit; for the cascade once it has fitted a streak ([`cascade`]), so that
     /// a camera whose LED the ramps read does not pay for its upkeep on every frame.
     floor_learning: bool,
+    /// The spots fitted in the last frames, each LED's next fit's start.
+    spot_memory: SpotMemory,
     /// The static bright pixels learned by the automatic threshold.
     statics: StaticMap,
     /// Around the blob analysed in the last frame (the LED): not learned as static.
@@ -185,6 +189,7 @@ impl Detector {
             background,
             floor: (config.streak_model != StreakModel::Ramps).then(|| FloorBackground::new(size)),
             floor_learning: config.streak_model == StreakModel::Fit,
+            spot_memory: SpotMemory::default(),
             statics: StaticMap::new(size.width(), size.height()),
             keep_out: heapless::Vec::new(),
             last_blobs: LastBlobs::new(),
@@ -228,6 +233,7 @@ impl Detector {
     pub fn segment_at(&mut self, frame: &Frame<'_>, t_us: u64) -> Detection {
         self.frames_segmented += 1;
         self.t_us = t_us;
+        self.spot_memory.next_frame();
         self.moved_large.clear();
         self.streak.reset();
         let mut learning = false;
@@ -473,6 +479,7 @@ impl Detector {
             self.config.streak_model,
             self.floor.as_ref(),
             self.optics.as_deref(),
+            &mut self.spot_memory,
             &mut self.streak,
         );
         // The cascade fitted a streak: the camera shows spots the ramps cannot read, and the

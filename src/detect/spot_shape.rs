@@ -77,13 +77,13 @@ impl SpotShape {
     }
 
     /// The displacement `d` in image pixels, in ideal pixels: `A d`.
-    pub fn to_ideal(&self, d: (f32, f32)) -> (f32, f32) {
+    pub fn to_ideal(self, d: (f32, f32)) -> (f32, f32) {
         let [[a, b], [c, e]] = self.image_to_ideal;
         (a * d.0 + b * d.1, c * d.0 + e * d.1)
     }
 
     /// The displacement `d` in ideal pixels, in image pixels: `A⁻¹ d` (`A` is one-to-one).
-    pub fn to_image(&self, d: (f32, f32)) -> (f32, f32) {
+    pub fn to_image(self, d: (f32, f32)) -> (f32, f32) {
         let [[a, b], [c, e]] = self.image_to_ideal;
         let det = a * e - b * c;
         ((e * d.0 - b * d.1) / det, (a * d.1 - c * d.0) / det)

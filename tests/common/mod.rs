@@ -5,6 +5,7 @@
 
 pub mod alloc;
 pub mod arena;
+pub mod in_process;
 pub mod live;
 pub mod peers;
 pub mod view;

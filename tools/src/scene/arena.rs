@@ -31,6 +31,7 @@ use glint::source::sidecar::{FrameTiming, Sidecar};
 use super::camera::{Camera, Range};
 use super::floor::Floor;
 use super::optics::{Led, Spot};
+use super::squeeze::Squeeze;
 use super::trajectory::{Point, Trajectory};
 use super::view::{Lens, View};
 use super::{Scene, SceneConfig, SceneError};
@@ -292,6 +293,7 @@ impl Arena {
                 led: Led {
                     radius_px,
                     spot: Spot::Disk,
+                    squeeze: Squeeze::NONE,
                     peak: LED_PEAK,
                     glow_peak: LED_GLOW_PEAK,
                     glow_radius_px: LED_GLOW_RADIUS_PER_RADIUS * radius_px,

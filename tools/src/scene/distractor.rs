@@ -202,7 +202,7 @@ pub(crate) fn add_swept_disk(patch: &mut Patch, positions: &[Point], offset_px: 
     let weight = led.peak / positions.len().max(1) as f64;
     for p in positions {
         let centre = Point::new(p.x + offset_px.x, p.y + offset_px.y);
-        patch.add_disk(centre, led.radius_px, weight);
+        patch.add_squeezed_disk(centre, led.radius_px, led.squeeze, weight);
     }
 }
 

@@ -23,6 +23,7 @@ mod occlusion;
 mod optics;
 mod presets;
 mod rng;
+mod squeeze;
 mod sweep;
 mod trajectory;
 mod truth;
@@ -37,6 +38,7 @@ pub use fleet::Fleet;
 pub use floor::Floor;
 pub use occlusion::Occluder;
 pub use optics::{Glare, Led, Spot};
+pub use squeeze::Squeeze;
 pub use sweep::{SpotKind, SweepPath, SweepPoint};
 pub use trajectory::{Motion, Point, Trajectory};
 pub use truth::{read_truth_csv, write_truth_csv, Truth, TruthCsvError, Visibility, CSV_HEADER};
@@ -507,7 +509,7 @@ impl Scene {
         match led.spot {
             Spot::Disk => {
                 for &centre in &positions {
-                    patch.add_disk(centre, led.radius_px, weight);
+                    patch.add_squeezed_disk(centre, led.radius_px, led.squeeze, weight);
                 }
             }
             spot => {
@@ -520,7 +522,12 @@ impl Scene {
                         Exposure::steps_for(streak_px, MAX_DISK_STEP_PX.max(0.25 * sigma_px));
                     let weight = ratio * led.peak / steps as f64;
                     for t in exposure.sample_times(steps) {
-                        patch.add_gaussian(trajectory.motion(t).position_px, sigma_px, weight);
+                        patch.add_squeezed_gaussian(
+                            shift(trajectory.motion(t).position_px),
+                            sigma_px,
+                            led.squeeze,
+                            weight,
+                        );
                     }
                 }
             }
@@ -529,9 +536,10 @@ impl Scene {
             let glow_steps = Exposure::steps_for(streak_px, MAX_GLOW_STEP_PX);
             let weight = led.glow_peak / glow_steps as f64;
             for t in exposure.sample_times(glow_steps) {
-                patch.add_glow(
+                patch.add_squeezed_glow(
                     shift(trajectory.motion(t).position_px),
                     led.glow_radius_px,
+                    led.squeeze,
                     weight,
                 );
             }
@@ -801,6 +809,12 @@ fn validate(c: &SceneConfig) -> Result<(), SceneError> {
         return Err(invalid(
             "led.spot",
             "standard deviations must be positive and at most 25 px, the glow ratio not negative",
+        ));
+    }
+    if !led.squeeze.is_valid() {
+        return Err(invalid(
+            "led.squeeze",
+            "the ratio must be in (0, 1] and the axis finite",
         ));
     }
     if led.glow_peak > 0.0 && !(led.glow_radius_px.is_finite() && led.glow_radius_px > 0.0) {

@@ -13,6 +13,7 @@
 //!
 //! Radiance is in linear sensor units where 1.0 is the clip level.
 
+use super::squeeze::Squeeze;
 use super::trajectory::Point;
 
 /// The moving LED.
@@ -23,6 +24,9 @@ pub struct Led {
     pub radius_px: f64,
     /// The spot's profile.
     pub spot: Spot,
+    /// How the lens squeezes the spot where it is imaged ([`Squeeze::NONE`]: round). With a
+    /// [`View`](super::View), whose own lens maps the picture, leave it round.
+    pub squeeze: Squeeze,
     /// Radiance at the spot's centre, in multiples of the clip level (several times 1.0 for a
     /// strong LED, so even streaks saturate).
     pub peak: f64,
@@ -84,7 +88,7 @@ impl Spot {
 }
 
 /// A Gaussian is drawn out to this many standard deviations (exp(-4.3²/2) ≈ 1e-4).
-const GAUSSIAN_REACH_SIGMAS: f64 = 4.3;
+pub(super) const GAUSSIAN_REACH_SIGMAS: f64 = 4.3;
 
 /// The standard normal cumulative distribution, to about 1e-7 (Abramowitz & Stegun 7.1.26 on
 /// erf, whose error is at most 1.5e-7).
@@ -203,7 +207,7 @@ const MAX_GAUSSIAN_SPAN: usize = 256;
 pub(crate) const MAX_SPOT_SIGMA_PX: f64 = 25.0;
 
 /// Glow radiance profile at distance² `d2` from the centre: `(1 - d²/ρ²)²` inside ρ.
-fn glow_profile(d2: f64, glow_radius_px: f64) -> f64 {
+pub(super) fn glow_profile(d2: f64, glow_radius_px: f64) -> f64 {
     let u = 1.0 - d2 / (glow_radius_px * glow_radius_px);
     if u > 0.0 {
         u * u
@@ -327,7 +331,12 @@ impl Patch {
     }
 
     /// Adds `kernel(px, py)` to every patch pixel within `reach_px` (per axis) of `centre`.
-    fn add_kernel(&mut self, centre: Point, reach_px: f64, kernel: impl Fn(f64, f64) -> f64) {
+    pub(super) fn add_kernel(
+        &mut self,
+        centre: Point,
+        reach_px: f64,
+        kernel: impl Fn(f64, f64) -> f64,
+    ) {
         let cols = self.index_range(
             centre.x - reach_px,
             centre.x + reach_px,
@@ -355,7 +364,13 @@ impl Patch {
     }
 
     /// Patch-relative indices of the pixels whose centres lie in `[lo, hi]`.
-    fn index_range(&self, lo: f64, hi: f64, origin: usize, len: usize) -> std::ops::Range<usize> {
+    pub(super) fn index_range(
+        &self,
+        lo: f64,
+        hi: f64,
+        origin: usize,
+        len: usize,
+    ) -> std::ops::Range<usize> {
         let first = (lo - origin as f64).ceil().max(0.0);
         let end = ((hi - origin as f64).floor() + 1.0).min(len as f64);
         if first < end {

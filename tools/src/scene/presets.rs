@@ -6,6 +6,7 @@ use super::distractor::{Companion, StaticLight};
 use super::floor::Floor;
 use super::occlusion::Occluder;
 use super::optics::{Glare, Led, Spot};
+use super::squeeze::Squeeze;
 use super::trajectory::{Point, Trajectory};
 use super::view::{Knock, Lens, View};
 use super::SceneConfig;
@@ -67,6 +68,7 @@ fn unclipped_led(peak: f64) -> Led {
     Led {
         radius_px: LED_RADIUS_PX,
         spot: Spot::Disk,
+        squeeze: Squeeze::NONE,
         peak,
         glow_peak: 0.0,
         glow_radius_px: 0.0,
@@ -78,6 +80,7 @@ fn companion_led(peak: f64) -> Led {
     Led {
         radius_px: LED_RADIUS_PX,
         spot: Spot::Disk,
+        squeeze: Squeeze::NONE,
         peak,
         glow_peak: 0.0,
         glow_radius_px: 0.0,
@@ -88,6 +91,7 @@ fn led(radius_px: f64) -> Led {
     Led {
         radius_px,
         spot: Spot::Disk,
+        squeeze: Squeeze::NONE,
         peak: LED_PEAK,
         glow_peak: LED_GLOW_PEAK,
         glow_radius_px: LED_GLOW_RADIUS_PER_RADIUS * radius_px,
@@ -380,6 +384,7 @@ pub(crate) fn config(name: &str) -> Option<SceneConfig> {
             config.led = Led {
                 radius_px: 2.0,
                 spot: Spot::Disk,
+                squeeze: Squeeze::NONE,
                 peak: 1.6,
                 glow_peak: 0.0,
                 glow_radius_px: 0.0,

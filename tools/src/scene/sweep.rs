@@ -5,8 +5,11 @@
 //! wide glow) 0.8–3 px wide, an LED from barely to strongly saturating, a tone curve of gamma
 //! 1.8–2.4, read noise up to σ 4 luma, full or studio range, and a path that is still or
 //! barely moving (after moving into place: a light that never moved cannot be told from a
-//! lamp), a straight line (3–60 px streaks) or an arc. Points are drawn from a seed, so a
-//! test can take a reproducible random subset and a benchmark the whole sweep.
+//! lamp), a straight line (3–60 px streaks) or an arc; and where in a wide-angle lens's picture
+//! it is seen, which squeezes the round spot into an ellipse (a third of the points at the
+//! picture's centre, unsqueezed; the rest down to two thirds along an axis at any angle).
+//! Points are drawn from a seed, so a test can take a reproducible random subset and a
+//! benchmark the whole sweep.
 
 use std::f64::consts::{PI, TAU};
 
@@ -14,6 +17,7 @@ use super::camera::Range;
 use super::optics::{Led, Spot};
 use super::presets;
 use super::rng::{mix64, unit_from_bits, SplitMix64};
+use super::squeeze::Squeeze;
 use super::trajectory::{Point, Trajectory};
 use super::SceneConfig;
 
@@ -41,6 +45,14 @@ const NOISE_MAX_LUMA: f64 = 4.0;
 const GLOW_WIDTH_RANGE: (f64, f64) = (3.0, 6.0);
 /// ... and this bright at its centre relative to the core's.
 const GLOW_RATIO_RANGE: (f64, f64) = (0.02, 0.08);
+/// A wide webcam lens images a round spot in its corners down to this fraction of its round
+/// extent, radially.
+const SQUEEZE_RANGE: (f64, f64) = (0.67, 1.0);
+/// One point in this many is at the picture's centre, where the lens leaves the spot round.
+const ROUND_ONE_IN: u64 = 3;
+/// Separates the lens's random stream from the other parameters', so that adding the lens left
+/// every other parameter of every point as it was.
+const LENS_SALT: u64 = 0x1E45_1E45_1E45_1E45;
 
 /// The shape of the LED's spot in a sweep point.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -112,7 +124,9 @@ pub struct SweepPoint {
     /// Glow σ over core σ, and glow centre over core centre (bloom only).
     pub glow: (f64, f64),
     /// Level of the streak's core, in multiples of the clip level (for an LED that moves
-    /// into place, of its longest streak on the way in: brighter at rest).
+    /// into place, of its longest streak on the way in: brighter at rest), for the round
+    /// spot. The lens gathers the same light into its squeezed spot: a streak along the
+    /// squeezed axis is as bright, one across it (and a still spot) up to `1 / ratio` brighter.
     pub saturation: f64,
     /// The camera's tone-curve exponent.
     pub gamma: f64,
@@ -122,6 +136,8 @@ pub struct SweepPoint {
     pub range: Range,
     /// The LED's path.
     pub path: SweepPath,
+    /// How the lens squeezes the LED's spot where it is seen.
+    pub lens: Squeeze,
     /// Seed of the floor texture and the noise.
     pub seed: u64,
 }
@@ -143,6 +159,20 @@ fn approach_peak_streak_px() -> f64 {
     2.0 * APPROACH_PX / move_s * f64::from(EXPOSURE_US) * 1e-6
 }
 
+/// The lens's squeeze at point `index` of the sweep from `seed`: none for one point in
+/// [`ROUND_ONE_IN`] (the picture's centre), else a ratio uniform in [`SQUEEZE_RANGE`] along an
+/// axis at any angle.
+fn lens_squeeze(seed: u64, index: usize) -> Squeeze {
+    let mut rng = SplitMix64::new(mix64(seed ^ mix64(index as u64 ^ LENS_SALT)));
+    if rng.next_u64().is_multiple_of(ROUND_ONE_IN) {
+        return Squeeze::NONE;
+    }
+    Squeeze {
+        ratio: uniform(&mut rng, SQUEEZE_RANGE),
+        axis_rad: uniform(&mut rng, (0.0, PI)),
+    }
+}
+
 /// Uniform in `[lo, hi)`.
 fn uniform(rng: &mut SplitMix64, (lo, hi): (f64, f64)) -> f64 {
     lo + (hi - lo) * unit_from_bits(rng.next_u64())
@@ -157,7 +187,7 @@ impl SweepPoint {
     /// Point `index` of the sweep drawn from `seed`. Indices cycle through four kinds of path
     /// so that any run of four points covers them all: an LED that moves into place and then
     /// stands still or barely moves (streaks up to 2 px), a line of 3–20 px, a 60 px line, an
-    /// arc of 8–40 px on a circle of 15–80 px.
+    /// arc of 8–40 px on a circle of 15–80 px. The lens is drawn from its own stream.
     pub fn new(seed: u64, index: usize) -> SweepPoint {
         let mut rng = SplitMix64::new(mix64(seed ^ mix64(index as u64)));
         let spot = match rng.next_u64() % 3 {
@@ -212,6 +242,7 @@ impl SweepPoint {
             noise_luma,
             range,
             path,
+            lens: lens_squeeze(seed, index),
             seed: rng.next_u64(),
         }
     }
@@ -253,6 +284,7 @@ impl SweepPoint {
                 _ => 2.0 * self.width_px,
             },
             spot,
+            squeeze: self.lens,
             peak: self.saturation * smear,
             glow_peak: 0.0,
             glow_radius_px: 0.0,
@@ -360,9 +392,18 @@ impl std::fmt::Display for SweepPoint {
                 length_px,
             } => format!("arc {length_px:.1} px on r {radius_px:.0} px"),
         };
+        let lens = if self.lens.is_none() {
+            "round (picture centre)".to_string()
+        } else {
+            format!(
+                "squeezed to {:.2} at {:.0}°",
+                self.lens.ratio,
+                self.lens.axis_rad.to_degrees()
+            )
+        };
         write!(
             f,
-            "{:?} {:.2} px{}, core {:.1}× clip, gamma {:.2}, noise {:.1} luma, {:?} range, {path}",
+            "{:?} {:.2} px{}, core {:.1}× clip, gamma {:.2}, noise {:.1} luma, {:?} range, {path}, {lens}",
             self.spot,
             self.width_px,
             if self.spot == SpotKind::Bloom {
@@ -424,6 +465,28 @@ mod tests {
             points[5],
             "a point is its seed and index"
         );
+    }
+
+    /// The lens: about a third of the points at the picture's centre (round), the rest
+    /// squeezed across the whole range along axes all round; drawn apart from the rest.
+    #[test]
+    fn the_lens_squeezes_two_thirds_of_the_points_over_its_range() {
+        let points = SweepPoint::sweep(11, 300);
+        let round = points.iter().filter(|p| p.lens.is_none()).count();
+        assert!((70..=130).contains(&round), "{round} of 300 round");
+        let squeezed: Vec<Squeeze> = points
+            .iter()
+            .map(|p| p.lens)
+            .filter(|l| !l.is_none())
+            .collect();
+        assert!(squeezed.iter().all(|l| l.ratio >= SQUEEZE_RANGE.0
+            && l.ratio < 1.0
+            && (0.0..PI).contains(&l.axis_rad)));
+        assert!(squeezed.iter().any(|l| l.ratio < 0.7) && squeezed.iter().any(|l| l.ratio > 0.95));
+        assert!(
+            squeezed.iter().any(|l| l.axis_rad < 0.3) && squeezed.iter().any(|l| l.axis_rad > 2.8)
+        );
+        assert!(points.iter().any(|p| p.to_string().contains("squeezed to")));
     }
 
     #[test]

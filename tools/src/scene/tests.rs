@@ -15,6 +15,7 @@ fn static_scene(at: Point, peak: f64, range: Range) -> Scene {
     config.led = Led {
         radius_px: 3.5,
         spot: Spot::Disk,
+        squeeze: Squeeze::NONE,
         peak,
         glow_peak: 0.0,
         glow_radius_px: 0.0,
@@ -373,11 +374,27 @@ fn truth_csv_round_trips_a_preset() {
 
 #[test]
 fn through_a_lens_the_led_is_where_the_truth_says() {
-    // The wide lens bends the picture by tens of pixels at the edges: the saturated disk's
-    // centroid must follow the distorted truth, not the reference pixel.
+    // The wide lens bends the picture by tens of pixels at the edges: the saturated spot's
+    // centroid must follow the distorted truth, not the reference pixel. A Gaussian spot too
+    // (it was drawn at its scene position in the view's patch, whose origin is not the
+    // scene's, so tens of pixels off), its σ such that it saturates out to the disk's radius.
+    // The disk's saturated centroid is held to 0.3 px plus a tenth of the streak; the
+    // Gaussian's only to within that radius: it is placed right (the misplaced one was found
+    // nowhere near), but its saturated region's centroid through the wide lens lands up to
+    // 0.45 px off the middle, which is not explained here.
+    let led = Scene::preset_config("lens-wide").unwrap().led;
+    let sigma_px = led.radius_px / (2.0 * led.peak.ln()).sqrt();
+    through_a_lens_the_spot_is_where_the_truth_says(Spot::Disk, 0.3);
+    through_a_lens_the_spot_is_where_the_truth_says(Spot::Gaussian { sigma_px }, led.radius_px);
+}
+
+/// The saturated light's centroid near the truth is within `bound_px` plus a tenth of the
+/// streak of the truth's middle.
+fn through_a_lens_the_spot_is_where_the_truth_says(spot: Spot, bound_px: f64) {
     let mut config = Scene::preset_config("lens-wide").unwrap();
     config.camera.noise_sigma = 0.0;
     config.frame_count = 150;
+    config.led.spot = spot;
     let scene = Scene::new(config).unwrap();
     let mut frame = vec![0u8; scene.frame_len_bytes()];
     let mut checked = 0;
@@ -398,13 +415,16 @@ fn through_a_lens_the_led_is_where_the_truth_says() {
                 }
             }
         }
-        assert!(n > 10.0, "frame {index}: no saturated disk near the truth");
+        assert!(
+            n > 10.0,
+            "{spot:?} frame {index}: no saturated spot near the truth"
+        );
         let streak = truth.streak_px.unwrap();
         let (mx, my) = (truth.mid_x_px.unwrap(), truth.mid_y_px.unwrap());
         let err = (sx / n - mx).hypot(sy / n - my);
         assert!(
-            err < 0.3 + 0.1 * streak,
-            "frame {index}: centroid {err:.3} px off"
+            err < bound_px + 0.1 * streak,
+            "{spot:?} frame {index}: centroid {err:.3} px off"
         );
         checked += 1;
     }
