@@ -24,7 +24,7 @@ use heapless::Deque;
 use super::bitimage::{BitImage, Window, NEIGHBOURS_8};
 use super::blobs::{Blob, BoundingBox, Labeler};
 use super::cascade;
-use super::fit::{self, Rough};
+use super::fit::{self, NoFit, Rough};
 use super::floor_bg::FloorBackground;
 use super::mirror_middle;
 use super::moments::{Moments, StadiumPath};
@@ -327,7 +327,7 @@ pub fn analyze(
         StreakModel::Ramps => (mid_px, ramps_streak_path(ramps(scratch)), false),
         StreakModel::Fit => {
             let (mid, path) = fitted();
-            (mid, path, true)
+            (mid, path.ok(), true)
         }
         StreakModel::Auto => {
             // A resolved edge first: the ramps are not read where they would be dropped. A
@@ -351,10 +351,16 @@ pub fn analyze(
                 {
                     (mid_px, ramps_streak_path(tips), false)
                 }
-                _ => {
-                    let (mid, path) = fitted();
-                    (mid, path, true)
-                }
+                _ => match fitted() {
+                    // The fitted model contradicts the pixels at an end: the ramps' reading
+                    // (with their own guards, such as the tip refused past the spot's
+                    // extent) stands.
+                    (_, Err(NoFit::EndOffTheClip)) => {
+                        let tips = tips.unwrap_or_else(|| ramps(scratch));
+                        (mid_px, ramps_streak_path(tips), false)
+                    }
+                    (mid, path) => (mid, path.ok(), true),
+                },
             }
         }
     };
@@ -410,8 +416,8 @@ fn ramps_streak_path(tips: Option<tips::Tips>) -> Option<StreakPath> {
 
 /// The middle and the path from the fitted streak model of a spot of the lens's `shape`, with
 /// the still rule (judged in ideal pixels, where the spot is round); the streak's own middle
-/// and no path when the fit fails, or when both its path and its ends' deviation exceed the
-/// spot's width.
+/// and why there is no path when the fit fails ([`NoFit`]), or when its path is longer than
+/// the spot is wide and its ends' deviation longer than the path.
 fn fitted_path(
     frame: &Frame<'_>,
     blob: &Blob,
@@ -420,7 +426,7 @@ fn fitted_path(
     levels: Levels,
     background: Option<&FloorBackground>,
     (shape, spots): (SpotShape, &mut SpotMemory),
-) -> ((f32, f32), Option<StreakPath>) {
+) -> ((f32, f32), Result<StreakPath, NoFit>) {
     // A round blob's skeleton is a dot, and area over length is then its area: its width is
     // at most the diameter of a disk of that area.
     let disk_diameter_px = 2.0 * (blob.area_px as f32 / core::f32::consts::PI).sqrt();
@@ -439,19 +445,23 @@ fn fitted_path(
         },
         _ => skeleton,
     };
-    let Some(f) = spots.fit_at(rough.mid_px, |warm| {
+    let f = match spots.fit_at(rough.mid_px, |warm| {
         fit::fit(frame, &rough, levels.top_luma, background, shape, warm)
-    }) else {
-        return (mid_px, None);
+    }) {
+        Ok(f) => f,
+        Err(why) => return (mid_px, Err(why)),
     };
     let spot_width_px = FWHM_PER_SIGMA * f.spot_sigma_px;
-    // A path longer than the spot is wide, with ends uncertain by more than that width, is
-    // not measured: the still rule below (the path within the width plus two deviations)
-    // would call it still on the deviation alone, as it did a 16 px streak beside a white
-    // square, both ends 8 px off at the middle. (A path within the width is still whatever
-    // the deviation: the still Blooms' deviations reach 3.6 px.)
-    if f.ideal_path_length_px > spot_width_px && f.uncertainty_px > spot_width_px {
-        return (mid_px, None);
+    // A path longer than the spot is wide whose ends are uncertain by more than its own
+    // length is not measured: the fit cannot tell it from a still LED, and the still rule
+    // below (the path within the width plus two deviations) would call it still on the
+    // deviation alone, as it did a 16 px streak beside a white square (deviation 17 px),
+    // both ends 8 px off at the middle. (A path within the width is still whatever the
+    // deviation: the still Blooms' deviations reach 3.6 px. Refusing every path longer than
+    // the width whose deviation exceeded the width, a sharp disk's narrow fitted spot made
+    // that 1-10 px on right paths of 4-39 px, and cost 7 sweep points on seed 11.)
+    if f.ideal_path_length_px > spot_width_px && f.uncertainty_px > f.ideal_path_length_px {
+        return (mid_px, Err(NoFit::Failed));
     }
     // No longer than the spot is wide, within the fit's uncertainty: still, and both ends
     // are the middle.
@@ -475,7 +485,7 @@ fn fitted_path(
         fit_px: Some(f.uncertainty_px),
         fit_floor: Some(FitFloor::of(f.floor_measured)),
     };
-    (mid, Some(path))
+    (mid, Ok(path))
 }
 
 /// Whether the skeleton's `ends` make a spine whose tips can be read: a chord of at least
