@@ -287,7 +287,8 @@ pub enum NoFit {
 /// the spot `shape` the lens makes of a round one there ([`SpotShape::identity`] without a
 /// lens), from the spot `warm` fitted to the same LED in a recent frame when there is one
 /// (see [`SpotFit`]). [`NoFit`] when the fit fails (too few pixels, no convergence, a result
-/// the pixels do not support).
+/// the pixels do not support), and with `check_ends`, when the model contradicts the pixels
+/// at an end ([`NoFit::EndOffTheClip`]).
 pub fn fit(
     frame: &Frame<'_>,
     rough: &Rough,
@@ -295,6 +296,7 @@ pub fn fit(
     background: Option<&FloorBackground>,
     shape: SpotShape,
     warm: Option<&SpotFit>,
+    check_ends: bool,
 ) -> Result<PathFit, NoFit> {
     let clip = f32::from(clip_luma);
     let local = Local {
@@ -345,7 +347,7 @@ pub fn fit(
         clip,
         residual_sd: (cost / samples.len.saturating_sub(PARAMS).max(1) as f32).sqrt(),
     };
-    if end_off_the_clip(&pixels, &local, &native(&p), found.uncertainty_px) {
+    if check_ends && end_off_the_clip(&pixels, &local, &native(&p), found.uncertainty_px) {
         return Err(NoFit::EndOffTheClip);
     }
     Ok(found)

@@ -320,7 +320,7 @@ pub fn analyze(
             moments.map(|m| m.stadium()),
             levels,
             background,
-            (shape_at(optics, mid_px), spots),
+            (shape_at(optics, mid_px), spots, model),
         )
     };
     let (mid_px, path, fitted_now) = match model {
@@ -417,7 +417,11 @@ fn ramps_streak_path(tips: Option<tips::Tips>) -> Option<StreakPath> {
 /// The middle and the path from the fitted streak model of a spot of the lens's `shape`, with
 /// the still rule (judged in ideal pixels, where the spot is round); the streak's own middle
 /// and why there is no path when the fit fails ([`NoFit`]), or when its path is longer than
-/// the spot is wide and its ends' deviation longer than the path.
+/// the spot is wide and its ends' deviation longer than the path. Those two refusals, and the
+/// fitted end off the clip ([`NoFit::EndOffTheClip`]), are made for `auto` only, where the
+/// ramps' reading stands behind the fit: with `--streak-model fit` alone a refused path is a
+/// frame without one, which cost the sweep more than the rare wrong end (3 points out on seed
+/// 11, 37 -> 40, from the deviation rule; 1 on seed 12 from the end rule).
 fn fitted_path(
     frame: &Frame<'_>,
     blob: &Blob,
@@ -425,8 +429,9 @@ fn fitted_path(
     stadium: Option<StadiumPath>,
     levels: Levels,
     background: Option<&FloorBackground>,
-    (shape, spots): (SpotShape, &mut SpotMemory),
+    (shape, spots, model): (SpotShape, &mut SpotMemory, StreakModel),
 ) -> ((f32, f32), Result<StreakPath, NoFit>) {
+    let ramps_behind = model == StreakModel::Auto;
     // A round blob's skeleton is a dot, and area over length is then its area: its width is
     // at most the diameter of a disk of that area.
     let disk_diameter_px = 2.0 * (blob.area_px as f32 / core::f32::consts::PI).sqrt();
@@ -446,7 +451,15 @@ fn fitted_path(
         _ => skeleton,
     };
     let f = match spots.fit_at(rough.mid_px, |warm| {
-        fit::fit(frame, &rough, levels.top_luma, background, shape, warm)
+        fit::fit(
+            frame,
+            &rough,
+            levels.top_luma,
+            background,
+            shape,
+            warm,
+            ramps_behind,
+        )
     }) {
         Ok(f) => f,
         Err(why) => return (mid_px, Err(why)),
@@ -460,7 +473,10 @@ fn fitted_path(
     // deviation: the still Blooms' deviations reach 3.6 px. Refusing every path longer than
     // the width whose deviation exceeded the width, a sharp disk's narrow fitted spot made
     // that 1-10 px on right paths of 4-39 px, and cost 7 sweep points on seed 11.)
-    if f.ideal_path_length_px > spot_width_px && f.uncertainty_px > f.ideal_path_length_px {
+    if ramps_behind
+        && f.ideal_path_length_px > spot_width_px
+        && f.uncertainty_px > f.ideal_path_length_px
+    {
         return (mid_px, Err(NoFit::Failed));
     }
     // No longer than the spot is wide, within the fit's uncertainty: still, and both ends
