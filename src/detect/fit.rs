@@ -278,7 +278,8 @@ pub enum NoFit {
     /// Too few pixels, no convergence, or ends farther from the rough ones than the pixels
     /// support.
     Failed,
-    /// The fitted model contradicts the pixels at an end of its path (see [`end_off_the_clip`]).
+    /// The fitted model calls the pixel at an end of its path clipped where the frame shows it
+    /// well below the clip: it contradicts the pixels it was meant to explain.
     EndOffTheClip,
 }
 
