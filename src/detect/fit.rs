@@ -278,6 +278,9 @@ pub enum NoFit {
     /// Too few pixels, no convergence, or ends farther from the rough ones than the pixels
     /// support.
     Failed,
+    /// The path is longer than the spot is wide, and its ends are uncertain by more than its
+    /// length: the fit cannot tell it from a still LED (the caller's rule).
+    Uncertain,
     /// The fitted model calls the pixel at an end of its path clipped where the frame shows it
     /// well below the clip: it contradicts the pixels it was meant to explain.
     EndOffTheClip,

@@ -352,10 +352,10 @@ pub fn analyze(
                     (mid_px, ramps_streak_path(tips), false)
                 }
                 _ => match fitted() {
-                    // The fitted model contradicts the pixels at an end: the ramps' reading
-                    // (with their own guards, such as the tip refused past the spot's
-                    // extent) stands.
-                    (_, Err(NoFit::EndOffTheClip)) => {
+                    // The fitted model contradicts the pixels at an end, or cannot tell its
+                    // path from a still LED: the ramps' reading (with their own guards, such
+                    // as the tip refused past the spot's extent) stands.
+                    (_, Err(NoFit::EndOffTheClip | NoFit::Uncertain)) => {
                         let tips = tips.unwrap_or_else(|| ramps(scratch));
                         (mid_px, ramps_streak_path(tips), false)
                     }
@@ -477,7 +477,7 @@ fn fitted_path(
         && f.ideal_path_length_px > spot_width_px
         && f.uncertainty_px > f.ideal_path_length_px
     {
-        return (mid_px, Err(NoFit::Failed));
+        return (mid_px, Err(NoFit::Uncertain));
     }
     // No longer than the spot is wide, within the fit's uncertainty: still, and both ends
     // are the middle.
