@@ -184,8 +184,8 @@ pub fn background_bytes(size: FrameSize, frames: usize) -> u64 {
     (frames as u64 + 1).saturating_mul(size.pixels() as u64)
 }
 
-/// The streak fit's learned floor (`--streak-model fit`): a 16-bit mean and an 8-bit count
-/// per pixel, and a bit image of where the frame's light is.
+/// The streak fit's learned floor (`--streak-model fit`, and `auto`, the default): a 16-bit mean
+/// and an 8-bit count per pixel, and a bit image of where the frame's light is.
 pub fn fit_floor_bytes(size: FrameSize) -> u64 {
     3 * size.pixels() as u64 + bit_image_bytes(size)
 }

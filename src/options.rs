@@ -45,7 +45,8 @@ pub struct LedArgs {
     pub skeleton: SkeletonArg,
 
     /// How the LED's positions at the start and end of the exposure are measured.
-    #[arg(long, value_enum, default_value_t = StreakModelArg::Ramps)]
+    // The library's default (`StreakModel::default`), which a test holds it to.
+    #[arg(long, value_enum, default_value_t = StreakModelArg::Auto)]
     pub streak_model: StreakModelArg,
 }
 
@@ -179,6 +180,21 @@ mod tests {
             ..args
         };
         let config = auto.detector_config(MaskMethod::Saturation);
+        assert_eq!(config.streak_model, StreakModel::Auto);
+    }
+
+    /// `glint track` without `--streak-model` measures the streak as the library does by
+    /// default, so a replay through the library and one through the binary agree.
+    #[test]
+    fn the_option_s_default_is_the_library_s() {
+        #[derive(clap::Parser)]
+        struct Cli {
+            #[command(flatten)]
+            led: LedArgs,
+        }
+        let cli = <Cli as clap::Parser>::try_parse_from(["glint"]).unwrap();
+        let config = cli.led.detector_config(MaskMethod::Saturation);
+        assert_eq!(config.streak_model, DetectorConfig::default().streak_model);
         assert_eq!(config.streak_model, StreakModel::Auto);
     }
 }

@@ -505,7 +505,7 @@ fn options_that_need_too_much_memory_are_refused_up_front() {
                 "--detector",
                 "bgdiff",
             ],
-            "the options need 3557 MB, more than --max-memory-mb 256: the background model \
+            "the options need 4357 MB, more than --max-memory-mb 256: the background model \
              (--background-frames 9 × --size 16384x16384) takes 2560 MB",
         ),
         (
@@ -522,9 +522,25 @@ fn options_that_need_too_much_memory_are_refused_up_front() {
             ],
             "(--background-frames 63 × --size 16384x16384) takes 16384 MB",
         ),
+        // The default model learns the floor; the line says which option plans none.
         (
             &["run", "--input", "-", "--size", "16384x16384"],
-            "the frame buffer (--size 16384x16384) takes 512 MB",
+            "the options need 1797 MB, more than --max-memory-mb 256: the streak fit's learned \
+             floor (--size 16384x16384 with --streak-model auto, the default; --streak-model \
+             ramps has none) takes 800 MB",
+        ),
+        (
+            &[
+                "run",
+                "--input",
+                "-",
+                "--size",
+                "16384x16384",
+                "--streak-model",
+                "ramps",
+            ],
+            "the options need 997 MB, more than --max-memory-mb 256: the frame buffer \
+             (--size 16384x16384) takes 512 MB",
         ),
         (
             &[
@@ -597,7 +613,7 @@ fn options_that_need_too_much_memory_are_refused_up_front() {
     assert_refused(
         &out,
         1,
-        "the options need 3557 MB, which this system will not give",
+        "the options need 4357 MB, which this system will not give",
     );
 }
 

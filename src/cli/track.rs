@@ -228,10 +228,16 @@ impl TrackSettings {
                 budget::led_detector_bytes(size),
             ),
         }
-        if self.detector != DetectorArg::Aruco && self.led.streak_model != StreakModelArg::Ramps {
+        // The default model learns the floor too, so the refusal says how to run without it.
+        let fit_floor_model = match self.led.streak_model {
+            StreakModelArg::Ramps => None,
+            StreakModelArg::Fit => Some("fit"),
+            StreakModelArg::Auto => Some("auto, the default"),
+        };
+        if let (true, Some(model)) = (self.detector != DetectorArg::Aruco, fit_floor_model) {
             plan.add(
                 "the streak fit's learned floor",
-                format!("--streak-model fit or auto, --size {size}"),
+                format!("--size {size} with --streak-model {model}; --streak-model ramps has none"),
                 budget::fit_floor_bytes(size),
             );
         }

@@ -108,6 +108,18 @@ fn fall_px(
     }
 }
 
+/// Whether a blob of `area_px` in a frame of `frame_px` pixels is a glow clipped past the glare
+/// limit ([`super::MAX_BLOB_FRACTION`]; such a blob is kept only when it moved), which the fit
+/// cannot read: it starts from the blob's outline, whose rough ends lie far inside the path's
+/// in a glow tens of pixels wide (a 33 px stadium in the clipped glow of a 60 px path,
+/// `tests/wide_glow.rs`), may move them only a few pixels, and samples a bounded number of
+/// pixels of thousands clipped flat. Its paths there came out 42–56 px long (with a deviation
+/// of 0.6–1 px) and its heads up to 8.8 px off; the ramps read the ends from the glow's
+/// outline along the skeleton, and kept every report within 3 px.
+pub fn beyond_the_fit(area_px: u32, frame_px: usize) -> bool {
+    area_px as f32 > super::MAX_BLOB_FRACTION * frame_px as f32
+}
+
 /// Whether the ramps' reading of a streak contradicts itself: they call the blob still (no
 /// longer than the spot, so that its tips would only be its outline) while their tips lie
 /// farther apart than the spot they measured is wide (twice its radius). A still spot's tips

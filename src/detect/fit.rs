@@ -31,7 +31,10 @@
 //! on a bounded set of pixels (both end caps in full, the body subsampled; of the clipped
 //! pixels only the clipped region's border), with fixed-size matrices and no allocation. When
 //! the fit does not settle, or lands somewhere the pixels do not support, the caller falls
-//! back to the streak's middle.
+//! back to the streak's middle. So it does when the fitted model calls a pixel at an end of
+//! its path clipped where the frame shows it well below the clip ([`NoFit::EndOffTheClip`]):
+//! the model has stretched its path over pixels it does not explain (the light of something
+//! bright beside the LED taken for the LED's own).
 
 use nalgebra::{SMatrix, SVector};
 
@@ -269,12 +272,27 @@ impl Local {
     }
 }
 
+/// Why a fit gave no path.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum NoFit {
+    /// Too few pixels, no convergence, or ends farther from the rough ones than the pixels
+    /// support.
+    Failed,
+    /// The path is longer than the spot is wide, and its ends are uncertain by more than its
+    /// length: the fit cannot tell it from a still LED (the caller's rule).
+    Uncertain,
+    /// The fitted model calls the pixel at an end of its path clipped where the frame shows it
+    /// well below the clip: it contradicts the pixels it was meant to explain.
+    EndOffTheClip,
+}
+
 /// Fits the streak model around `rough` on `frame`, whose clipped pixels read `clip_luma`,
 /// on the floor `background` where it has been measured (a flat fitted floor elsewhere), for
 /// the spot `shape` the lens makes of a round one there ([`SpotShape::identity`] without a
 /// lens), from the spot `warm` fitted to the same LED in a recent frame when there is one
-/// (see [`SpotFit`]). `None` when the fit fails (too few pixels, no convergence, a result the
-/// pixels do not support).
+/// (see [`SpotFit`]). [`NoFit`] when the fit fails (too few pixels, no convergence, a result
+/// the pixels do not support), and with `check_ends`, when the model contradicts the pixels
+/// at an end ([`NoFit::EndOffTheClip`]).
 pub fn fit(
     frame: &Frame<'_>,
     rough: &Rough,
@@ -282,13 +300,14 @@ pub fn fit(
     background: Option<&FloorBackground>,
     shape: SpotShape,
     warm: Option<&SpotFit>,
-) -> Option<PathFit> {
+    check_ends: bool,
+) -> Result<PathFit, NoFit> {
     let clip = f32::from(clip_luma);
     let local = Local {
         shape,
         centre_px: rough.mid_px,
     };
-    let samples = collect(frame, rough, background, clip, &local)?;
+    let samples = collect(frame, rough, background, clip, &local).ok_or(NoFit::Failed)?;
     let floor0 = low_percentile(&samples);
     // The path in ideal pixels, where the model's spot is round.
     let [a, b] = rough.ends_px.map(|end| local.to_ideal(end));
@@ -315,9 +334,9 @@ pub fn fit(
             Some(cold) if cold.1 < found.1 => cold,
             _ => found,
         },
-        None => start.cold(rough.thickness_px)?,
+        None => start.cold(rough.thickness_px).ok_or(NoFit::Failed)?,
     };
-    finish(
+    let found = finish(
         &samples,
         (&local, [a, b], rough.thickness_px),
         p,
@@ -325,6 +344,75 @@ pub fn fit(
         clip,
         &all,
     )
+    .ok_or(NoFit::Failed)?;
+    let pixels = Pixels {
+        frame,
+        background,
+        clip,
+        residual_sd: (cost / samples.len.saturating_sub(PARAMS).max(1) as f32).sqrt(),
+    };
+    if check_ends && end_off_the_clip(&pixels, &local, &native(&p), found.uncertainty_px) {
+        return Err(NoFit::EndOffTheClip);
+    }
+    Ok(found)
+}
+
+/// The frame a fit was read from, as [`end_off_the_clip`] checks it.
+struct Pixels<'a, 'f> {
+    frame: &'a Frame<'f>,
+    background: Option<&'a FloorBackground>,
+    clip: f32,
+    /// The fit's residual standard deviation, in luma.
+    residual_sd: f32,
+}
+
+/// Whether the fitted model of parameters `p` (native, in `local`'s ideal pixels), whose ends
+/// are uncertain by `uncertainty_px`, calls the pixel at an end of its path clipped while the
+/// frame shows that pixel below the clip by more than twice the fit's residual deviation.
+///
+/// On a long enough path the light at an end is half the streak's inside level, so a streak
+/// clipped several times over is clipped at its ends, and the LED's centre there lies on the
+/// saturated blob. A fitted end out on unclipped pixels then says that the model stretched its
+/// path over light it does not explain: a 20x clip disk streak ending against a paper-white
+/// square (`tests/bright_beside.rs`) was fitted 3 px long over the square. The model is
+/// evaluated with the end drawn in by one of its deviations (the pixel pushed that far out
+/// along the path), so that an end the fit could not place is not judged on its exact place,
+/// and the verdict is the model's own: a barely clipping spot, whose path ends lie
+/// legitimately off its blob (at half its inside level, below the clip), is left alone, where
+/// a guard asking every moving end to lie on the blob refused those too.
+fn end_off_the_clip(
+    pixels: &Pixels<'_, '_>,
+    local: &Local,
+    p: &Params,
+    uncertainty_px: f32,
+) -> bool {
+    let path = Path::new(p, true);
+    let ends = [(p[0], p[1]), (p[2], p[3])];
+    ends.iter().zip(ends.iter().rev()).any(|(&end, &other)| {
+        let (x, y) = local.to_image(end);
+        let (x, y) = (x.round(), y.round());
+        if x < 0.0 || y < 0.0 {
+            return false;
+        }
+        let (xu, yu) = (x as usize, y as usize);
+        let Some(luma) = pixels.frame.luma(xu, yu) else {
+            return false;
+        };
+        let floor_ln = pixels
+            .background
+            .and_then(|b| b.luma(xu, yu))
+            .filter(|&floor| floor < pixels.clip - 0.5)
+            .map(|floor| (floor.max(0.5) / pixels.clip).ln());
+        let length_px = dist(end, other).max(MIN_CHORD_PX);
+        let outwards = ((end.0 - other.0) / length_px, (end.1 - other.1) / length_px);
+        let at = local.to_ideal((x, y));
+        let drawn_in = (
+            at.0 + uncertainty_px * outwards.0,
+            at.1 + uncertainty_px * outwards.1,
+        );
+        let predicted = model(&path, p, drawn_in, floor_ln, pixels.clip).0;
+        predicted >= pixels.clip && f32::from(luma) < pixels.clip - 2.0 * pixels.residual_sd
+    })
 }
 
 /// The fitted path's ends, middle, length and uncertainty, and its spot, from the fitted `p`

@@ -94,7 +94,7 @@ impl Default for DetectorConfig {
             erosion_kernel: Kernel::Square,
             skeleton: SkeletonMethod::Thinning,
             min_area_px: 2,
-            streak_model: StreakModel::Ramps,
+            streak_model: StreakModel::default(),
         }
     }
 }

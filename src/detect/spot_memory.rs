@@ -50,16 +50,16 @@ impl SpotMemory {
 
     /// Runs `fit` for the streak whose rough middle is `mid_px`, given the spot remembered
     /// there (if any), and remembers what it fitted in that spot's place (or the oldest).
-    pub fn fit_at(
+    pub fn fit_at<E>(
         &mut self,
         mid_px: (f32, f32),
-        fit: impl FnOnce(Option<&SpotFit>) -> Option<PathFit>,
-    ) -> Option<PathFit> {
+        fit: impl FnOnce(Option<&SpotFit>) -> Result<PathFit, E>,
+    ) -> Result<PathFit, E> {
         let known = self.recall(mid_px);
         let found = fit(known.and_then(|i| self.slots.get(i)?.as_ref().map(|s| &s.spot)));
         let index = known.unwrap_or_else(|| self.oldest());
         if let Some(slot) = self.slots.get_mut(index) {
-            *slot = found.map(|f| Slot {
+            *slot = found.as_ref().ok().map(|f| Slot {
                 mid_px: f.mid_px,
                 reach_px: f.path_length_px + KEEP_OUT_MARGIN_PX as f32,
                 frame: self.frame,
@@ -113,9 +113,9 @@ mod tests {
     /// What a fit at `mid_px` is given to start from, as the cost of that spot.
     fn start_at(memory: &mut SpotMemory, mid_px: (f32, f32), cost: f32) -> Option<SpotFit> {
         let mut given = None;
-        memory.fit_at(mid_px, |warm| {
+        let _ = memory.fit_at(mid_px, |warm| {
             given = warm.copied();
-            Some(fitted(mid_px, 20.0, cost))
+            Ok::<_, ()>(fitted(mid_px, 20.0, cost))
         });
         given
     }
@@ -151,9 +151,9 @@ mod tests {
         assert!(memory
             .fit_at((100.0, 100.0), |warm| {
                 assert_eq!(warm, Some(&SpotFit::with_cost(2.0)));
-                None
+                Err(())
             })
-            .is_none());
+            .is_err());
         memory.next_frame();
         assert_eq!(start_at(&mut memory, (100.0, 100.0), 3.0), None);
     }
