@@ -8,9 +8,9 @@
 //! bounded run and blob tables, the background model, the streak fit's learned floor
 //! (`--streak-model fit` and the default `auto`: a running mean and count per pixel), the marker
 //! detector's scratch, the latency histograms, the output writer's buffer, the serial sink's
-//! mailbox and writer thread, the marker re-check's luma copy and worker thread (`--calib` with a marker map), and
-//! (`--publish`, the `net` feature) the publish queue and its thread. After that,
-//! processing a frame
+//! mailbox and writer thread, the marker re-check's luma copy and worker thread (`--calib` with
+//! a marker map), and (`--publish`, the `net` feature) the publish queue and its thread. After
+//! that, processing a frame
 //! performs **zero heap allocations**: frames are borrowed views of the source's buffer,
 //! bounded lists are `heapless` with their capacity in the type, reports are formatted straight
 //! into the reused writer, and serial packets are encoded into stack buffers.

@@ -514,11 +514,6 @@ fn fitted_path(
     (mid, Ok(path))
 }
 
-/// Whether the skeleton's `ends` make a spine whose tips can be read: a chord of at least
-/// [`MIN_CHORD_PX`] whose midpoint is no farther from the streak's middle than half the chord
-/// (a path bent by up to a half turn). Thinning a round blob (a still LED in a wide glow) can
-/// leave a short spur on its rim, whose "ends" lie a radius from its middle: ramps read from
-/// there made a path of 25–36 px of a still LED.
 /// Whether the chord between the skeleton's `ends` lies across the axis of `stadium`, an
 /// elongated blob's (a path at least as long as the stadium is wide): more than
 /// [`ACROSS_AXIS_COS`]'s angle off it. A streak's skeleton runs along its blob.
@@ -531,6 +526,11 @@ fn chord_lies_across(ends: [(f32, f32); 2], stadium: StadiumPath) -> bool {
         && (axis.0 * chord.0 + axis.1 * chord.1).abs() < ACROSS_AXIS_COS * axis_px * chord_px
 }
 
+/// Whether the skeleton's `ends` make a spine whose tips can be read: a chord of at least
+/// [`MIN_CHORD_PX`] whose midpoint is no farther from the streak's middle than half the chord
+/// (a path bent by up to a half turn). Thinning a round blob (a still LED in a wide glow) can
+/// leave a short spur on its rim, whose "ends" lie a radius from its middle: ramps read from
+/// there made a path of 25–36 px of a still LED.
 fn spans_its_middle(ends: [(f32, f32); 2], mid: (f32, f32)) -> bool {
     let chord_px = dist(ends[0], ends[1]);
     let centre = (0.5 * (ends[0].0 + ends[1].0), 0.5 * (ends[0].1 + ends[1].1));
