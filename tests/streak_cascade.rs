@@ -56,20 +56,30 @@ fn round(mut point: SweepPoint) -> SweepPoint {
     point
 }
 
+/// Point `index` of the sweep of `seed`, drawn round, run in full: the point, and its frames
+/// (at least `min_found` found).
+fn run_round_point(
+    seed: u64,
+    index: usize,
+    min_found: usize,
+) -> (SweepPoint, Vec<(bool, Option<f64>, bool)>) {
+    let point = round(SweepPoint::new(seed, index));
+    let frames = run(&Scene::new(point.config()).unwrap(), usize::MAX);
+    assert!(
+        frames.len() >= min_found,
+        "{point}: found in {} frames",
+        frames.len()
+    );
+    (point, frames)
+}
+
 /// Point 14 of seed 11: a 60 px streak of a spot in a glow 4.2× its core, which the ramps
 /// read 0.69 / 1.03 px off at the head (median / p95; the bound 0.5 / 1.5 px) and the
 /// fit 0.15 / 0.19 px. Its edge falls over the glow's flank, pixels wide: every frame is
 /// fitted, and the head holds the bound.
 #[test]
 fn a_streak_in_a_glow_the_ramps_misread_is_fitted() {
-    let point = round(SweepPoint::sweep(11, 15).remove(14));
-    let scene = Scene::new(point.config()).unwrap();
-    let frames = run(&scene, usize::MAX);
-    assert!(
-        frames.len() >= 4,
-        "{point}: found in {} frames",
-        frames.len()
-    );
+    let (point, frames) = run_round_point(11, 14, 4);
     assert!(
         frames.iter().all(|&(fitted, _, _)| fitted),
         "{point}: fitted {:?}",
@@ -102,14 +112,7 @@ fn a_sharp_disk_s_streak_is_left_to_the_ramps() {
 /// and a bent streak is now fitted in every frame; the head holds the bound in every frame.
 #[test]
 fn a_streak_the_ramps_call_still_across_their_own_path_is_fitted() {
-    let point = round(SweepPoint::sweep(11, 180).remove(179));
-    let scene = Scene::new(point.config()).unwrap();
-    let frames = run(&scene, usize::MAX);
-    assert!(
-        frames.len() >= 8,
-        "{point}: found in {} frames",
-        frames.len()
-    );
+    let (point, frames) = run_round_point(11, 179, 8);
     let fitted = frames.iter().filter(|f| f.0).count();
     assert!(
         fitted == frames.len(),
@@ -151,19 +154,12 @@ fn a_grout_line_along_the_ray_does_not_make_a_sharp_edge_resolved() {
 /// px disks at 2.8–13× the clip on 8–10 px lines). In a frame or two of each, the ramps call
 /// the blob still by its caps while their own tips lie a whole streak apart; with that reading
 /// taken, the frame has no single-frame speed (the velocity comes from the middles' motion):
-/// two, two and four frames of ten without the rule. That reading contradicts itself and is fitted, and every frame after the
-/// first reads its speed from its streak.
+/// two, two and four frames of ten without the rule. That reading contradicts itself and is
+/// fitted, and every frame after the first reads its speed from its streak.
 #[test]
 fn short_disk_streaks_the_ramps_call_still_keep_their_speed() {
     for (seed, index) in [(11, 37), (11, 161), (12, 97)] {
-        let point = round(SweepPoint::sweep(seed, index + 1).remove(index));
-        let scene = Scene::new(point.config()).unwrap();
-        let frames = run(&scene, usize::MAX);
-        assert!(
-            frames.len() >= 4,
-            "{point}: found in {} frames",
-            frames.len()
-        );
+        let (point, frames) = run_round_point(seed, index, 4);
         let without: Vec<usize> = (1..frames.len()).filter(|&i| !frames[i].2).collect();
         assert!(
             without.is_empty(),

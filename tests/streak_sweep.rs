@@ -23,11 +23,13 @@
 //! `cargo test --test streak_sweep -- --ignored`. It prints every point's figures and the
 //! sweep's totals, then fails listing the points out of bounds.
 
+mod common;
+
+use common::in_process;
 use glint::detect::spot_shape::{SpotOptics, SpotShape};
 use glint::detect::streak::{FitFloor, StreakModel};
 use glint::detect::{Detector, DetectorConfig};
 use glint::frame::{Frame, FrameSize};
-use glint::pipeline::{Pipeline, PipelineConfig};
 use glint::source::FrameMeta;
 use glint::track::{Tracker, TrackerConfig, VelocityMethod};
 use glint_tools::scene::{Scene, SpotKind, Squeeze, SweepPath, SweepPoint, Visibility};
@@ -147,16 +149,7 @@ fn run_point(point: &SweepPoint, model: StreakModel) -> PointScore {
     }
     let scene = Scene::new(config).expect("sweep scene");
     let size = FrameSize::new(scene.width_px(), scene.height_px()).unwrap();
-    let config = PipelineConfig {
-        tracker: TrackerConfig {
-            exposure_us: Some(scene.exposure_us()),
-        },
-        detector: DetectorConfig {
-            streak_model: model,
-            ..DetectorConfig::default()
-        },
-    };
-    let mut pipeline = Pipeline::new(size, config).unwrap();
+    let mut pipeline = in_process::pipeline(&scene, model);
     if let Some(optics) = optics(point) {
         pipeline.set_optics(optics);
     }
