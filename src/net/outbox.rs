@@ -106,3 +106,36 @@ impl<T> Drop for Outbox<T> {
         self.close();
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// With the sending thread held up before it takes any item, the queue takes exactly its
+    /// capacity and drops the rest; once released, everything queued is sent, and an item offered
+    /// after closing is dropped.
+    #[test]
+    fn a_full_queue_drops_and_counts_without_waiting() {
+        let (release, held) = mpsc::channel::<()>();
+        let mut outbox = Outbox::start("outbox-test", move |items: Receiver<u32>, counters| {
+            held.recv().ok();
+            for _ in items {
+                counters.sent.fetch_add(1, Ordering::Relaxed);
+            }
+        })
+        .unwrap();
+        let offered = 3 * QUEUE_REPORTS as u64;
+        for item in 0..offered {
+            outbox.offer(item as u32);
+        }
+        let stats = outbox.stats();
+        assert_eq!(stats.queued + stats.dropped, offered, "{stats}");
+        assert_eq!(stats.queued, QUEUE_REPORTS as u64, "{stats}");
+        release.send(()).unwrap();
+        outbox.close();
+        outbox.offer(0);
+        let stats = outbox.stats();
+        assert_eq!(stats.sent, QUEUE_REPORTS as u64, "{stats}");
+        assert_eq!(stats.dropped, offered - QUEUE_REPORTS as u64 + 1, "{stats}");
+    }
+}
