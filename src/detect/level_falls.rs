@@ -9,7 +9,7 @@
 //! them lie across the body. One walk, so that all read the frame the same way; the middle also weighs each crossing by the luma's slope there (a crossing moves
 //! by the luma's error over that slope).
 
-use super::tips::luma_at;
+use super::bilinear::Walk;
 use crate::frame::Frame;
 
 /// Sampling step along the ray: a tenth of a pixel, so that the bilinear luma between two
@@ -51,7 +51,8 @@ pub fn first_falls<const N: usize>(
     armed: Armed,
 ) -> [Option<Fall>; N] {
     let mut found: [Option<Fall>; N] = [None; N];
-    let Some(mut prev) = luma_at(frame, start.0, start.1) else {
+    let mut walk = Walk::new(frame);
+    let Some(mut prev) = walk.luma_at(start.0, start.1) else {
         return found;
     };
     // Levels the walk has been at or above, and levels still to be crossed.
@@ -66,7 +67,7 @@ pub fn first_falls<const N: usize>(
             break;
         }
         let u = i as f32 * STEP_PX;
-        let Some(v) = luma_at(frame, start.0 + u * d.0, start.1 + u * d.1) else {
+        let Some(v) = walk.luma_at(start.0 + u * d.0, start.1 + u * d.1) else {
             break;
         };
         for (((slot, o), a), &level) in found

@@ -19,9 +19,9 @@
 //! 0.07 / 0.55 px. What is left is mostly blooms: where a glow reaches the levels on its own,
 //! every crossing is on its shallow flank, which the floor's texture moves by tenths of a pixel.
 
+use super::bilinear::luma_at;
 use super::level_falls::{first_falls, Armed};
 use super::ray_floor;
-use super::tips::luma_at;
 use crate::frame::Frame;
 
 /// The levels the luma along the lines is cut at, as fractions of the way from the floor to

@@ -7,6 +7,7 @@
 mod arc_path;
 pub mod aruco;
 pub mod bgdiff;
+mod bilinear;
 pub mod bitimage;
 pub mod blobs;
 pub mod cascade;

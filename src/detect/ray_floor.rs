@@ -12,7 +12,7 @@
 //! darkest sample, so that the floor's grout lines and read noise do not drag the floor down
 //! (a dark line crossed by a ray is narrower than half a window).
 
-use super::tips::luma_at;
+use super::bilinear::Walk;
 use crate::frame::Frame;
 
 /// Samples per window: 7 px, more than twice a grout line crossed at 45° (2.8 px).
@@ -49,9 +49,10 @@ pub fn along(frame: &Frame<'_>, start: (f32, f32), d: (f32, f32)) -> Option<RayF
     let mut first = None;
     let mut low = f32::INFINITY;
     let mut low_at = 0usize;
+    let mut walk = Walk::new(frame);
     for i in 0..SAMPLES {
         let u = i as f32 * STEP_PX;
-        let v = luma_at(frame, start.0 + u * d.0, start.1 + u * d.1)?;
+        let v = walk.luma_at(start.0 + u * d.0, start.1 + u * d.1)?;
         // The light at the start, which the profile falls from.
         let first = *first.get_or_insert(v);
         if let Some(slot) = ring.get_mut(i % WINDOW) {
@@ -123,7 +124,7 @@ mod tests {
             "{floor:?}"
         );
         // A fixed reach of 14 px read the glow: 90 + 150 exp(−14²/128) = 122.
-        let at_14 = luma_at(&frame, 32.0, 34.0).unwrap();
+        let at_14 = crate::detect::bilinear::luma_at(&frame, 32.0, 34.0).unwrap();
         assert!(at_14 > 110.0, "{at_14}");
     }
 

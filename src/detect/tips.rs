@@ -27,6 +27,7 @@
 //! extents scatter by a few tenths of a pixel more than that width (a clipped edge is read to
 //! about a pixel), and subtracting them instead doubled the head error on the 1280×720 scene.
 
+use super::bilinear::Walk;
 use super::bitimage::{BitImage, Window};
 use super::line_profile;
 use super::ray_floor;
@@ -338,9 +339,10 @@ struct Ramp {
 /// the high and the low level between the clip level and the floor the ray reaches
 /// ([`ray_floor`]: where the LED's light, its glow included, has died away).
 fn ramp_along(frame: &Frame<'_>, start: (f32, f32), d: (f32, f32), clip: f32) -> Option<Ramp> {
-    let at = |i: usize| {
+    let mut walk = Walk::new(frame);
+    let mut at = |i: usize| {
         let u = i as f32 * STEP_PX;
-        luma_at(frame, start.0 + u * d.0, start.1 + u * d.1)
+        walk.luma_at(start.0 + u * d.0, start.1 + u * d.1)
     };
     let floor = ray_floor::along(frame, start, d)?;
     let samples = (floor.reach_px / STEP_PX) as usize;
@@ -374,26 +376,4 @@ fn ramp_along(frame: &Frame<'_>, start: (f32, f32), d: (f32, f32), clip: f32) ->
         length_px,
         low_px: low,
     })
-}
-
-/// Bilinearly interpolated luma at `(x, y)`; `None` outside the frame.
-///
-/// The ramps and the falls read it thousands of times a frame, so it takes each of
-/// its two rows once, and floors by truncation: the same for the non-negative coordinates
-/// it reads, where `floor` is a library call on baseline x86-64 (no SSE4.1).
-pub(super) fn luma_at(frame: &Frame<'_>, x: f32, y: f32) -> Option<f32> {
-    if x < 0.0 || y < 0.0 {
-        return None;
-    }
-    let (x0, y0) = (x as usize, y as usize);
-    if x0 >= frame.size().width().saturating_sub(1) {
-        return None;
-    }
-    let (fx, fy) = (x - x0 as f32, y - y0 as f32);
-    let (upper, lower) = (frame.luma_row(y0)?, frame.luma_row(y0.checked_add(1)?)?);
-    let (left, right) = (x0 * frame.luma_step(), (x0 + 1) * frame.luma_step());
-    let p = |row: &[u8], i: usize| row.get(i).copied().map(f32::from);
-    let top = p(upper, left)? * (1.0 - fx) + p(upper, right)? * fx;
-    let bottom = p(lower, left)? * (1.0 - fx) + p(lower, right)? * fx;
-    Some(top * (1.0 - fy) + bottom * fy)
 }
