@@ -61,38 +61,67 @@ pub fn first_falls<const N: usize>(
         Armed::AtStart => above,
         Armed::OnceReached => [true; N],
     };
+    let Some(mut quiet) = quiet_band(levels, &open, &above) else {
+        return found;
+    };
     let samples = (reach_px / STEP_PX) as usize;
     for i in 1..=samples {
-        if !open.iter().any(|&o| o) {
-            break;
-        }
         let u = i as f32 * STEP_PX;
         let Some(v) = walk.luma_at(start.0 + u * d.0, start.1 + u * d.1) else {
             break;
         };
-        for (((slot, o), a), &level) in found
-            .iter_mut()
-            .zip(open.iter_mut())
-            .zip(above.iter_mut())
-            .zip(levels)
-        {
-            if !*o {
-                continue;
+        if v < quiet.0 || v >= quiet.1 {
+            for (((slot, o), a), &level) in found
+                .iter_mut()
+                .zip(open.iter_mut())
+                .zip(above.iter_mut())
+                .zip(levels)
+            {
+                if !*o {
+                    continue;
+                }
+                if *a && v < level {
+                    let frac = (prev - level) / (prev - v);
+                    *slot = Some(Fall {
+                        at_px: (i as f32 - 1.0 + frac) * STEP_PX,
+                        slope_per_px: (prev - v) / STEP_PX,
+                    });
+                    *o = false;
+                } else {
+                    *a = *a || v >= level;
+                }
             }
-            if *a && v < level {
-                let frac = (prev - level) / (prev - v);
-                *slot = Some(Fall {
-                    at_px: (i as f32 - 1.0 + frac) * STEP_PX,
-                    slope_per_px: (prev - v) / STEP_PX,
-                });
-                *o = false;
-            } else {
-                *a = *a || v >= level;
+            match quiet_band(levels, &open, &above) {
+                Some(band) => quiet = band,
+                None => break,
             }
         }
         prev = v;
     }
     found
+}
+
+/// The luma band `[low, high)` in which a sample changes nothing: at or above every open level
+/// the walk has been at (so none falls), below every open level it has not reached (so none
+/// is reached). Most samples of a walk lie in it, and only those outside it visit the levels.
+/// `None` when no level is open: the walk is done.
+fn quiet_band<const N: usize>(
+    levels: &[f32; N],
+    open: &[bool; N],
+    above: &[bool; N],
+) -> Option<(f32, f32)> {
+    let mut band = None;
+    for ((&level, &o), &a) in levels.iter().zip(open).zip(above) {
+        if o {
+            let (low, high) = band.get_or_insert((f32::NEG_INFINITY, f32::INFINITY));
+            if a {
+                *low = low.max(level);
+            } else {
+                *high = high.min(level);
+            }
+        }
+    }
+    band
 }
 
 #[cfg(test)]
