@@ -4,7 +4,7 @@
 //! streak ([`super::ray_floor`]) read the light between pixel centres thousands of times a frame,
 //! mostly in steps of a tenth of a pixel along a ray, so that about ten reads in a row fall in
 //! the same cell of four pixels. Fetching a cell's two rows and four bytes (with their bounds
-//! checks) cost several times the interpolation itself: on the sweep's fast line these reads
+//! checks) cost several times the interpolation itself: on the fast-line scene these reads
 //! were a third of the whole replay's instructions. A [`Walk`] keeps the last cell's corners
 //! and fetches a cell only when a read leaves it; the interpolation is the same arithmetic as
 //! [`luma_at`]'s, so a walk reads exactly the values single reads would.
@@ -91,6 +91,7 @@ fn corners(frame: &Frame<'_>, (x0, y0): (usize, usize)) -> Option<Corners> {
     ])
 }
 
+/// The light at `(fx, fy)` across a cell of `corners`: along the rows, then between them.
 #[inline]
 fn interpolate(
     &[upper_left, upper_right, lower_left, lower_right]: &Corners,
