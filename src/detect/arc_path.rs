@@ -39,9 +39,21 @@ impl ArcPieces {
     /// when `with_slopes` (the normal equations need them; a cost evaluation does not, and
     /// they take ten times the corners' work).
     pub fn new(params: [f32; PATH_PARAMS], with_slopes: bool) -> ArcPieces {
+        ArcPieces::drawn(params, with_slopes, 1)
+    }
+
+    /// The arc of `params` with the corners' slopes, in at least two pieces. A path within the
+    /// tolerance of straight is one piece, whose two corners do not move with the sagitta, so
+    /// its slope in the sagitta is zero there; two collinear pieces draw the same light and
+    /// give the bend its slope (their shared corner moves with it).
+    pub fn bendable(params: [f32; PATH_PARAMS]) -> ArcPieces {
+        ArcPieces::drawn(params, true, 2)
+    }
+
+    fn drawn(params: [f32; PATH_PARAMS], with_slopes: bool, min_pieces: usize) -> ArcPieces {
         let p = params.map(f64::from);
         let arc = arc_of(p);
-        let count = arc.piece_count();
+        let count = arc.piece_count().max(min_pieces);
         let (corners, mid) = arc.points(count);
         let mut out = ArcPieces {
             corners: [(0.0, 0.0); MAX_PIECES + 1],
@@ -253,6 +265,31 @@ mod tests {
         // A sagitta far below the tolerance keeps it one piece, and on the chord.
         let nearly = ArcPieces::new([10.0, 20.0, 70.0, 20.0, 1e-3], false);
         assert_eq!(nearly.count, 1);
+    }
+
+    /// A straight path drawn bendable is two collinear pieces: its ends do not move with the
+    /// sagitta, and its middle corner moves along the chord's left normal as fast as the
+    /// sagitta grows.
+    #[test]
+    fn a_bendable_straight_path_moves_its_middle_with_the_sagitta() {
+        let straight = [10.0, 20.0, 70.0, 50.0, 0.0];
+        let pieces = ArcPieces::bendable(straight);
+        assert_eq!(pieces.count, 2);
+        assert_eq!(ArcPieces::new(straight, true).count, 1);
+        let (mid, ends) = (pieces.corners[1], [pieces.corners[0], pieces.corners[2]]);
+        assert!(
+            (mid.0 - 40.0).abs() < 1e-4 && (mid.1 - 35.0).abs() < 1e-4,
+            "{mid:?}"
+        );
+        assert_eq!(ends, [(10.0, 20.0), (70.0, 50.0)]);
+        let chord = 60f32.hypot(30.0);
+        let normal = (-30.0 / chord, 60.0 / chord);
+        let [sx, sy] = pieces.slopes[1];
+        assert!((sx[4] - normal.0).abs() < 1e-3 && (sy[4] - normal.1).abs() < 1e-3);
+        for end in [0, 2] {
+            let [ex, ey] = pieces.slopes[end];
+            assert!(ex[4].abs() < 1e-4 && ey[4].abs() < 1e-4, "corner {end}");
+        }
     }
 
     #[test]

@@ -336,13 +336,17 @@ pub fn fit(
         },
         None => start.cold(rough.thickness_px).ok_or(NoFit::Failed)?,
     };
+    let (p, cost) = bent_if_asked(&samples, (p, cost), clip, &all);
+    // A path left straight was fitted with its sagitta held: so is its uncertainty read.
+    let mut fitted_all = all;
+    fitted_all[SAGITTA] = !is_straight(&[p[0], p[1], p[2], p[3], p[SAGITTA]]);
     let found = finish(
         &samples,
         (&local, [a, b], rough.thickness_px),
         p,
         cost,
         clip,
-        &all,
+        &fitted_all,
     )
     .ok_or(NoFit::Failed)?;
     let pixels = Pixels {
@@ -445,11 +449,7 @@ fn finish(
         return None;
     }
     let residual_var = cost / (samples.len.saturating_sub(PARAMS).max(1)) as f32;
-    let mut regularised = normal;
-    for i in 0..PARAMS {
-        regularised[(i, i)] += 1e-6 * normal[(i, i)].max(1e-6);
-    }
-    let covariance = regularised.try_inverse()?;
+    let covariance = covariance_of(&normal)?;
     let end_var = (covariance[(0, 0)] + covariance[(1, 1)])
         .max(covariance[(2, 2)] + covariance[(3, 3)])
         .max(0.0);
@@ -481,6 +481,84 @@ fn finish(
 /// A warm start's fit is kept when its cost per pixel is at most this many times the spot's
 /// it started from; above, the fit is also run from scratch and the better one kept.
 const WARM_COST_RATIO: f32 = 4.0;
+
+/// The sagitta's index in the parameters.
+const SAGITTA: usize = 4;
+/// A straight fit is bent when the step the pixels ask of its sagitta is more than this many
+/// of the sagitta's standard deviations: the usual three, so that a straight streak's noise
+/// does not bend it.
+const BEND_DEVIATIONS: f32 = 3.0;
+
+/// Whether the path `path` (start x, y, end x, y, sagitta) is drawn straight: within
+/// [`ArcPieces`]' tolerance of its chord, one piece.
+fn is_straight(path: &[f32; PATH_PARAMS]) -> bool {
+    ArcPieces::new(*path, false).count == 1
+}
+
+/// The inverse of the normal matrix `normal`, in units of the residual variance: each
+/// diagonal raised by a millionth of itself first, so that a parameter the pixels do not
+/// constrain (a glow of no light, whose width then moves nothing) reads as uncertain rather
+/// than the matrix as singular.
+fn covariance_of(normal: &Normal) -> Option<Normal> {
+    let mut regularised = *normal;
+    for i in 0..PARAMS {
+        regularised[(i, i)] += 1e-6 * normal[(i, i)].max(1e-6);
+    }
+    regularised.try_inverse()
+}
+
+/// The fit `(p, cost)`, bent when it is straight and the pixels ask it to bend
+/// ([`bend_asked`]): fitted again from there with the parameters in `all` (the sagitta free),
+/// and kept when that costs less.
+fn bent_if_asked(
+    samples: &Samples,
+    (p, cost): (Params, f32),
+    clip: f32,
+    all: &[bool; PARAMS],
+) -> (Params, f32) {
+    if !is_straight(&[p[0], p[1], p[2], p[3], p[SAGITTA]])
+        || !bend_asked(samples, &p, cost, clip, all)
+    {
+        return (p, cost);
+    }
+    match levenberg_marquardt(samples, p, clip, all) {
+        Some(bent) if bent.1 < cost => bent,
+        _ => (p, cost),
+    }
+}
+
+/// Whether the pixels ask the fit `p` (of cost `cost`), fitted straight with its sagitta
+/// held, to bend: a score test on the sagitta, the Gauss–Newton step it asks of it against its
+/// standard deviation, both from the curvature with every parameter in `all` free.
+///
+/// A path drawn straight is one piece, whose ends do not move with the sagitta, so a fit
+/// started straight (the rough middle on the chord, as a stadium's always is) could never
+/// bend: a 60 px arc in a 39 px clipped halo (independent scene 28 of seed 3) stayed straight
+/// in every frame, its head 2.3–3 px off across the path. Freeing the bend on every straight
+/// start mended it, but let straight streaks bend to their noise (sagittas of 0.1–0.6 px at
+/// one deviation or less), which put more of the sweep's straight lines out than it brought
+/// arcs in. The test bends only a path the pixels call bent.
+fn bend_asked(samples: &Samples, p: &Params, cost: f32, clip: f32, all: &[bool; PARAMS]) -> bool {
+    let Some((mut jtj, jtr)) = normal_equations(samples, p, clip, all) else {
+        return false;
+    };
+    for (i, &on) in all.iter().enumerate() {
+        if !on {
+            jtj.row_mut(i).fill(0.0);
+            jtj.column_mut(i).fill(0.0);
+            jtj[(i, i)] = 1.0;
+        }
+    }
+    let Some(covariance) = covariance_of(&jtj) else {
+        return false;
+    };
+    let residual_var = cost / (samples.len.saturating_sub(PARAMS).max(1)) as f32;
+    let step = (covariance * jtr)[SAGITTA];
+    let deviation = (covariance[(SAGITTA, SAGITTA)] * residual_var)
+        .max(0.0)
+        .sqrt();
+    step.abs() > BEND_DEVIATIONS * deviation
+}
 
 /// What a fit starts from: the samples, the rough path, the floor around it.
 struct Start<'a> {
@@ -522,13 +600,21 @@ impl Start<'_> {
         shape[GLOW_WIDTH - PATH_PARAMS] = shape[CORE_WIDTH - PATH_PARAMS] + GLOW_WIDTH0.ln();
         shape[GLOW_RATIO - PATH_PARAMS] = GLOW_RATIO0;
         let p = clamp_fitted(start.params(&shape));
-        levenberg_marquardt(self.samples, p, self.clip, self.all)
+        levenberg_marquardt(self.samples, p, self.clip, &start.active())
+    }
+
+    /// The parameters to fit from this start: all of them, but the sagitta held where the
+    /// start is straight (see [`bend_asked`]).
+    fn active(&self) -> [bool; PARAMS] {
+        let mut active = *self.all;
+        active[SAGITTA] = !is_straight(&self.path);
+        active
     }
 
     /// From scratch: the spot's width from the streak's `thickness_px`, its usual glow and
     /// tone.
     fn cold(&self, thickness_px: f32) -> Option<(Params, f32)> {
-        let (samples, clip, all) = (self.samples, self.clip, self.all);
+        let (samples, clip, all) = (self.samples, self.clip, &self.active());
         let sigma0 = (0.3 * thickness_px).clamp(0.7, 6.0);
         let mut p = self.params(&[
             sigma0.ln(),
@@ -707,17 +793,27 @@ struct Piece {
 impl Path {
     /// The path of `p`, with the glow's light drawn when `glow` (else it reads zero).
     fn new(p: &Params, glow: bool) -> Path {
-        Path::drawn(p, glow, false)
+        Path::drawn(
+            p,
+            glow,
+            ArcPieces::new([p[0], p[1], p[2], p[3], p[4]], false),
+        )
     }
 
     /// The path of `p` with its corners' slopes in the path's parameters, for
-    /// [`Path::lights`].
-    fn with_slopes(p: &Params, glow: bool) -> Path {
-        Path::drawn(p, glow, true)
+    /// [`Path::lights`]; with `bend`, in at least two pieces, so that a straight path's
+    /// sagitta has a slope too ([`ArcPieces::bendable`]).
+    fn with_slopes(p: &Params, glow: bool, bend: bool) -> Path {
+        let params = [p[0], p[1], p[2], p[3], p[4]];
+        let arc = if bend {
+            ArcPieces::bendable(params)
+        } else {
+            ArcPieces::new(params, true)
+        };
+        Path::drawn(p, glow, arc)
     }
 
-    fn drawn(p: &Params, glow: bool, slopes: bool) -> Path {
-        let arc = ArcPieces::new([p[0], p[1], p[2], p[3], p[4]], slopes);
+    fn drawn(p: &Params, glow: bool, arc: ArcPieces) -> Path {
         let mut pieces = [Piece::default(); MAX_PIECES];
         let mut length = 0.0;
         for (piece, ends) in pieces
@@ -987,7 +1083,7 @@ fn normal_equations(
 ) -> Option<(Normal, Params)> {
     let fit = p;
     let p = &native(fit);
-    let path = Path::with_slopes(p, active[GLOW_RATIO]);
+    let path = Path::with_slopes(p, active[GLOW_RATIO], active[SAGITTA]);
     let ratio = p[GLOW_RATIO].max(0.0);
     let inv_k = 1.0 / p[TONE];
     let amplitude = p[LN_AMPLITUDE].exp();
@@ -1292,7 +1388,7 @@ mod tests {
     #[test]
     fn the_lights_slopes_are_those_of_its_values() {
         for p in paths() {
-            let path = Path::with_slopes(&p, true);
+            let path = Path::with_slopes(&p, true, false);
             // A still path stays still under the step: f32 cannot resolve the light of a
             // path a few thousandths of a pixel long, which is why that is drawn as a spot.
             let path_h = if path.length < 0.1 { 5e-4 } else { 2e-3 };
@@ -1530,6 +1626,95 @@ mod tests {
             }
         }
         assert!(checked > 0, "no cold fit found its path");
+    }
+
+    /// `MAX_FIT_PX` pixels across the whole path of `truth` (out to three spot widths either
+    /// side, and past its ends), their luma its model's with a pseudo-random noise of up to
+    /// `noise_luma` either way, on a flat floor.
+    fn samples_across(truth: &Params, clip: f32, noise_luma: f32) -> Samples {
+        let mut s = Samples {
+            xy: [(0.0, 0.0); MAX_FIT_PX],
+            luma: [0.0; MAX_FIT_PX],
+            floor_ln: [None; MAX_FIT_PX],
+            len: 0,
+        };
+        let path = Path::new(truth, true);
+        let corners = &path.arc.corners[..=path.arc.count];
+        let reach = 3.0 * truth[GLOW_WIDTH].exp();
+        let mut state = 7u32;
+        for k in 0..MAX_FIT_PX {
+            // Sixteen stations from a little before the start to a little past the end, eight
+            // offsets across at each.
+            let (station, across) = (k / 8, k % 8);
+            let tau = (station as f32 / 15.0) * 1.2 - 0.1;
+            let at = tau.clamp(0.0, 1.0) * (corners.len() - 1) as f32;
+            let i = (at as usize).min(corners.len() - 2);
+            let (c0, c1) = (corners[i], corners[i + 1]);
+            let f = at - i as f32;
+            let on = (c0.0 + f * (c1.0 - c0.0), c0.1 + f * (c1.1 - c0.1));
+            let len = dist(c0, c1).max(1e-6);
+            let (ux, uy) = ((c1.0 - c0.0) / len, (c1.1 - c0.1) / len);
+            let beyond = (tau - tau.clamp(0.0, 1.0)) * 30.0;
+            let off = (across as f32 / 7.0 * 2.0 - 1.0) * reach;
+            let xy = (on.0 + beyond * ux - off * uy, on.1 + beyond * uy + off * ux);
+            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            let noise = noise_luma * ((state >> 8) as f32 / (1u32 << 24) as f32 * 2.0 - 1.0);
+            let luma = (model(&path, truth, xy, None, clip).0 + noise).clamp(0.0, clip);
+            s.xy[s.len] = xy;
+            s.luma[s.len] = luma;
+            s.len += 1;
+        }
+        s
+    }
+
+    /// The fit of `truth`'s pixels from a straight start between its own ends, bent if asked.
+    fn fitted_from_straight(truth: &Params, s: &Samples, clip: f32) -> (Params, f32) {
+        let mut all = [true; PARAMS];
+        all[PEDESTAL] = false;
+        let start = Start {
+            samples: s,
+            path: [truth[0], truth[1], truth[2], truth[3], 0.0],
+            floor_luma: low_percentile(s),
+            clip,
+            all: &all,
+        };
+        let straight = start.cold(3.0).expect("a straight fit");
+        assert!(is_straight(&[
+            straight.0[0],
+            straight.0[1],
+            straight.0[2],
+            straight.0[3],
+            straight.0[SAGITTA]
+        ]));
+        bent_if_asked(s, straight, clip, &all)
+    }
+
+    /// A fit started straight on a bent streak (its rough middle on the chord, as a stadium's
+    /// always is) bends to it: without the bend test its sagitta stays where it started.
+    #[test]
+    fn a_straight_start_bends_where_the_pixels_ask() {
+        let clip = 250.0;
+        let truth = params((10.0, 12.0), (35.0, 30.0), 6.0, 0.9);
+        let s = samples_across(&truth, clip, 3.0);
+        let (p, _) = fitted_from_straight(&truth, &s, clip);
+        assert!((p[SAGITTA] - truth[SAGITTA]).abs() < 0.5, "{p:?}");
+        for j in 0..4 {
+            assert!((p[j] - truth[j]).abs() < 0.5, "{p:?}");
+        }
+    }
+
+    /// Noise does not bend a straight streak: the pixels ask no bend of it, and it stays one
+    /// straight piece.
+    #[test]
+    fn noise_does_not_bend_a_straight_streak() {
+        let clip = 250.0;
+        for (k, noise_luma) in [2.0, 6.0, 12.0].into_iter().enumerate() {
+            let truth = params((10.0, 12.0 + k as f32), (50.0, 20.0), 0.0, 1.2);
+            let s = samples_across(&truth, clip, noise_luma);
+            let (p, _) = fitted_from_straight(&truth, &s, clip);
+            let path = [p[0], p[1], p[2], p[3], p[SAGITTA]];
+            assert!(is_straight(&path), "noise {noise_luma}: {p:?}");
+        }
     }
 
     #[test]
