@@ -1426,15 +1426,20 @@ mod tests {
         }
     }
 
-    /// Samples around the path of `truth`, its model's luma with a deterministic ripple, a
-    /// few clipped; every third pixel's floor unmeasured.
-    fn samples_of(truth: &Params, clip: f32) -> Samples {
-        let mut s = Samples {
+    /// No samples yet.
+    fn no_samples() -> Samples {
+        Samples {
             xy: [(0.0, 0.0); MAX_FIT_PX],
             luma: [0.0; MAX_FIT_PX],
             floor_ln: [None; MAX_FIT_PX],
             len: 0,
-        };
+        }
+    }
+
+    /// Samples around the path of `truth`, its model's luma with a deterministic ripple, a
+    /// few clipped; every third pixel's floor unmeasured.
+    fn samples_of(truth: &Params, clip: f32) -> Samples {
+        let mut s = no_samples();
         let path = Path::new(truth, true);
         for (k, xy) in pixels_around(truth).enumerate() {
             let floor_ln = (k % 3 != 0)
@@ -1629,16 +1634,11 @@ mod tests {
         assert!(checked > 0, "no cold fit found its path");
     }
 
-    /// `MAX_FIT_PX` pixels across the whole path of `truth` (out to three spot widths either
-    /// side, and past its ends), their luma its model's with a pseudo-random noise of up to
-    /// `noise_luma` either way, on a flat floor.
+    /// `MAX_FIT_PX` pixels across the whole path of `truth` (out to three of its glow's σ either
+    /// side, and up to 3 px past its ends), their luma its model's with a pseudo-random noise of
+    /// up to `noise_luma` either way, on a flat floor.
     fn samples_across(truth: &Params, clip: f32, noise_luma: f32) -> Samples {
-        let mut s = Samples {
-            xy: [(0.0, 0.0); MAX_FIT_PX],
-            luma: [0.0; MAX_FIT_PX],
-            floor_ln: [None; MAX_FIT_PX],
-            len: 0,
-        };
+        let mut s = no_samples();
         let path = Path::new(truth, true);
         let corners = &path.arc.corners[..=path.arc.count];
         let reach = 3.0 * truth[GLOW_WIDTH].exp();
