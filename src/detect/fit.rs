@@ -431,12 +431,8 @@ fn finish(
     clip: f32,
     all: &[bool; PARAMS],
 ) -> Option<PathFit> {
-    let mut normal = normal_equations(samples, &p, clip, all)?.0;
-    for i in [FLAT_FLOOR, PEDESTAL] {
-        if !all[i] {
-            normal[(i, i)] = 1.0;
-        }
-    }
+    let (mut normal, mut gradient) = normal_equations(samples, &p, clip, all)?;
+    hold_inactive(&mut normal, &mut gradient, all);
     let sigma = native(&p)[5].exp();
     let ends = [(p[0], p[1]), (p[2], p[3])];
     // The skeleton's ends of a fat blob (a glow that saturates) lie up to its width from the
@@ -540,16 +536,10 @@ fn bent_if_asked(
 /// within 1.2 of its deviations, and 4 points went out to none brought in. The test bends
 /// only a path the pixels call bent.
 fn bend_asked(samples: &Samples, p: &Params, cost: f32, clip: f32, all: &[bool; PARAMS]) -> bool {
-    let Some((mut jtj, jtr)) = normal_equations(samples, p, clip, all) else {
+    let Some((mut jtj, mut jtr)) = normal_equations(samples, p, clip, all) else {
         return false;
     };
-    for (i, &on) in all.iter().enumerate() {
-        if !on {
-            jtj.row_mut(i).fill(0.0);
-            jtj.column_mut(i).fill(0.0);
-            jtj[(i, i)] = 1.0;
-        }
-    }
+    hold_inactive(&mut jtj, &mut jtr, all);
     let Some(covariance) = covariance_of(&jtj) else {
         return false;
     };
@@ -698,6 +688,20 @@ fn clamp_fitted(mut t: Params) -> Params {
     fitted(&clamp_params(native(&t)))
 }
 
+/// Holds the parameters not `active` in the normal equations `jtj`, `jtr`: their rows and
+/// columns zero, a unit diagonal, so that a step leaves them where they are and the matrix
+/// stays invertible.
+fn hold_inactive(jtj: &mut Normal, jtr: &mut Params, active: &[bool; PARAMS]) {
+    for (i, &on) in active.iter().enumerate() {
+        if !on {
+            jtj.row_mut(i).fill(0.0);
+            jtj.column_mut(i).fill(0.0);
+            jtj[(i, i)] = 1.0;
+            jtr[i] = 0.0;
+        }
+    }
+}
+
 /// Levenberg–Marquardt from `p` over the parameters marked `active` (the others stay
 /// put), at most [`MAX_ITERATIONS`] iterations. Returns the parameters and the cost.
 fn levenberg_marquardt(
@@ -710,14 +714,7 @@ fn levenberg_marquardt(
     let mut lambda = 1e-2f32;
     for _ in 0..MAX_ITERATIONS {
         let (mut jtj, mut jtr) = normal_equations(samples, &p, clip, active)?;
-        for (i, &on) in active.iter().enumerate() {
-            if !on {
-                jtj.row_mut(i).fill(0.0);
-                jtj.column_mut(i).fill(0.0);
-                jtj[(i, i)] = 1.0;
-                jtr[i] = 0.0;
-            }
-        }
+        hold_inactive(&mut jtj, &mut jtr, active);
         let mut improved = false;
         for _ in 0..4 {
             let mut damped = jtj;

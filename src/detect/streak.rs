@@ -341,28 +341,30 @@ pub fn analyze(
             let tips = (straight
                 && cascade::edge_is_sharp(frame, mid_px, ends_px, levels.top_luma, spans))
             .then(|| ramps(scratch));
+            // The ramps' reading stands: read now, unless it was above.
+            let ramps_stand = || {
+                (
+                    mid_px,
+                    ramps_streak_path(tips.unwrap_or_else(|| ramps(scratch))),
+                    false,
+                )
+            };
             match tips {
                 // A glow clipped past the glare limit: the fit cannot read it, so the ramps'
                 // reading stands, as with `--streak-model ramps` (no path where they have none).
-                _ if cascade::beyond_the_fit(blob.area_px, frame.size().pixels()) => {
-                    let tips = tips.unwrap_or_else(|| ramps(scratch));
-                    (mid_px, ramps_streak_path(tips), false)
-                }
+                _ if cascade::beyond_the_fit(blob.area_px, frame.size().pixels()) => ramps_stand(),
                 // Sharp, and read without contradiction (or with no axis to read them on).
                 Some(tips)
                     if tips.is_some_and(|t| !cascade::ramps_contradict(&t))
                         || (tips.is_none() && !spans) =>
                 {
-                    (mid_px, ramps_streak_path(tips), false)
+                    ramps_stand()
                 }
                 _ => match fitted() {
                     // The fitted model contradicts the pixels at an end, or cannot tell its
                     // path from a still LED: the ramps' reading (with their own guards, such
                     // as the tip refused past the spot's extent) stands.
-                    (_, Err(NoFit::EndOffTheClip | NoFit::Uncertain)) => {
-                        let tips = tips.unwrap_or_else(|| ramps(scratch));
-                        (mid_px, ramps_streak_path(tips), false)
-                    }
+                    (_, Err(NoFit::EndOffTheClip | NoFit::Uncertain)) => ramps_stand(),
                     (mid, path) => (mid, path.ok(), true),
                 },
             }
