@@ -66,7 +66,8 @@ const REACH_PX: f32 = 3.0;
 /// End-cap pixels: within this distance of a rough end, beyond half the thickness.
 const CAP_PX: f32 = 5.0;
 
-/// The fitted ends may move at most this far from the rough ones.
+/// The fitted ends may move at most this far from the rough ones (or the thickness, where
+/// more) before the pixels are read again around where they went (see [`fit`]).
 const MAX_END_SHIFT_PX: f32 = 6.0;
 /// Bounds of the fitted spot σ and tone exponent.
 const SIGMA_RANGE_PX: (f32, f32) = (0.3, 12.0);
@@ -276,7 +277,7 @@ impl Local {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum NoFit {
     /// Too few pixels, no convergence, or ends farther from the rough ones than the pixels
-    /// support.
+    /// support, even when read again around where they went.
     Failed,
     /// The path is longer than the spot is wide, and its ends are uncertain by more than its
     /// length: the fit cannot tell it from a still LED (the caller's rule).
@@ -290,9 +291,10 @@ pub enum NoFit {
 /// on the floor `background` where it has been measured (a flat fitted floor elsewhere), for
 /// the spot `shape` the lens makes of a round one there ([`SpotShape::identity`] without a
 /// lens), from the spot `warm` fitted to the same LED in a recent frame when there is one
-/// (see [`SpotFit`]). [`NoFit`] when the fit fails (too few pixels, no convergence, a result
-/// the pixels do not support), and with `check_ends`, when the model contradicts the pixels
-/// at an end ([`NoFit::EndOffTheClip`]).
+/// (see [`SpotFit`]). Where the fitted ends run past the pixels read around the rough ones,
+/// the pixels around where they went are read and fitted once more. [`NoFit`] when the fit
+/// fails (too few pixels, no convergence, a result the pixels do not support), and with
+/// `check_ends`, when the model contradicts the pixels at an end ([`NoFit::EndOffTheClip`]).
 pub fn fit(
     frame: &Frame<'_>,
     rough: &Rough,
@@ -302,12 +304,46 @@ pub fn fit(
     warm: Option<&SpotFit>,
     check_ends: bool,
 ) -> Result<PathFit, NoFit> {
+    let from =
+        |rough: &Rough| fit_from(frame, rough, clip_luma, background, shape, warm, check_ends);
+    match from(rough) {
+        Ok(found) => Ok(found),
+        Err(Miss::No(why)) => Err(why),
+        // The light goes on past the rough ends (a skeleton cut short, on a streak whose
+        // clipped core broke up): once more, around the ends the fit moved to, where the
+        // pixels beyond them are read too. Only once: the ends may move as far again, and no
+        // farther.
+        Err(Miss::Beyond(moved)) => from(&moved).map_err(|miss| match miss {
+            Miss::No(why) => why,
+            Miss::Beyond(_) => NoFit::Failed,
+        }),
+    }
+}
+
+/// Why one fit from one rough streak gave no path.
+enum Miss {
+    No(NoFit),
+    /// The fitted ends moved farther from the rough ones than the pixels read around them
+    /// support: the rough streak the fit went to instead.
+    Beyond(Rough),
+}
+
+/// [`fit`] from one rough streak.
+fn fit_from(
+    frame: &Frame<'_>,
+    rough: &Rough,
+    clip_luma: u8,
+    background: Option<&FloorBackground>,
+    shape: SpotShape,
+    warm: Option<&SpotFit>,
+    check_ends: bool,
+) -> Result<PathFit, Miss> {
     let clip = f32::from(clip_luma);
     let local = Local {
         shape,
         centre_px: rough.mid_px,
     };
-    let samples = collect(frame, rough, background, clip, &local).ok_or(NoFit::Failed)?;
+    let samples = collect(frame, rough, background, clip, &local).ok_or(Miss::No(NoFit::Failed))?;
     let floor0 = low_percentile(&samples);
     // The path in ideal pixels, where the model's spot is round.
     let [a, b] = rough.ends_px.map(|end| local.to_ideal(end));
@@ -325,30 +361,40 @@ pub fn fit(
         clip,
         all: &all,
     };
+    // The fit from one start, bent where the pixels ask, and read out; the rough streak it
+    // went to where its ends moved farther than the pixels read support, `None` where it
+    // cannot be read.
+    let conclude = |(p, cost): (Params, f32)| {
+        let (p, cost) = bent_if_asked(&samples, (p, cost), clip, &all);
+        // A path left straight was fitted with its sagitta held: so is its uncertainty read.
+        let mut fitted_all = all;
+        fitted_all[SAGITTA] = !is_straight(&[p[0], p[1], p[2], p[3], p[SAGITTA]]);
+        if beyond_the_rough(&p, [a, b], rough.thickness_px) {
+            let path = Path::new(&native(&p), true);
+            return Err(Some(Rough {
+                ends_px: [(p[0], p[1]), (p[2], p[3])].map(|end| local.to_image(end)),
+                mid_px: local.to_image(path.arc.mid),
+                thickness_px: rough.thickness_px,
+            }));
+        }
+        let found = finish(&samples, (&local, [a, b]), p, cost, clip, &fitted_all);
+        found.map(|found| (p, cost, found)).ok_or(None)
+    };
+    let cold = || start.cold(rough.thickness_px);
     let warm_fit = warm.and_then(|w| start.warm(w).map(|found| (found, w.cost_per_px)));
-    let (p, cost) = match warm_fit {
-        Some((found, before)) if found.1 <= WARM_COST_RATIO * before * samples.len as f32 => found,
+    let (p, cost, found) = match warm_fit {
+        Some((found, before)) if found.1 <= WARM_COST_RATIO * before * samples.len as f32 => {
+            conclude(found)
+        }
         // The spot changed more than a frame's light and noise explain (another LED, a
         // glow that began to clip): from scratch, keeping the better of the two.
-        Some((found, _)) => match start.cold(rough.thickness_px) {
-            Some(cold) if cold.1 < found.1 => cold,
-            _ => found,
+        Some((found, _)) => match cold() {
+            Some(cold) if cold.1 < found.1 => conclude(cold),
+            _ => conclude(found),
         },
-        None => start.cold(rough.thickness_px).ok_or(NoFit::Failed)?,
-    };
-    let (p, cost) = bent_if_asked(&samples, (p, cost), clip, &all);
-    // A path left straight was fitted with its sagitta held: so is its uncertainty read.
-    let mut fitted_all = all;
-    fitted_all[SAGITTA] = !is_straight(&[p[0], p[1], p[2], p[3], p[SAGITTA]]);
-    let found = finish(
-        &samples,
-        (&local, [a, b], rough.thickness_px),
-        p,
-        cost,
-        clip,
-        &fitted_all,
-    )
-    .ok_or(NoFit::Failed)?;
+        None => cold().ok_or(None).and_then(conclude),
+    }
+    .map_err(|moved| moved.map_or(Miss::No(NoFit::Failed), Miss::Beyond))?;
     let pixels = Pixels {
         frame,
         background,
@@ -356,7 +402,7 @@ pub fn fit(
         residual_sd: (cost / samples.len.saturating_sub(PARAMS).max(1) as f32).sqrt(),
     };
     if check_ends && end_off_the_clip(&pixels, &local, &native(&p), found.uncertainty_px) {
-        return Err(NoFit::EndOffTheClip);
+        return Err(Miss::No(NoFit::EndOffTheClip));
     }
     Ok(found)
 }
@@ -420,30 +466,23 @@ fn end_off_the_clip(
 }
 
 /// The fitted path's ends, middle, length and uncertainty, and its spot, from the fitted `p`
-/// of cost `cost`, fitted in `local`'s ideal pixels from the rough ends `[a, b]` (ideal too)
-/// of a streak `thickness_px` thick; `None` when the ends moved farther from the rough ones
-/// than the pixels support, or the curvature cannot be inverted.
+/// of cost `cost`, fitted in `local`'s ideal pixels from the rough ends `[a, b]` (ideal too);
+/// `None` when a parameter is not finite or the curvature cannot be inverted.
 fn finish(
     samples: &Samples,
-    (local, [a, b], thickness_px): (&Local, [(f32, f32); 2], f32),
+    (local, [a, b]): (&Local, [(f32, f32); 2]),
     p: Params,
     cost: f32,
     clip: f32,
     all: &[bool; PARAMS],
 ) -> Option<PathFit> {
+    if !p.iter().all(|v| v.is_finite()) {
+        return None;
+    }
     let (mut normal, mut gradient) = normal_equations(samples, &p, clip, all)?;
     hold_inactive(&mut normal, &mut gradient, all);
     let sigma = native(&p)[5].exp();
     let ends = [(p[0], p[1]), (p[2], p[3])];
-    // The skeleton's ends of a fat blob (a glow that saturates) lie up to its width from the
-    // path's: the thinning stops half a width short of each end and may curl sideways.
-    let max_shift_px = MAX_END_SHIFT_PX.max(thickness_px);
-    let sane = p.iter().all(|v| v.is_finite())
-        && dist(ends[0], a).min(dist(ends[0], b)) <= max_shift_px
-        && dist(ends[1], b).min(dist(ends[1], a)) <= max_shift_px;
-    if !sane {
-        return None;
-    }
     let residual_var = cost / (samples.len.saturating_sub(PARAMS).max(1)) as f32;
     let covariance = covariance_of(&normal)?;
     let end_var = (covariance[(0, 0)] + covariance[(1, 1)])
@@ -472,6 +511,17 @@ fn finish(
             offset: PathOffset::of([a, b], &p),
         },
     })
+}
+
+/// Whether the fitted ends of `p` lie farther from the rough ends `[a, b]` (ideal pixels) of
+/// a streak `thickness_px` thick than the pixels read around the rough ones support. The
+/// skeleton's ends of a fat blob (a glow that saturates) lie up to its width from the path's:
+/// the thinning stops half a width short of each end and may curl sideways.
+fn beyond_the_rough(p: &Params, [a, b]: [(f32, f32); 2], thickness_px: f32) -> bool {
+    let ends = [(p[0], p[1]), (p[2], p[3])];
+    let max_shift_px = MAX_END_SHIFT_PX.max(thickness_px);
+    dist(ends[0], a).min(dist(ends[0], b)) > max_shift_px
+        || dist(ends[1], b).min(dist(ends[1], a)) > max_shift_px
 }
 
 /// A warm start's fit is kept when its cost per pixel is at most this many times the spot's
@@ -1331,6 +1381,7 @@ fn low_percentile(s: &Samples) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::frame::{FrameSize, PixelFormat};
 
     /// Parameters of a path from `a` to `b` with sagitta `sagitta`, core σ `sigma`, a glow
     /// three times wider at a tenth of the light, a 2.2 tone and both floors.
@@ -1629,6 +1680,68 @@ mod tests {
             }
         }
         assert!(checked > 0, "no cold fit found its path");
+    }
+
+    /// A rough streak whose skeleton stops well short of one end (a streak whose clipped
+    /// core broke up, so that the blob holds only part of it): the first fit runs past the
+    /// pixels read around the rough ends, and the fit read again around where it went finds
+    /// the whole path.
+    #[test]
+    fn a_rough_streak_cut_short_is_fitted_whole() {
+        let (width, height) = (128, 80);
+        let size = FrameSize::new(width, height).unwrap();
+        let clip = 250.0;
+        let mut truth = params((30.0, 40.0), (90.0, 40.0), 0.0, 1.5);
+        let path = Path::new(&truth, true);
+        // Bright enough that the core's light is three times the clip's in linear light.
+        let (core, glow) = path.light2(60.0, 40.0);
+        truth[LN_AMPLITUDE] = (3.0 / (core + truth[GLOW_RATIO] * glow)).ln();
+        let mut state = 11u32;
+        let mut bytes = vec![0u8; (width * height) as usize];
+        for (i, luma) in bytes.iter_mut().enumerate() {
+            let xy = ((i % width as usize) as f32, (i / width as usize) as f32);
+            // A pseudo-random noise of up to 2 luma either way.
+            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            let noise = (state >> 8) as f32 / (1u32 << 24) as f32 * 4.0 - 2.0;
+            let value = model(&path, &truth, xy, None, clip).0 + noise;
+            *luma = value.clamp(0.0, clip).round() as u8;
+        }
+        let frame = Frame::new_checked_as(&bytes, size, width as usize, PixelFormat::Grey).unwrap();
+        let clipped = bytes.iter().filter(|&&l| f32::from(l) >= clip).count();
+        assert!(clipped > 100, "{clipped} clipped pixels");
+        // The skeleton of the left part alone: 22 px short of the right end.
+        let rough = Rough {
+            ends_px: [(32.0, 40.0), (68.0, 40.0)],
+            mid_px: (50.0, 40.0),
+            thickness_px: 4.0,
+        };
+        let once = fit_from(
+            &frame,
+            &rough,
+            250,
+            None,
+            SpotShape::identity(),
+            None,
+            false,
+        );
+        assert!(
+            matches!(once, Err(Miss::Beyond(_))),
+            "the first fit stayed within the rough ends' reach"
+        );
+        let found = fit(
+            &frame,
+            &rough,
+            250,
+            None,
+            SpotShape::identity(),
+            None,
+            false,
+        )
+        .expect("a path");
+        for (end, want) in found.ends_px.iter().zip([(30.0, 40.0), (90.0, 40.0)]) {
+            assert!(dist(*end, want) < 0.3, "ends {:?}", found.ends_px);
+        }
+        assert!((found.path_length_px - 60.0).abs() < 0.5, "{found:?}");
     }
 
     /// `MAX_FIT_PX` pixels across the whole path of `truth` (out to three of its glow's σ either
