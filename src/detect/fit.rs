@@ -824,8 +824,12 @@ struct Path {
     length: f32,
     /// The corners and their slopes in the path's parameters, for the derivatives.
     arc: ArcPieces,
-    /// The core's and the glow's σ.
+    /// The core's and the glow's σ as the pixels see them: widened by the pixel's own area
+    /// ([`PIXEL_VARIANCE_PX2`]).
     sigmas: [f32; 2],
+    /// How the seen σ's logarithm moves with the spot's own (`σ² / σ_seen²`): the lights'
+    /// slopes are taken in the seen σ and carried to the fitted one by it.
+    ln_sigma_slopes: [f32; 2],
     /// Components whose light is drawn: the core alone while the glow is left out (the
     /// first stage), which halves that stage's cost.
     components: usize,
@@ -887,7 +891,12 @@ impl Path {
             pieces,
             length,
             arc,
-            sigmas: [p[5].exp(), p[6].exp()],
+            sigmas: [p[5], p[6]]
+                .map(|ln_sigma| (ln_sigma.exp().powi(2) + PIXEL_VARIANCE_PX2).sqrt()),
+            ln_sigma_slopes: [p[5], p[6]].map(|ln_sigma| {
+                let variance = ln_sigma.exp().powi(2);
+                variance / (variance + PIXEL_VARIANCE_PX2)
+            }),
             components: if glow { 2 } else { 1 },
         }
     }
@@ -936,12 +945,18 @@ impl Path {
     /// of them, where differencing took a model evaluation per parameter.
     fn lights(&self, x: f32, y: f32) -> [Light; 2] {
         let mut out = [Light::default(); 2];
-        for (light, &sigma) in out.iter_mut().zip(&self.sigmas).take(self.components) {
+        for ((light, &sigma), &slope) in out
+            .iter_mut()
+            .zip(&self.sigmas)
+            .zip(&self.ln_sigma_slopes)
+            .take(self.components)
+        {
             *light = if self.length < STILL_PATH_SIGMAS * sigma {
                 self.still_light(x, y, sigma)
             } else {
                 self.swept_light(x, y, sigma)
             };
+            light.d_ln_sigma *= slope;
         }
         out
     }
@@ -1048,6 +1063,14 @@ struct Light {
     /// In the component's `ln σ`.
     d_ln_sigma: f32,
 }
+
+/// A pixel reads the mean of the light over its area, a unit square: along each axis, a box
+/// of variance 1/12 px². The model's Gaussians are widened by it (a box is near enough a
+/// Gaussian of its variance once blurred by the spot), so that a spot narrower than a pixel is
+/// drawn as the pixels see it. Drawn at their centres alone, a 0.83 px disk's streak (sweep
+/// seed 11, point 111) fitted σ at its lower bound, a residual of 9 luma and ends uncertain
+/// by 11 px, so that the moving streak read still and its head came 3.5 px off.
+const PIXEL_VARIANCE_PX2: f32 = 1.0 / 12.0;
 
 /// A path shorter than this many σ is drawn as a still spot at its middle.
 const STILL_PATH_SIGMAS: f32 = 1e-3;
@@ -1742,6 +1765,77 @@ mod tests {
             assert!(dist(*end, want) < 0.3, "ends {:?}", found.ends_px);
         }
         assert!((found.path_length_px - 60.0).abs() < 0.5, "{found:?}");
+    }
+
+    /// A spot narrower than a pixel (σ 0.3 px), swept along a straight path and rendered as a
+    /// camera sees it (each pixel the mean of its area, sampled 8 × 8), from barely to very
+    /// saturating, is fitted to its ends: the model widens the spot by the pixel's own area.
+    /// Drawn at the pixels' centres alone, the ends came 0.21 px off on the mean (0.11 px with
+    /// the pixel's area).
+    #[test]
+    fn a_spot_narrower_than_a_pixel_is_fitted_to_its_ends() {
+        let (width, height) = (96, 64);
+        let size = FrameSize::new(width, height).unwrap();
+        let (clip, sigma_px) = (250.0f32, 0.3f32);
+        let ends = [(20.3f32, 30.6f32), (62.7f32, 36.1f32)];
+        let length_px = dist(ends[0], ends[1]);
+        let unit = (
+            (ends[1].0 - ends[0].0) / length_px,
+            (ends[1].1 - ends[0].1) / length_px,
+        );
+        // The spot's light at (x, y), its mean over the exposure (relative to a still spot's
+        // centre): a Gaussian's line integral along the path.
+        let light = |x: f32, y: f32| {
+            let (px, py) = (x - ends[0].0, y - ends[0].1);
+            let along = px * unit.0 + py * unit.1;
+            let across = -px * unit.1 + py * unit.0;
+            let span = normal_cdf(along / sigma_px) - normal_cdf((along - length_px) / sigma_px);
+            (-0.5 * (across / sigma_px).powi(2)).exp() * SQRT_TAU * sigma_px * span / length_px
+        };
+        let sub = 8;
+        let mut errors_px = Vec::new();
+        for gain in [40.0f32, 100.0, 400.0, 1500.0] {
+            let bytes: Vec<u8> = (0..width * height)
+                .map(|i| {
+                    let (px, py) = ((i % width) as f32, (i / width) as f32);
+                    let area_mean = (0..sub * sub)
+                        .map(|j| {
+                            let dx = ((j % sub) as f32 + 0.5) / sub as f32 - 0.5;
+                            let dy = ((j / sub) as f32 + 0.5) / sub as f32 - 0.5;
+                            light(px + dx, py + dy)
+                        })
+                        .sum::<f32>()
+                        / (sub * sub) as f32;
+                    // Through a 2.2 gamma, on a floor of 20.
+                    let linear = 0.003 + gain * area_mean;
+                    (clip * linear.powf(1.0 / 2.2)).clamp(20.0, clip).round() as u8
+                })
+                .collect();
+            let frame =
+                Frame::new_checked_as(&bytes, size, width as usize, PixelFormat::Grey).unwrap();
+            let rough = Rough {
+                ends_px: [(21.0, 30.7), (62.0, 36.0)],
+                mid_px: (41.5, 33.35),
+                thickness_px: 2.0,
+            };
+            let found = fit(
+                &frame,
+                &rough,
+                250,
+                None,
+                SpotShape::identity(),
+                None,
+                false,
+            )
+            .expect("a path");
+            errors_px.extend(found.ends_px.iter().zip(ends).map(|(&e, t)| dist(e, t)));
+        }
+        let mean_px = errors_px.iter().sum::<f32>() / errors_px.len() as f32;
+        assert!(mean_px < 0.15, "ends off by {errors_px:?}");
+        assert!(
+            errors_px.iter().all(|&e| e < 0.5),
+            "ends off by {errors_px:?}"
+        );
     }
 
     /// `MAX_FIT_PX` pixels across the whole path of `truth` (out to three of its glow's σ either
