@@ -634,18 +634,26 @@ impl Tracker {
         // where the motion's turn is needed.
         let fit_px = streak.path.and_then(|p| p.fit_px);
         let motion = self.motion_head(mid_px, t_us);
-        let from_motion = motion.filter(|m| match (head, fit_px) {
+        // The motion's head is also taken where it agrees with the single frame's but is the
+        // more precise of the two (its region narrower at the same quantile): a fit uncertain
+        // by 10 px that lands 30 px off still "agrees". The single frame's length then stays
+        // its speed unchecked, as when its head was taken: only a disagreeing head puts its
+        // length in doubt. With whether the single frame's head disagreed.
+        let from_motion = motion.and_then(|m| match (head, fit_px) {
             (Some(h), Some(fit_px)) => {
                 let (dx, dy) = (h.0 - m.head_px.0, h.1 - m.head_px.1);
-                let allowed = CHI2_2DOF_99 * fit_px * fit_px
-                    + m.beyond(2) * m.head_sigma_px * m.head_sigma_px;
-                dx * dx + dy * dy > allowed
+                let (fit_region, motion_region) = (
+                    CHI2_2DOF_99 * fit_px * fit_px,
+                    m.beyond(2) * m.head_sigma_px * m.head_sigma_px,
+                );
+                let disagrees = dx * dx + dy * dy > fit_region + motion_region;
+                (disagrees || fit_region > motion_region).then_some((m, disagrees))
             }
-            (Some(_), None) => false,
-            (None, _) => m.moved && m.turning && !streak.path_failed,
+            (Some(_), None) => None,
+            (None, _) => (m.moved && m.turning && !streak.path_failed).then_some((m, true)),
         });
         let fit_px = fit_px.unwrap_or(0.0);
-        if let Some(m) = from_motion {
+        if let Some((m, disagrees)) = from_motion {
             // The single frame's length is still its speed when the motion's path agrees
             // with it: only its place or direction was wrong (a reversed short streak).
             let speed = m.velocity_px_s.0.hypot(m.velocity_px_s.1);
@@ -655,7 +663,7 @@ impl Tracker {
                 // The length's ends each carry the fit's deviation.
                 let allowed = CHI2_1DOF_99 * 2.0 * fit_px * fit_px
                     + m.beyond(1) * m.path_sigma_px * m.path_sigma_px;
-                (miss * miss <= allowed && speed > 0.0)
+                ((!disagrees || miss * miss <= allowed) && speed > 0.0)
                     .then(|| p.path_length_px / exposure_s / speed)
             });
             let velocity_px_s = match streak_speed {
@@ -1212,6 +1220,44 @@ mod tests {
                 assert_eq!(method, Some(VelocityMethod::Frames), "frame {i}");
             }
         }
+    }
+
+    /// An LED moving steadily, whose single frames place the head 0.6 px across its path,
+    /// either way in turn, within their reported deviation (`fit_px` 0.5 px, so they agree with
+    /// the middles' motion): once that motion is known, its head, far the more precise, is
+    /// reported, within 0.1 px of the true one, and the streak's length stays the speed.
+    #[test]
+    fn the_more_precise_head_of_two_that_agree_is_taken() {
+        let exposure_us = 10_000;
+        let speed_px_s = 800.0f32;
+        let mut t = Tracker::new(TrackerConfig {
+            exposure_us: Some(exposure_us),
+        });
+        let half_px = 0.5 * speed_px_s * exposure_us as f32 * 1e-6;
+        let mut checked = 0;
+        for i in 0..10u64 {
+            let x = 100.0 + speed_px_s * (i * FRAME_US) as f32 * 1e-6;
+            let across_px = if i % 2 == 0 { 0.6 } else { -0.6 };
+            let tail = (x - half_px, 100.0);
+            let mut s = streak((x, 100.0), Some([tail, (x + half_px, 100.0 + across_px)]));
+            if let Some(p) = s.path.as_mut() {
+                p.fit_px = Some(0.5);
+                p.path_length_px = 2.0 * half_px;
+            }
+            let e = t.update(i * FRAME_US, Some(&s)).unwrap();
+            if i >= 6 {
+                let error_px = (e.position_px.0 - (x + half_px)).hypot(e.position_px.1 - 100.0);
+                assert!(error_px <= 0.1, "frame {i}: head {:?}", e.position_px);
+                let ((vx, vy), method) = e.velocity_px_s.unwrap();
+                assert_eq!(method, VelocityMethod::Streak, "frame {i}");
+                assert!(
+                    (vx.hypot(vy) - speed_px_s).abs() < 1.0,
+                    "frame {i}: {vx}, {vy}"
+                );
+                checked += 1;
+            }
+        }
+        assert_eq!(checked, 4);
     }
 
     /// A smear taken in the first frame has no velocity yet: its gate is the smallest, and a
