@@ -304,8 +304,15 @@ pub fn fit(
     warm: Option<&SpotFit>,
     check_ends: bool,
 ) -> Result<PathFit, NoFit> {
-    let from =
-        |rough: &Rough| fit_from(frame, rough, clip_luma, background, shape, warm, check_ends);
+    let seen = Seen {
+        frame,
+        clip_luma,
+        background,
+        shape,
+        warm,
+        check_ends,
+    };
+    let from = |rough: &Rough| fit_from(&seen, rough);
     match from(rough) {
         Ok(found) => Ok(found),
         Err(Miss::No(why)) => Err(why),
@@ -328,19 +335,22 @@ enum Miss {
     Beyond(Rough),
 }
 
-/// [`fit`] from one rough streak.
-fn fit_from(
-    frame: &Frame<'_>,
-    rough: &Rough,
+/// What [`fit`] fits from: the frame and what is known of it (see [`fit`]).
+struct Seen<'a, 'f> {
+    frame: &'a Frame<'f>,
     clip_luma: u8,
-    background: Option<&FloorBackground>,
+    background: Option<&'a FloorBackground>,
     shape: SpotShape,
-    warm: Option<&SpotFit>,
+    warm: Option<&'a SpotFit>,
     check_ends: bool,
-) -> Result<PathFit, Miss> {
-    let clip = f32::from(clip_luma);
+}
+
+/// [`fit`] from one rough streak.
+fn fit_from(seen: &Seen<'_, '_>, rough: &Rough) -> Result<PathFit, Miss> {
+    let (frame, background, warm) = (seen.frame, seen.background, seen.warm);
+    let clip = f32::from(seen.clip_luma);
     let local = Local {
-        shape,
+        shape: seen.shape,
         centre_px: rough.mid_px,
     };
     let samples = collect(frame, rough, background, clip, &local).ok_or(Miss::No(NoFit::Failed))?;
@@ -401,7 +411,7 @@ fn fit_from(
         clip,
         residual_sd: (cost / samples.len.saturating_sub(PARAMS).max(1) as f32).sqrt(),
     };
-    if check_ends && end_off_the_clip(&pixels, &local, &native(&p), found.uncertainty_px) {
+    if seen.check_ends && end_off_the_clip(&pixels, &local, &native(&p), found.uncertainty_px) {
         return Err(Miss::No(NoFit::EndOffTheClip));
     }
     Ok(found)
@@ -1705,6 +1715,12 @@ mod tests {
         assert!(checked > 0, "no cold fit found its path");
     }
 
+    /// [`fit`] on a frame clipped at 250, with no floor learned, no lens and no spot from an
+    /// earlier frame.
+    fn plain_fit(frame: &Frame<'_>, rough: &Rough) -> Result<PathFit, NoFit> {
+        fit(frame, rough, 250, None, SpotShape::identity(), None, false)
+    }
+
     /// A rough streak whose skeleton stops well short of one end (a streak whose clipped
     /// core broke up, so that the blob holds only part of it): the first fit runs past the
     /// pixels read around the rough ends, and the fit read again around where it went finds
@@ -1738,29 +1754,20 @@ mod tests {
             mid_px: (50.0, 40.0),
             thickness_px: 4.0,
         };
-        let once = fit_from(
-            &frame,
-            &rough,
-            250,
-            None,
-            SpotShape::identity(),
-            None,
-            false,
-        );
+        let seen = Seen {
+            frame: &frame,
+            clip_luma: 250,
+            background: None,
+            shape: SpotShape::identity(),
+            warm: None,
+            check_ends: false,
+        };
+        let once = fit_from(&seen, &rough);
         assert!(
             matches!(once, Err(Miss::Beyond(_))),
             "the first fit stayed within the rough ends' reach"
         );
-        let found = fit(
-            &frame,
-            &rough,
-            250,
-            None,
-            SpotShape::identity(),
-            None,
-            false,
-        )
-        .expect("a path");
+        let found = plain_fit(&frame, &rough).expect("a path");
         for (end, want) in found.ends_px.iter().zip([(30.0, 40.0), (90.0, 40.0)]) {
             assert!(dist(*end, want) < 0.3, "ends {:?}", found.ends_px);
         }
@@ -1818,16 +1825,7 @@ mod tests {
                 mid_px: (41.5, 33.35),
                 thickness_px: 2.0,
             };
-            let found = fit(
-                &frame,
-                &rough,
-                250,
-                None,
-                SpotShape::identity(),
-                None,
-                false,
-            )
-            .expect("a path");
+            let found = plain_fit(&frame, &rough).expect("a path");
             errors_px.extend(found.ends_px.iter().zip(ends).map(|(&e, t)| dist(e, t)));
         }
         let mean_px = errors_px.iter().sum::<f32>() / errors_px.len() as f32;
