@@ -376,9 +376,6 @@ fn fit_from(seen: &Seen<'_, '_>, rough: &Rough) -> Result<PathFit, Miss> {
     // cannot be read.
     let conclude = |(p, cost): (Params, f32)| {
         let (p, cost) = bent_if_asked(&samples, (p, cost), clip, &all);
-        // A path left straight was fitted with its sagitta held: so is its uncertainty read.
-        let mut fitted_all = all;
-        fitted_all[SAGITTA] = !is_straight(&[p[0], p[1], p[2], p[3], p[SAGITTA]]);
         if beyond_the_rough(&p, [a, b], rough.thickness_px) {
             let path = Path::new(&native(&p), true);
             return Err(Some(Rough {
@@ -387,6 +384,9 @@ fn fit_from(seen: &Seen<'_, '_>, rough: &Rough) -> Result<PathFit, Miss> {
                 thickness_px: rough.thickness_px,
             }));
         }
+        // A path left straight was fitted with its sagitta held: so is its uncertainty read.
+        let mut fitted_all = all;
+        fitted_all[SAGITTA] = !is_straight(&[p[0], p[1], p[2], p[3], p[SAGITTA]]);
         let found = finish(&samples, (&local, [a, b]), p, cost, clip, &fitted_all);
         found.map(|found| (p, cost, found)).ok_or(None)
     };
@@ -897,16 +897,14 @@ impl Path {
             };
             length += l;
         }
+        // The spot's own variances, which the pixel's area widens.
+        let variances = [p[5], p[6]].map(|ln_sigma| ln_sigma.exp().powi(2));
         Path {
             pieces,
             length,
             arc,
-            sigmas: [p[5], p[6]]
-                .map(|ln_sigma| (ln_sigma.exp().powi(2) + PIXEL_VARIANCE_PX2).sqrt()),
-            ln_sigma_slopes: [p[5], p[6]].map(|ln_sigma| {
-                let variance = ln_sigma.exp().powi(2);
-                variance / (variance + PIXEL_VARIANCE_PX2)
-            }),
+            sigmas: variances.map(|v| (v + PIXEL_VARIANCE_PX2).sqrt()),
+            ln_sigma_slopes: variances.map(|v| v / (v + PIXEL_VARIANCE_PX2)),
             components: if glow { 2 } else { 1 },
         }
     }
