@@ -294,22 +294,16 @@ fn glint_latency_on_the_rig_reports_the_rigs_latency() {
         percentile(truth, 95.0),
     );
     eprintln!("truth: p5 {lo:.2} p50 {median:.2} p95 {hi:.2} ms; glint: {found:.2} ms");
-    if hi - lo <= 4.0 {
-        assert!(
-            (found - median).abs() <= 2.0,
-            "glint latency found {found} ms, the rig's truth is {median:.2} ms (p50)"
-        );
-    } else {
-        // A machine busy enough to spread the reaction over more than 4 ms leaves the frames'
-        // phases a span of moments, all consistent with every request: the estimate lies in
-        // the truth's spread.
-        eprintln!(
-            "the reaction spread over {:.1} ms: judged against its range",
-            hi - lo
-        );
-        assert!(
-            found >= lo - 2.0 && found <= hi + 2.0,
-            "glint latency found {found} ms, the rig's truth spans {lo:.2} to {hi:.2} ms"
-        );
-    }
+    // The estimate is the middle of the moments the brackets share. With a reaction that
+    // jitters (qemu's scheduling on a busy machine), the two brackets with the most extreme
+    // phases set those moments, each from its own trial's reaction, so the estimate may lie
+    // anywhere in the reactions' spread, and taking the frames' moments at their exposures'
+    // middles adds up to half an exposure (2 ms) either way. So it is judged against the
+    // spread widened by that, for a steady machine as for a busy one: judging it against the
+    // median while the spread was under 4 ms failed a CI run whose spread was 3.99 ms, with the
+    // estimate 2.02 ms from the median and 0.7 ms past the p95.
+    assert!(
+        found >= lo - 2.0 && found <= hi + 2.0,
+        "glint latency found {found} ms, the rig's truth spans {lo:.2} to {hi:.2} ms (p5 to p95)"
+    );
 }
