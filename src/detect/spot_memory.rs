@@ -104,6 +104,7 @@ mod tests {
             path_length_px: length_px,
             ideal_path_length_px: length_px,
             spot_sigma_px: 1.0,
+            noise_px: 0.1,
             uncertainty_px: 0.1,
             floor_measured: 1.0,
             spot: SpotFit::with_cost(cost),
