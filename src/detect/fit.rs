@@ -1739,6 +1739,12 @@ mod tests {
         fit(frame, rough, 250, None, SpotShape::identity(), None, false)
     }
 
+    /// [`plain_fit`] on the grey frame `bytes` of `size`, which must give a path.
+    fn plain_fit_of(bytes: &[u8], size: FrameSize, rough: &Rough) -> PathFit {
+        let frame = Frame::new_checked_as(bytes, size, size.width(), PixelFormat::Grey).unwrap();
+        plain_fit(&frame, rough).expect("a path")
+    }
+
     /// A rough streak whose skeleton stops well short of one end (a streak whose clipped
     /// core broke up, so that the blob holds only part of it): the first fit runs past the
     /// pixels read around the rough ends, and the fit read again around where it went finds
@@ -1836,14 +1842,12 @@ mod tests {
                     (clip * linear.powf(1.0 / 2.2)).clamp(20.0, clip).round() as u8
                 })
                 .collect();
-            let frame =
-                Frame::new_checked_as(&bytes, size, width as usize, PixelFormat::Grey).unwrap();
             let rough = Rough {
                 ends_px: [(21.0, 30.7), (62.0, 36.0)],
                 mid_px: (41.5, 33.35),
                 thickness_px: 2.0,
             };
-            let found = plain_fit(&frame, &rough).expect("a path");
+            let found = plain_fit_of(&bytes, size, &rough);
             errors_px.extend(found.ends_px.iter().zip(ends).map(|(&e, t)| dist(e, t)));
         }
         let mean_px = errors_px.iter().sum::<f32>() / errors_px.len() as f32;
@@ -1902,14 +1906,12 @@ mod tests {
                             .round() as u8
                     })
                     .collect();
-                let frame =
-                    Frame::new_checked_as(&bytes, size, width as usize, PixelFormat::Grey).unwrap();
                 let rough = Rough {
                     ends_px: [(32.0, 40.3), (87.0, 43.8)],
                     mid_px: (59.5, 42.05),
                     thickness_px: 4.0,
                 };
-                let found = plain_fit(&frame, &rough).expect("a path");
+                let found = plain_fit_of(&bytes, size, &rough);
                 for (&end, truth) in found.ends_px.iter().zip(ends) {
                     let error_px = dist(end, truth);
                     ratios.push(error_px / found.uncertainty_px);
