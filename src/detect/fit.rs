@@ -1739,6 +1739,12 @@ mod tests {
         fit(frame, rough, 250, None, SpotShape::identity(), None, false)
     }
 
+    /// A pseudo-random noise of up to `amplitude` either way, from the generator `state`.
+    fn noise(state: &mut u32, amplitude: f32) -> f32 {
+        *state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+        amplitude * ((*state >> 8) as f32 / (1u32 << 24) as f32 * 2.0 - 1.0)
+    }
+
     /// [`plain_fit`] on the grey frame `bytes` of `size`, which must give a path.
     fn plain_fit_of(bytes: &[u8], size: FrameSize, rough: &Rough) -> PathFit {
         let frame = Frame::new_checked_as(bytes, size, size.width(), PixelFormat::Grey).unwrap();
@@ -1763,10 +1769,7 @@ mod tests {
         let mut bytes = vec![0u8; (width * height) as usize];
         for (i, luma) in bytes.iter_mut().enumerate() {
             let xy = ((i % width as usize) as f32, (i / width as usize) as f32);
-            // A pseudo-random noise of up to 2 luma either way.
-            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
-            let noise = (state >> 8) as f32 / (1u32 << 24) as f32 * 4.0 - 2.0;
-            let value = model(&path, &truth, xy, None, clip).0 + noise;
+            let value = model(&path, &truth, xy, None, clip).0 + noise(&mut state, 2.0);
             *luma = value.clamp(0.0, clip).round() as u8;
         }
         let frame = Frame::new_checked_as(&bytes, size, width as usize, PixelFormat::Grey).unwrap();
@@ -1898,10 +1901,8 @@ mod tests {
                 let bytes: Vec<u8> = lights
                     .iter()
                     .map(|&l| {
-                        state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
-                        let noise = (state >> 8) as f32 / (1u32 << 24) as f32 * 4.0 - 2.0;
                         let linear = 0.003 + clipped_times * l / peak;
-                        (clip * linear.powf(1.0 / 2.2) + noise)
+                        (clip * linear.powf(1.0 / 2.2) + noise(&mut state, 2.0))
                             .clamp(0.0, clip)
                             .round() as u8
                     })
@@ -1950,9 +1951,8 @@ mod tests {
             let beyond = (tau - tau.clamp(0.0, 1.0)) * 30.0;
             let off = (across as f32 / 7.0 * 2.0 - 1.0) * reach;
             let xy = (on.0 + beyond * ux - off * uy, on.1 + beyond * uy + off * ux);
-            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
-            let noise = noise_luma * ((state >> 8) as f32 / (1u32 << 24) as f32 * 2.0 - 1.0);
-            let luma = (model(&path, truth, xy, None, clip).0 + noise).clamp(0.0, clip);
+            let luma = (model(&path, truth, xy, None, clip).0 + noise(&mut state, noise_luma))
+                .clamp(0.0, clip);
             s.xy[s.len] = xy;
             s.luma[s.len] = luma;
             s.len += 1;
