@@ -809,6 +809,8 @@ fn glint_record_writes_a_dump_and_sidecar_that_replays_with_the_real_timing() {
     let (_, truths) = scene_feed();
     let mut previous_seq = None;
     let (mut waited, mut lost, mut found) = (0usize, 0usize, 0usize);
+    // The first picture's id, and whether a later one has shown the LED elsewhere.
+    let (mut first_id, mut moved) = (None, false);
     for ((report, t), frame) in reports
         .iter()
         .zip(timing)
@@ -831,12 +833,16 @@ fn glint_record_writes_a_dump_and_sidecar_that_replays_with_the_real_timing() {
             .position(|k| scene_frame_id(k) == id)
             .unwrap_or_else(|| panic!("recorded frame with unknown id {id:#x}"));
         // The replay starts at the light's first appearance: a spot that has not moved yet is
-        // not taken (it could be glare), so the first frames may be ambiguous. The guest's
-        // capture skips pictures at random, so the LED may jump 100 to 270 px between frames,
-        // and a light far from the prediction is not taken at once: a few frames may be lost
-        // (see the loop test above). Every frame that is found is where its picture put it.
+        // not taken (it could be glare), so the frames are ambiguous while the capture repeats
+        // the first picture (vivid repeats the last picture while the guest's feeder is
+        // starved: one CI run recorded the first picture six times over), and for at most a
+        // few frames after the LED first moved. The guest's capture skips pictures at random,
+        // so the LED may jump 100 to 270 px between frames, and a light far from the
+        // prediction is not taken at once: a few frames may be lost (see the loop test above).
+        // Every frame that is found is where its picture put it.
+        moved |= *first_id.get_or_insert(id) != id;
         if found == 0 && lost == 0 && report["ambiguous"] == true {
-            waited += 1;
+            waited += usize::from(moved);
             continue;
         }
         if report["found"] != true {
@@ -847,8 +853,8 @@ fn glint_record_writes_a_dump_and_sidecar_that_replays_with_the_real_timing() {
         assert_on_truth(report, &truths[k]);
     }
     assert!(
-        waited <= MAX_ACQUIRE_FRAMES.max(reports.len() / 3),
-        "ambiguous for {waited} of {} frames",
+        waited <= MAX_ACQUIRE_FRAMES,
+        "ambiguous for {waited} of {} frames after the LED first moved",
         reports.len()
     );
     assert!(
