@@ -70,6 +70,10 @@ pub(crate) struct Args {
     /// Read noise, in luma levels of a linear full-range camera.
     #[arg(long)]
     noise_luma: Option<f64>,
+    /// Noise after the clip, in luma levels: processing after the sensor (compression,
+    /// sharpening) that leaves saturated pixels white give or take this.
+    #[arg(long)]
+    post_noise_luma: Option<f64>,
     /// Output range: full (white 255) or studio (white 235).
     #[arg(long, value_parser = ["full", "studio"])]
     range: Option<String>,
@@ -387,6 +391,9 @@ fn override_optics(args: &Args, config: &mut SceneConfig) {
     }
     if let Some(noise) = args.noise_luma {
         config.camera.noise_sigma = noise / 255.0;
+    }
+    if let Some(noise) = args.post_noise_luma {
+        config.camera.post_noise_luma = noise;
     }
     match args.range.as_deref() {
         Some("studio") => config.camera.range = Range::Studio,

@@ -312,6 +312,7 @@ impl Arena {
                     noise_sigma: NOISE_SIGMA,
                     range: Range::Full,
                     gamma: 1.0,
+                    post_noise_luma: 0.0,
                 },
                 view: Some(view),
             };

@@ -40,6 +40,16 @@ fn round_to_u8(x: f32) -> u8 {
     (x + 0.5) as u8
 }
 
+/// The luma `level` with noise of `post_luma` deviation added after the clip, quantised.
+fn after_the_clip(level: f32, post_luma: f32, gaussian: &mut impl FnMut() -> f32) -> u8 {
+    let post = if post_luma > 0.0 {
+        post_luma * gaussian()
+    } else {
+        0.0
+    };
+    round_to_u8((level + post).clamp(0.0, 255.0))
+}
+
 /// Neutral chroma.
 const CHROMA_NEUTRAL: f32 = 128.0;
 /// Chroma offsets of the floor at black, fading to neutral at white: a warm floor under a
@@ -58,6 +68,11 @@ pub struct Camera {
     /// The tone curve's exponent: the clipped linear signal `v` is written as `v^(1/gamma)`
     /// (1.0 is linear; webcams use about 1.8–2.4, and the tracker is not told which).
     pub gamma: f64,
+    /// Standard deviation of Gaussian noise added to the luma after the tone curve, in luma
+    /// levels: what processing after the sensor clips (compression, sharpening, denoising)
+    /// leaves, so that a saturated pixel reads white give or take this rather than exactly
+    /// white, as real recordings' clipped windows and LEDs do.
+    pub post_noise_luma: f64,
 }
 
 impl Camera {
@@ -70,41 +85,47 @@ impl Camera {
         rng: &mut Option<SplitMix64>,
         out: &mut [u8],
     ) {
-        let sigma = self.noise_sigma as f32;
         let inverse_gamma = (1.0 / self.gamma) as f32;
         let tone = |v: f32| v.powf(inverse_gamma);
         // Monomorphised loops rather than per-pixel branches on the noise and the tone curve.
         match (rng, self.gamma == 1.0) {
-            (Some(rng), true) => {
-                self.pack_row(radiance, out, || sigma * rng.next_gaussian(), |v| v)
-            }
+            (Some(rng), true) => self.pack_row(radiance, out, || rng.next_gaussian(), |v| v),
             (None, true) => self.pack_row(radiance, out, || 0.0, |v| v),
-            (Some(rng), false) => {
-                self.pack_row(radiance, out, || sigma * rng.next_gaussian(), tone)
-            }
+            (Some(rng), false) => self.pack_row(radiance, out, || rng.next_gaussian(), tone),
             (None, false) => self.pack_row(radiance, out, || 0.0, tone),
         }
     }
 
-    /// Noise is read noise, added to the linear signal before the sensor clips it; the tone
-    /// curve follows, so a saturated pixel is always exactly white.
+    /// Whether rendering through this camera draws random numbers.
+    pub(crate) fn is_noisy(&self) -> bool {
+        self.noise_sigma > 0.0 || self.post_noise_luma > 0.0
+    }
+
+    /// Read noise is added to the linear signal before the sensor clips it, and the tone
+    /// curve follows; the noise after the clip, if any, is added to the luma last. `gaussian`
+    /// draws a standard normal deviate (the noise after the clip draws only when there is
+    /// some, so that scenes without it render as they always did).
     fn pack_row(
         &self,
         radiance: &[f32],
         out: &mut [u8],
-        mut noise: impl FnMut() -> f32,
+        mut gaussian: impl FnMut() -> f32,
         tone: impl Fn(f32) -> f32,
     ) {
+        let sigma = self.noise_sigma as f32;
+        let post_luma = self.post_noise_luma as f32;
         let (black, span) = self.range.black_and_span();
         for (pair, quad) in radiance.chunks_exact(2).zip(out.chunks_exact_mut(4)) {
             let [a, b] = *pair else { continue };
-            let v0 = tone((a + noise()).clamp(0.0, 1.0));
-            let v1 = tone((b + noise()).clamp(0.0, 1.0));
+            let v0 = tone((a + sigma * gaussian()).clamp(0.0, 1.0));
+            let y0 = after_the_clip(black + span * v0, post_luma, &mut gaussian);
+            let v1 = tone((b + sigma * gaussian()).clamp(0.0, 1.0));
+            let y1 = after_the_clip(black + span * v1, post_luma, &mut gaussian);
             let fade = 1.0 - 0.5 * (v0 + v1);
             quad.copy_from_slice(&[
-                round_to_u8(black + span * v0),
+                y0,
                 round_to_u8(CHROMA_NEUTRAL + FLOOR_TINT_U * fade),
-                round_to_u8(black + span * v1),
+                y1,
                 round_to_u8(CHROMA_NEUTRAL + FLOOR_TINT_V * fade),
             ]);
         }
@@ -134,6 +155,7 @@ mod tests {
             noise_sigma: 0.0,
             range: Range::Full,
             gamma: 1.0,
+            post_noise_luma: 0.0,
         };
         let mut out = [0u8; 12];
         camera.expose_row(&[0.0, 1.0, 2.0, 1.5, 0.2, 0.2], &mut None, &mut out);
@@ -153,6 +175,7 @@ mod tests {
             noise_sigma: 0.0,
             range: Range::Full,
             gamma: 2.2,
+            post_noise_luma: 0.0,
         };
         let mut out = [0u8; 8];
         camera.expose_row(&[0.0, 0.25, 1.0, 3.0], &mut None, &mut out);
@@ -166,6 +189,7 @@ mod tests {
             noise_sigma: 0.04,
             range: Range::Full,
             gamma: 1.0,
+            post_noise_luma: 0.0,
         };
         let row = vec![0.5f32; 20_000];
         let mut out = vec![0u8; 40_000];
@@ -176,5 +200,32 @@ mod tests {
             (lumas.iter().map(|y| (y - mean).powi(2)).sum::<f64>() / lumas.len() as f64).sqrt();
         assert!((mean - 127.5).abs() < 0.3, "mean {mean}");
         assert!((sd - 0.04 * 255.0).abs() < 0.3, "sd {sd}");
+    }
+
+    /// Read noise leaves a saturated pixel exactly white; noise after the clip spreads it.
+    #[test]
+    fn noise_after_the_clip_spreads_white_and_read_noise_does_not() {
+        let saturated = vec![3.0f32; 20_000];
+        let mut out = vec![0u8; 40_000];
+        let lumas =
+            |out: &[u8]| -> Vec<f64> { out.iter().step_by(2).map(|&y| f64::from(y)).collect() };
+        let mut camera = Camera {
+            noise_sigma: 0.04,
+            range: Range::Studio,
+            gamma: 2.2,
+            post_noise_luma: 0.0,
+        };
+        camera.expose_row(&saturated, &mut Some(SplitMix64::new(5)), &mut out);
+        assert!(lumas(&out).iter().all(|&y| y == 235.0));
+        camera.post_noise_luma = 1.5;
+        camera.expose_row(&saturated, &mut Some(SplitMix64::new(5)), &mut out);
+        let white = lumas(&out);
+        let mean = white.iter().sum::<f64>() / white.len() as f64;
+        let sd =
+            (white.iter().map(|y| (y - mean).powi(2)).sum::<f64>() / white.len() as f64).sqrt();
+        assert!((mean - 235.0).abs() < 0.1, "mean {mean}");
+        // Quantisation adds 1/12 of a level's square.
+        let expected = (1.5f64.powi(2) + 1.0 / 12.0).sqrt();
+        assert!((sd - expected).abs() < 0.1, "sd {sd}");
     }
 }

@@ -104,7 +104,9 @@ impl Fleet {
                 hide(patch, occluder);
             }
         }
-        let mut rng = (config.camera.noise_sigma > 0.0)
+        let mut rng = config
+            .camera
+            .is_noisy()
             .then(|| SplitMix64::new(mix64(config.seed ^ mix64(frame as u64 ^ NOISE_SALT))));
         let mut row = vec![0.0f32; width];
         for (y, (out_row, static_row)) in out

@@ -603,8 +603,10 @@ impl Scene {
                 hide(patch, occluder);
             }
         }
-        let mut rng = (self.config.camera.noise_sigma > 0.0)
-            .then(|| SplitMix64::new(mix64(self.config.seed ^ mix64(frame as u64 ^ NOISE_SALT))));
+        let mut rng =
+            self.config.camera.is_noisy().then(|| {
+                SplitMix64::new(mix64(self.config.seed ^ mix64(frame as u64 ^ NOISE_SALT)))
+            });
         let mut row = vec![0.0f32; width];
         for (y, (out_row, static_row)) in out
             .chunks_exact_mut(2 * width)
@@ -644,8 +646,10 @@ impl Scene {
             extent(pose.reference_min.x, pose.reference_max.x),
             extent(pose.reference_min.y, pose.reference_max.y),
         );
-        let mut rng = (self.config.camera.noise_sigma > 0.0)
-            .then(|| SplitMix64::new(mix64(self.config.seed ^ mix64(frame as u64 ^ NOISE_SALT))));
+        let mut rng =
+            self.config.camera.is_noisy().then(|| {
+                SplitMix64::new(mix64(self.config.seed ^ mix64(frame as u64 ^ NOISE_SALT)))
+            });
         let mut row = vec![0.0f32; width];
         for (y, ((out_row, static_row), refs)) in out
             .chunks_exact_mut(2 * width)
@@ -871,6 +875,12 @@ fn validate(c: &SceneConfig) -> Result<(), SceneError> {
     if !finite_at_least(c.camera.noise_sigma, 0.0) {
         return Err(invalid(
             "camera.noise_sigma",
+            "must be finite and not negative",
+        ));
+    }
+    if !finite_at_least(c.camera.post_noise_luma, 0.0) {
+        return Err(invalid(
+            "camera.post_noise_luma",
             "must be finite and not negative",
         ));
     }

@@ -131,6 +131,7 @@ pub(crate) fn base(
             noise_sigma: NOISE_SIGMA,
             range: Range::Full,
             gamma: 1.0,
+            post_noise_luma: 0.0,
         },
         view: None,
     }

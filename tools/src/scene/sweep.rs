@@ -3,7 +3,8 @@
 //!
 //! Each [`SweepPoint`] is one short scene: a spot profile (disk, Gaussian, Gaussian core with a
 //! wide glow) 0.8–3 px wide, an LED from barely to strongly saturating, a tone curve of gamma
-//! 1.8–2.4, read noise up to σ 4 luma, full or studio range, and a path that is still or
+//! 1.8–2.4, read noise up to σ 4 luma, in half the points noise of 0.5–3 luma after the clip
+//! (saturated pixels not all exactly white), full or studio range, and a path that is still or
 //! barely moving (after moving into place: a light that never moved cannot be told from a
 //! lamp), a straight line (3–60 px streaks) or an arc; and where in a wide-angle lens's picture
 //! it is seen, which squeezes the round spot into an ellipse (a third of the points at the
@@ -53,6 +54,13 @@ const ROUND_ONE_IN: u64 = 3;
 /// Separates the lens's random stream from the other parameters', so that adding the lens left
 /// every other parameter of every point as it was.
 const LENS_SALT: u64 = 0x1E45_1E45_1E45_1E45;
+/// Noise after the clip (`Camera::post_noise_luma`), in luma
+/// levels: in one point in [`POST_NOISE_ONE_IN`], none in the others (a camera whose
+/// saturated pixels read exactly white).
+const POST_NOISE_RANGE_LUMA: (f64, f64) = (0.5, 3.0);
+const POST_NOISE_ONE_IN: u64 = 2;
+/// Separates the noise after the clip's random stream from the others', as [`LENS_SALT`].
+const POST_NOISE_SALT: u64 = 0xC11F_C11F_C11F_C11F;
 
 /// The shape of the LED's spot in a sweep point.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -132,6 +140,8 @@ pub struct SweepPoint {
     pub gamma: f64,
     /// Read noise, in luma levels of a linear camera.
     pub noise_luma: f64,
+    /// Noise after the clip, in luma levels.
+    pub post_noise_luma: f64,
     /// Output range.
     pub range: Range,
     /// The LED's path.
@@ -170,6 +180,17 @@ fn lens_squeeze(seed: u64, index: usize) -> Squeeze {
     Squeeze {
         ratio: uniform(&mut rng, SQUEEZE_RANGE),
         axis_rad: uniform(&mut rng, (0.0, PI)),
+    }
+}
+
+/// The noise after the clip at point `index` of the sweep from `seed`: none for all but one
+/// point in [`POST_NOISE_ONE_IN`], else uniform in [`POST_NOISE_RANGE_LUMA`].
+fn post_clip_noise(seed: u64, index: usize) -> f64 {
+    let mut rng = SplitMix64::new(mix64(seed ^ mix64(index as u64 ^ POST_NOISE_SALT)));
+    if rng.next_u64().is_multiple_of(POST_NOISE_ONE_IN) {
+        uniform(&mut rng, POST_NOISE_RANGE_LUMA)
+    } else {
+        0.0
     }
 }
 
@@ -240,6 +261,7 @@ impl SweepPoint {
             saturation,
             gamma,
             noise_luma,
+            post_noise_luma: post_clip_noise(seed, index),
             range,
             path,
             lens: lens_squeeze(seed, index),
@@ -309,6 +331,7 @@ impl SweepPoint {
         config.camera.range = self.range;
         config.camera.gamma = self.gamma;
         config.camera.noise_sigma = self.noise_luma / 255.0;
+        config.camera.post_noise_luma = self.post_noise_luma;
         let exposure_s = f64::from(EXPOSURE_US) * 1e-6;
         let centre = Point::new(
             0.5 * f64::from(config.width_px),
@@ -403,7 +426,7 @@ impl std::fmt::Display for SweepPoint {
         };
         write!(
             f,
-            "{:?} {:.2} px{}, core {:.1}× clip, gamma {:.2}, noise {:.1} luma, {:?} range, {path}, {lens}",
+            "{:?} {:.2} px{}, core {:.1}× clip, gamma {:.2}, noise {:.1} luma{}, {:?} range, {path}, {lens}",
             self.spot,
             self.width_px,
             if self.spot == SpotKind::Bloom {
@@ -417,6 +440,11 @@ impl std::fmt::Display for SweepPoint {
             self.saturation,
             self.gamma,
             self.noise_luma,
+            if self.post_noise_luma > 0.0 {
+                format!(" and {:.1} after the clip", self.post_noise_luma)
+            } else {
+                String::new()
+            },
             self.range,
         )
     }
@@ -489,11 +517,31 @@ mod tests {
         assert!(points.iter().any(|p| p.to_string().contains("squeezed to")));
     }
 
+    /// Noise after the clip: in about half the points, across its range, drawn apart.
+    #[test]
+    fn half_the_points_have_noise_after_the_clip_over_its_range() {
+        let points = SweepPoint::sweep(11, 300);
+        let post: Vec<f64> = points
+            .iter()
+            .map(|p| p.post_noise_luma)
+            .filter(|&n| n > 0.0)
+            .collect();
+        assert!((110..=190).contains(&post.len()), "{} of 300", post.len());
+        assert!(post
+            .iter()
+            .all(|n| (POST_NOISE_RANGE_LUMA.0..POST_NOISE_RANGE_LUMA.1).contains(n)));
+        assert!(post.iter().any(|&n| n < 0.8) && post.iter().any(|&n| n > 2.7));
+        assert!(points
+            .iter()
+            .any(|p| p.to_string().contains("after the clip")));
+    }
+
     #[test]
     fn a_barely_saturating_streak_clips_only_in_its_core() {
         let mut p = SweepPoint::new(3, 2);
         p.saturation = 1.3;
         p.noise_luma = 0.0;
+        p.post_noise_luma = 0.0;
         p.spot = SpotKind::Gaussian;
         let scene = Scene::new(p.config()).unwrap();
         let mut frame = vec![0u8; scene.frame_len_bytes()];

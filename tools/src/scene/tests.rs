@@ -29,6 +29,7 @@ fn static_scene(at: Point, peak: f64, range: Range) -> Scene {
         noise_sigma: 0.0,
         range,
         gamma: 1.0,
+        post_noise_luma: 0.0,
     };
     Scene::new(config).unwrap()
 }
