@@ -39,6 +39,7 @@
 use nalgebra::{SMatrix, SVector};
 
 use super::arc_path::{ArcPieces, MAX_PIECES, PATH_PARAMS};
+use super::clip_spread::{self, ClipSpread};
 use super::floor_bg::FloorBackground;
 use super::normal::{normal_cdf, normal_cdf_and_density};
 use super::spot_shape::SpotShape;
@@ -352,12 +353,14 @@ struct Seen<'a, 'f> {
 /// [`fit`] from one rough streak.
 fn fit_from(seen: &Seen<'_, '_>, rough: &Rough) -> Result<PathFit, Miss> {
     let (frame, background, warm) = (seen.frame, seen.background, seen.warm);
-    let clip = f32::from(seen.clip_luma);
+    let spread = clip_spread::measure(frame, rough, seen.clip_luma);
+    let clip = spread.level_luma;
     let local = Local {
         shape: seen.shape,
         centre_px: rough.mid_px,
     };
-    let samples = collect(frame, rough, background, clip, &local).ok_or(Miss::No(NoFit::Failed))?;
+    let samples =
+        collect(frame, rough, background, &spread, &local).ok_or(Miss::No(NoFit::Failed))?;
     let floor0 = low_percentile(&samples);
     // The path in ideal pixels, where the model's spot is round.
     let [a, b] = rough.ends_px.map(|end| local.to_ideal(end));
@@ -412,7 +415,7 @@ fn fit_from(seen: &Seen<'_, '_>, rough: &Rough) -> Result<PathFit, Miss> {
     let pixels = Pixels {
         frame,
         background,
-        clip,
+        spread,
         residual_sd: (cost / samples.len.saturating_sub(PARAMS).max(1) as f32).sqrt(),
     };
     if seen.check_ends && end_off_the_clip(&pixels, &local, &native(&p), found.noise_px) {
@@ -425,14 +428,15 @@ fn fit_from(seen: &Seen<'_, '_>, rough: &Rough) -> Result<PathFit, Miss> {
 struct Pixels<'a, 'f> {
     frame: &'a Frame<'f>,
     background: Option<&'a FloorBackground>,
-    clip: f32,
+    spread: ClipSpread,
     /// The fit's residual standard deviation, in luma.
     residual_sd: f32,
 }
 
 /// Whether the fitted model of parameters `p` (native, in `local`'s ideal pixels), whose ends
 /// are uncertain by `uncertainty_px`, calls the pixel at an end of its path clipped while the
-/// frame shows that pixel below the clip by more than twice the fit's residual deviation.
+/// frame shows that pixel below the clip by more than twice the fit's residual deviation (and
+/// the clip's own spread).
 ///
 /// On a long enough path the light at an end is half the streak's inside level, so a streak
 /// clipped several times over is clipped at its ends, and the LED's centre there lies on the
@@ -452,6 +456,7 @@ fn end_off_the_clip(
 ) -> bool {
     let path = Path::new(p, true);
     let ends = [(p[0], p[1]), (p[2], p[3])];
+    let clip = pixels.spread.level_luma;
     ends.iter().zip(ends.iter().rev()).any(|(&end, &other)| {
         let (x, y) = local.to_image(end);
         let (x, y) = (x.round(), y.round());
@@ -465,8 +470,8 @@ fn end_off_the_clip(
         let floor_ln = pixels
             .background
             .and_then(|b| b.luma(xu, yu))
-            .filter(|&floor| floor < pixels.clip - 0.5)
-            .map(|floor| (floor.max(0.5) / pixels.clip).ln());
+            .filter(|&floor| floor < clip - 0.5)
+            .map(|floor| (floor.max(0.5) / clip).ln());
         let length_px = dist(end, other).max(MIN_CHORD_PX);
         let outwards = ((end.0 - other.0) / length_px, (end.1 - other.1) / length_px);
         let at = local.to_ideal((x, y));
@@ -474,8 +479,9 @@ fn end_off_the_clip(
             at.0 + uncertainty_px * outwards.0,
             at.1 + uncertainty_px * outwards.1,
         );
-        let predicted = model(&path, p, drawn_in, floor_ln, pixels.clip).0;
-        predicted >= pixels.clip && f32::from(luma) < pixels.clip - 2.0 * pixels.residual_sd
+        let predicted = model(&path, p, drawn_in, floor_ln, clip).0;
+        predicted >= clip
+            && f32::from(luma) < clip - pixels.spread.depth_luma - 2.0 * pixels.residual_sd
     })
 }
 
@@ -1268,7 +1274,8 @@ fn row_span(rough: &Rough, y: f32, reach: f32) -> Option<(f32, f32)> {
     span
 }
 
-fn segment_distance2(a: (f32, f32), b: (f32, f32), x: f32, y: f32) -> f32 {
+/// Squared distance from `(x, y)` to the segment `a → b`.
+pub(super) fn segment_distance2(a: (f32, f32), b: (f32, f32), x: f32, y: f32) -> f32 {
     let (dx, dy) = (b.0 - a.0, b.1 - a.1);
     let l2 = dx * dx + dy * dy;
     let t = if l2 > 0.0 {
@@ -1289,13 +1296,17 @@ fn distance2(a: (f32, f32), b: (f32, f32)) -> f32 {
 /// every pixel inside it: the inside carries nothing more. On a wide saturated streak (a
 /// bloom whose glow clips) the inside was most of the pixels the caps and body were
 /// subsampled from, and the unclipped flanks, which carry the spot's width, tone and the
-/// path's ends, got few of the fitted pixels.
-fn clipped_inside(frame: &Frame<'_>, x: usize, y: usize, clip: f32) -> bool {
+/// path's ends, got few of the fitted pixels. A pixel the clip's spread put below its level
+/// among four clipped neighbours is inside too (see [`ClipSpread::holds_hole`]).
+fn clipped_inside(frame: &Frame<'_>, x: usize, y: usize, spread: &ClipSpread) -> bool {
+    let clip = spread.level_luma;
     let clipped = |x: Option<usize>, y: Option<usize>| match (x, y) {
         (Some(x), Some(y)) => frame.luma(x, y).is_some_and(|l| f32::from(l) >= clip),
         _ => false,
     };
-    clipped(Some(x), Some(y))
+    frame
+        .luma(x, y)
+        .is_some_and(|l| f32::from(l) >= clip || spread.holds_hole(f32::from(l)))
         && clipped(x.checked_sub(1), Some(y))
         && clipped(x.checked_add(1), Some(y))
         && clipped(Some(x), y.checked_sub(1))
@@ -1309,9 +1320,10 @@ fn collect(
     frame: &Frame<'_>,
     rough: &Rough,
     background: Option<&FloorBackground>,
-    clip: f32,
+    spread: &ClipSpread,
     local: &Local,
 ) -> Option<Samples> {
+    let clip = spread.level_luma;
     let half = 0.5 * rough.thickness_px;
     let reach = half + REACH_PX;
     let cap = half + CAP_PX;
@@ -1330,7 +1342,7 @@ fn collect(
     );
     let near = |x: usize, y: usize| {
         distance2_to_rough(rough, x as f32, y as f32) <= reach * reach
-            && !clipped_inside(frame, x, y, clip)
+            && !clipped_inside(frame, x, y, spread)
     };
     let in_cap =
         |x: f32, y: f32| distance2((x, y), a) <= cap * cap || distance2((x, y), b) <= cap * cap;

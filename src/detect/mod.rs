@@ -11,6 +11,7 @@ mod bilinear;
 pub mod bitimage;
 pub mod blobs;
 pub mod cascade;
+mod clip_spread;
 pub mod fit;
 pub mod floor_bg;
 mod level_falls;

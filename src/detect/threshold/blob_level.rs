@@ -4,8 +4,9 @@
 //! view decide what else may count as saturated: a single hot pixel at 247 hides an LED that
 //! peaks at 240, a window that clips hides a dimmer LED beside it, and of three LEDs on one
 //! body the dimmer ones come and go with the brightest one's level. Here every blob of the
-//! first, low cut is cut again at its own top level minus [`AUTO_MARGIN_LUMA`], so each bright
-//! thing is measured on itself:
+//! first, low cut is cut again at its own plateau's level (its top for a sensor's hard clip,
+//! the most common level near the top of a spread one) minus [`AUTO_MARGIN_LUMA`], so each
+//! bright thing is measured on itself:
 //!
 //! - blobs smaller than the LED's minimum area (a hot pixel, a speck of noise) are dropped
 //!   and set no level, and so are clipped blobs larger than an LED's usual size (a window:
@@ -49,7 +50,7 @@ pub struct BlobCut {
 }
 
 /// Cuts every blob that `labeler` found in `mask` (the low first cut of `frame`) at its own
-/// top luma minus [`AUTO_MARGIN_LUMA`], clearing blobs of fewer than `min_area_px` pixels,
+/// plateau's level minus [`AUTO_MARGIN_LUMA`], clearing blobs of fewer than `min_area_px` pixels,
 /// clipped blobs of more than `max_area_px` for which `large_moved` is false, and blobs
 /// that are not lights (see the module's rules). `None` when the labeller overflowed, so
 /// that the caller can fall back to one level for the frame.
@@ -78,9 +79,21 @@ pub fn cut_each_blob(
             *top = (*top).max(run_top);
         }
     }
+    let mut near_top = [[0u32; PLATEAU_WINDOW_LUMA + 1]; MAX_BLOBS];
+    for run in labeler.runs() {
+        let (Some(slot), y) = (run.blob(), usize::from(run.y)) else {
+            continue;
+        };
+        let (Some(&top), Some(counts)) = (tops.get(slot), near_top.get_mut(slot)) else {
+            continue;
+        };
+        for x in usize::from(run.x0)..=usize::from(run.x1) {
+            count_near_top(counts, top, frame.luma(x, y));
+        }
+    }
     let mut levels = [None; MAX_BLOBS];
     let mut glare_px = 0;
-    for ((level, blob), &top) in levels.iter_mut().zip(blobs).zip(&tops) {
+    for (((level, blob), &top), counts) in levels.iter_mut().zip(blobs).zip(&tops).zip(&near_top) {
         let clipped = top >= MIN_CLIP_LUMA;
         let size = if blob.area_px < min_area_px {
             false
@@ -98,7 +111,8 @@ pub fn cut_each_blob(
             || (top >= MIN_LIGHT_LUMA
                 && ring_mean_luma(frame, &blob.bbox)
                     .is_some_and(|ring| f32::from(top) >= ring + f32::from(LIGHT_CONTRAST_LUMA)));
-        *level = (size && light).then(|| top.saturating_sub(AUTO_MARGIN_LUMA));
+        *level =
+            (size && light).then(|| plateau_luma(top, counts).saturating_sub(AUTO_MARGIN_LUMA));
     }
     let level_of = |slot: usize| -> Option<u8> { *levels.get(slot)? };
     let mut count = 0;
@@ -151,18 +165,100 @@ fn ring_mean_luma(frame: &Frame<'_>, bbox: &BoundingBox) -> Option<f32> {
     (n > 0).then(|| sum as f32 / n as f32)
 }
 
-/// The levels of one blob of the final mask: its own top and the cut below it, from its runs.
+/// The levels of one blob of the final mask: its plateau's level (a clipped blob's most common
+/// level near its top, which a hard clip's top is) and the cut below it, from its runs.
 pub fn levels_of_blob(frame: &Frame<'_>, labeler: &Labeler, index: usize) -> Levels {
-    let top_luma = labeler
-        .runs_of(index)
-        .flat_map(|run| {
-            let y = usize::from(run.y);
-            (usize::from(run.x0)..=usize::from(run.x1)).filter_map(move |x| frame.luma(x, y))
-        })
-        .max()
-        .unwrap_or(0);
+    // One pass: every level's count, the top and the counts below it read off after.
+    let mut by_luma = [0u32; 256];
+    for run in labeler.runs_of(index) {
+        let y = usize::from(run.y);
+        for x in usize::from(run.x0)..=usize::from(run.x1) {
+            if let Some(count) = frame
+                .luma(x, y)
+                .and_then(|l| by_luma.get_mut(usize::from(l)))
+            {
+                *count += 1;
+            }
+        }
+    }
+    let top = by_luma.iter().rposition(|&n| n > 0).unwrap_or(0) as u8;
+    let mut counts = [0u32; PLATEAU_WINDOW_LUMA + 1];
+    for (depth, count) in counts.iter_mut().enumerate() {
+        *count = usize::from(top)
+            .checked_sub(depth)
+            .and_then(|luma| by_luma.get(luma))
+            .copied()
+            .unwrap_or(0);
+    }
+    let top_luma = plateau_luma(top, &counts);
     Levels {
         top_luma,
         threshold_luma: Some(top_luma.saturating_sub(AUTO_MARGIN_LUMA)),
+    }
+}
+
+/// Levels below a clipped blob's top where its plateau may lie.
+const PLATEAU_WINDOW_LUMA: usize = 16;
+
+/// Counts `luma` at its depth below `top` in `counts`, when within the window.
+fn count_near_top(counts: &mut [u32; PLATEAU_WINDOW_LUMA + 1], top: u8, luma: Option<u8>) {
+    let Some(luma) = luma else { return };
+    if let Some(count) = counts.get_mut(usize::from(top.saturating_sub(luma))) {
+        *count += 1;
+    }
+}
+
+/// The level of a blob's saturated plateau, from the `counts` of its pixels by depth below
+/// its `top`: the most common level near the top of a clipped blob, its top otherwise.
+///
+/// A sensor that clips writes its saturated pixels at one level, the top, and a blob's
+/// pixels below it are its rim, a few at each level. Processing after the clip (compression,
+/// sharpening, denoising) spreads the plateau by a few luma around that level instead, and
+/// its top is then the plateau's highest noise: cut a margin below that, a third to a half
+/// of a plateau spread by 2–3 luma fell out of the mask, and the streak's skeleton broke up
+/// around the holes. The plateau's most common level is its level either way.
+fn plateau_luma(top: u8, counts: &[u32; PLATEAU_WINDOW_LUMA + 1]) -> u8 {
+    if top < MIN_CLIP_LUMA {
+        return top;
+    }
+    let mut mode = 0;
+    for (depth, &count) in counts.iter().enumerate() {
+        if count > counts[mode] {
+            mode = depth;
+        }
+    }
+    top - mode as u8
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn counts_of(lumas: impl IntoIterator<Item = u8>) -> (u8, [u32; PLATEAU_WINDOW_LUMA + 1]) {
+        let lumas: Vec<u8> = lumas.into_iter().collect();
+        let top = lumas.iter().copied().max().unwrap_or(0);
+        let mut counts = [0; PLATEAU_WINDOW_LUMA + 1];
+        for &luma in &lumas {
+            count_near_top(&mut counts, top, Some(luma));
+        }
+        (top, counts)
+    }
+
+    /// A hard clip's plateau is its top, however many rim pixels lie below it; a plateau
+    /// spread around 246 by noise after the clip is at 246, not at its highest noise.
+    #[test]
+    fn the_plateau_is_the_top_of_a_hard_clip_and_the_middle_of_a_spread_one() {
+        let rim = (200..250).step_by(3);
+        let (top, counts) = counts_of(rim.clone().chain([250; 40]));
+        assert_eq!(plateau_luma(top, &counts), 250);
+        let spread = [
+            243, 244, 245, 245, 246, 246, 246, 246, 247, 247, 248, 249, 250,
+        ];
+        let (top, counts) = counts_of(rim.chain(spread.iter().cycle().take(130).copied()));
+        assert_eq!(top, 250);
+        assert_eq!(plateau_luma(top, &counts), 246);
+        // A light that does not clip keeps its top.
+        let (top, counts) = counts_of([200, 210, 210, 210, 215]);
+        assert_eq!(plateau_luma(top, &counts), 215);
     }
 }
