@@ -217,6 +217,12 @@ fn count_near_top(counts: &mut [u32; PLATEAU_WINDOW_LUMA + 1], top: u8, luma: Op
 /// its top is then the plateau's highest noise: cut a margin below that, a third to a half
 /// of a plateau spread by 2–3 luma fell out of the mask, and the streak's skeleton broke up
 /// around the holes. The plateau's most common level is its level either way.
+///
+/// A light that does not clip has no plateau: its pixels spread over the levels below its
+/// peak, a few at each, and its most common level is anywhere among them. A plateau is a peak
+/// of the counts, [`PLATEAU_PEAK`] times their mean at least (a plateau spread by noise of
+/// 3 luma holds 0.13 of its pixels at its level, 2.3 times the mean over the window); without
+/// one the top stands.
 fn plateau_luma(top: u8, counts: &[u32; PLATEAU_WINDOW_LUMA + 1]) -> u8 {
     if top < MIN_CLIP_LUMA {
         return top;
@@ -227,8 +233,17 @@ fn plateau_luma(top: u8, counts: &[u32; PLATEAU_WINDOW_LUMA + 1]) -> u8 {
             mode = depth;
         }
     }
-    top - mode as u8
+    let total: u32 = counts.iter().sum();
+    let peaked = counts[mode] as f32 * counts.len() as f32 >= PLATEAU_PEAK * total as f32;
+    if peaked {
+        top - mode as u8
+    } else {
+        top
+    }
 }
+
+/// How far above the mean count a plateau's level stands (see [`plateau_luma`]).
+const PLATEAU_PEAK: f32 = 2.0;
 
 #[cfg(test)]
 mod tests {
@@ -257,8 +272,12 @@ mod tests {
         let (top, counts) = counts_of(rim.chain(spread.iter().cycle().take(130).copied()));
         assert_eq!(top, 250);
         assert_eq!(plateau_luma(top, &counts), 246);
-        // A light that does not clip keeps its top.
+        // A light that does not clip keeps its top: below the clip's levels, or with its
+        // pixels spread evenly below its peak.
         let (top, counts) = counts_of([200, 210, 210, 210, 215]);
         assert_eq!(plateau_luma(top, &counts), 215);
+        let dome = (233..=248).flat_map(|l| [l, l]).chain([240, 249]);
+        let (top, counts) = counts_of(dome);
+        assert_eq!(plateau_luma(top, &counts), 249);
     }
 }
