@@ -54,9 +54,9 @@ const ROUND_ONE_IN: u64 = 3;
 /// Separates the lens's random stream from the other parameters', so that adding the lens left
 /// every other parameter of every point as it was.
 const LENS_SALT: u64 = 0x1E45_1E45_1E45_1E45;
-/// Noise after the clip (`Camera::post_noise_luma`), in luma
-/// levels: in one point in [`POST_NOISE_ONE_IN`], none in the others (a camera whose
-/// saturated pixels read exactly white).
+/// Noise after the clip (`Camera::post_noise_luma`), in luma levels: in one point in
+/// [`POST_NOISE_ONE_IN`], none in the others (a camera whose saturated pixels read exactly
+/// white).
 const POST_NOISE_RANGE_LUMA: (f64, f64) = (0.5, 3.0);
 const POST_NOISE_ONE_IN: u64 = 2;
 /// Separates the noise after the clip's random stream from the others', as [`LENS_SALT`].
