@@ -8,8 +8,9 @@
 //! saturated pixels then read as values a few luma below the level, inside a streak whose
 //! model is far above the clip, and they pulled its fitted length 0.3–5 px off. The spread is
 //! read where the streak is surely saturated if it is at all, the pixels along the central
-//! half of its rough path, and the level lowered to cover it; a hard clip reads exactly its
-//! level there, and is left exactly as it was.
+//! half of its rough path, and the level lowered to cover it, or as far as the plateau's noise
+//! above its level says its pixels reach below it, if that is deeper; a hard clip reads
+//! exactly its level there, and is left exactly as it was.
 
 use super::fit::{segment_distance2, Rough};
 use crate::frame::Frame;
@@ -27,6 +28,11 @@ const COVER: f32 = 0.99;
 /// this fraction of the central pixels (a third at 1 luma of noise); a hard clip's central
 /// pixels all read the top but for a few rim or noise pixels.
 const CLAMPED_BELOW: f32 = 0.15;
+/// The standard normal quantile of [`COVER`]: the depth that covers the plateau's noise, in
+/// its deviations.
+const DEPTH_PER_DEVIATION: f32 = 2.326;
+/// Fewer pixels above the plateau's level than this say nothing of its noise.
+const MIN_ABOVE_PX: u32 = 3;
 /// Fewer central pixels than this say nothing of a spread.
 const MIN_CENTRAL_PX: u32 = 6;
 /// The central pixels lie within this fraction of the streak's thickness of its path, and at
@@ -64,24 +70,89 @@ impl ClipSpread {
 /// The clip's spread on `frame` along the central half of `rough`, whose saturated plateau
 /// reads `top_luma` (its most common level near the top, see
 /// [`blob_level`](super::threshold::blob_level)): the smallest depth below that level which
-/// [`COVER`] of the central pixels reach.
+/// [`COVER`] of the central pixels reach, or deeper where the plateau's noise read above the
+/// level says its pixels reach further (see [`upper_deviation_luma`]).
 ///
 /// A hard clip, with no spread, where no central pixel reads above the level and no more than
 /// [`CLAMPED_BELOW`] below it (a sensor's clip, exactly as before: its central pixels all read
 /// the top), where they do not reach within [`WINDOW_LUMA`] of it (no plateau there: a streak
 /// that does not clip) or are too few.
 pub fn measure(frame: &Frame<'_>, rough: &Rough, top_luma: u8) -> ClipSpread {
-    let radius_px = (RADIUS_PER_THICKNESS * rough.thickness_px).max(MIN_RADIUS_PX);
     let mid = rough.mid_px;
     let halfway = |end: (f32, f32)| (0.5 * (mid.0 + end.0), 0.5 * (mid.1 + end.1));
     let [a, b] = rough.ends_px.map(halfway);
+    let radius_px = (RADIUS_PER_THICKNESS * rough.thickness_px).max(MIN_RADIUS_PX);
+    // Central pixels by depth below the level (those above it at depth 0).
+    let mut by_depth = [0u32; WINDOW_LUMA + 1];
+    let (mut central, mut above) = (0u32, 0u32);
+    near_path(frame, [a, mid, b], radius_px, |luma| {
+        central += 1;
+        above += u32::from(luma > top_luma);
+        if let Some(count) = by_depth.get_mut(usize::from(top_luma.saturating_sub(luma))) {
+            *count += 1;
+        }
+    });
+    let at_level = by_depth.first().copied().unwrap_or(0);
+    let clamped = (central - at_level) as f32 >= CLAMPED_BELOW * central as f32;
+    if central < MIN_CENTRAL_PX || (above == 0 && !clamped) {
+        return ClipSpread::hard(top_luma);
+    }
+    let noise_depth_luma =
+        (DEPTH_PER_DEVIATION * upper_deviation_luma(frame, rough, top_luma)).ceil();
+    let needed = (COVER * central as f32).ceil() as u32;
+    let mut reached = 0u32;
+    for (depth, &count) in by_depth.iter().enumerate() {
+        reached += count;
+        if reached >= needed {
+            let depth_luma = (depth as f32).max(noise_depth_luma).min(WINDOW_LUMA as f32);
+            return ClipSpread {
+                level_luma: f32::from(top_luma) - depth_luma,
+                depth_luma,
+            };
+        }
+    }
+    ClipSpread::hard(top_luma)
+}
+
+/// The deviation of the noise that spread the plateau, in luma, from the pixels above its
+/// level `top_luma` anywhere within half the thickness of `rough`'s path: only the plateau
+/// reads above its level (the rim is below it), so these are the upper half of its noise,
+/// each pixel at the level counted as half above. Zero with fewer than [`MIN_ABOVE_PX`] above
+/// (a plateau clamped at the end of the luma range, whose upper half is cut off).
+///
+/// A small spot's central pixels are a handful (6–8 for a 1 px core), too few to reach down
+/// to the plateau's deepest noise: from them alone, a streak spread by 2.4 luma after the clip
+/// was left hard in some frames, and its fitted lengths came 8–19 % long.
+fn upper_deviation_luma(frame: &Frame<'_>, rough: &Rough, top_luma: u8) -> f32 {
+    let radius_px = (0.5 * rough.thickness_px).max(MIN_RADIUS_PX);
+    let [a, b] = rough.ends_px;
+    let (mut squares, mut above, mut at_level) = (0.0f32, 0u32, 0u32);
+    near_path(frame, [a, rough.mid_px, b], radius_px, |luma| {
+        if luma > top_luma {
+            let d = f32::from(luma - top_luma);
+            squares += d * d;
+            above += 1;
+        } else if luma == top_luma {
+            at_level += 1;
+        }
+    });
+    if above < MIN_ABOVE_PX {
+        return 0.0;
+    }
+    (squares / (above as f32 + 0.5 * at_level as f32)).sqrt()
+}
+
+/// Visits the luma of every pixel of `frame` within `radius_px` of the polyline `a → mid → b`.
+fn near_path(
+    frame: &Frame<'_>,
+    [a, mid, b]: [(f32, f32); 3],
+    radius_px: f32,
+    mut visit: impl FnMut(u8),
+) {
     let lo = |v: f32| (v - radius_px).floor().max(0.0) as usize;
     let hi = |v: f32| (v + radius_px).ceil().max(0.0) as usize;
     let (x0, x1) = (lo(a.0.min(b.0).min(mid.0)), hi(a.0.max(b.0).max(mid.0)));
     let (y0, y1) = (lo(a.1.min(b.1).min(mid.1)), hi(a.1.max(b.1).max(mid.1)));
-    // Central pixels by depth below the level (those above it at depth 0).
-    let mut by_depth = [0u32; WINDOW_LUMA + 1];
-    let (mut central, mut above) = (0u32, 0u32);
     let r2 = radius_px * radius_px;
     for y in y0..=y1 {
         for x in x0..=x1 {
@@ -90,34 +161,11 @@ pub fn measure(frame: &Frame<'_>, rough: &Rough, top_luma: u8) -> ClipSpread {
             if d2 > r2 {
                 continue;
             }
-            let Some(luma) = frame.luma(x, y) else {
-                continue;
-            };
-            central += 1;
-            above += u32::from(luma > top_luma);
-            if let Some(count) = by_depth.get_mut(usize::from(top_luma.saturating_sub(luma))) {
-                *count += 1;
+            if let Some(luma) = frame.luma(x, y) {
+                visit(luma);
             }
         }
     }
-    let at_level = by_depth.first().copied().unwrap_or(0);
-    let clamped = (central - at_level) as f32 >= CLAMPED_BELOW * central as f32;
-    if central < MIN_CENTRAL_PX || (above == 0 && !clamped) {
-        return ClipSpread::hard(top_luma);
-    }
-    let needed = (COVER * central as f32).ceil() as u32;
-    let mut reached = 0u32;
-    for (depth, &count) in by_depth.iter().enumerate() {
-        reached += count;
-        if reached >= needed {
-            let depth_luma = depth as f32;
-            return ClipSpread {
-                level_luma: f32::from(top_luma) - depth_luma,
-                depth_luma,
-            };
-        }
-    }
-    ClipSpread::hard(top_luma)
 }
 
 #[cfg(test)]
@@ -169,20 +217,40 @@ mod tests {
         assert_eq!(measure_on(&bytes, 250), ClipSpread::hard(250));
     }
 
-    /// Noise after the clip, both ways around 235: the level goes down to cover it, and a
-    /// pixel pushed below it among saturated neighbours is a hole.
+    /// Noise after the clip, both ways around 235 (uniform over ±3 luma): the level goes down
+    /// past it (the upper half's deviation, 2 luma, read as a normal's, puts its 1 % point at
+    /// 5 luma), and a pixel pushed below it among saturated neighbours is a hole.
     #[test]
     fn a_spread_plateau_is_covered_from_below() {
         let bytes = streak(|i| (235 + jitter(i, 3)) as u8);
         let spread = measure_on(&bytes, 235);
         assert!(
-            spread.depth_luma >= 2.0 && spread.depth_luma <= 3.0,
+            spread.depth_luma >= 3.0 && spread.depth_luma <= 6.0,
             "{spread:?}"
         );
         assert_eq!(spread.level_luma, 235.0 - spread.depth_luma);
         assert!(spread.holds_hole(spread.level_luma - 1.0));
         assert!(!spread.holds_hole(spread.level_luma - spread.depth_luma - 1.0));
         assert!(!ClipSpread::hard(235).holds_hole(234.0));
+    }
+
+    /// The central pixels alone, a handful, can all happen to read at or above the level;
+    /// the plateau's noise above its level over the whole streak still says how far down its
+    /// pixels reach.
+    #[test]
+    fn the_noise_above_the_level_reaches_below_the_central_pixels() {
+        let bytes = streak(|i| {
+            let row = i / WIDTH;
+            let offset = jitter(i, 3);
+            let offset = if row.abs_diff(16) <= 1 {
+                offset.abs()
+            } else {
+                offset
+            };
+            (235 + offset) as u8
+        });
+        let spread = measure_on(&bytes, 235);
+        assert!(spread.depth_luma >= 3.0, "{spread:?}");
     }
 
     /// Noise after the clip at the end of the range: clamped, nothing reads above the level,
