@@ -12,7 +12,7 @@
 //! above its level says its pixels reach below it, if that is deeper; a hard clip reads
 //! exactly its level there, and is left exactly as it was.
 
-use super::fit::{segment_distance2, Rough};
+use super::fit::{distance2_to_rough, Rough};
 use crate::frame::Frame;
 
 /// Levels below the top looked at: a plateau spread further than this is not one (a streak
@@ -80,12 +80,15 @@ impl ClipSpread {
 pub fn measure(frame: &Frame<'_>, rough: &Rough, top_luma: u8) -> ClipSpread {
     let mid = rough.mid_px;
     let halfway = |end: (f32, f32)| (0.5 * (mid.0 + end.0), 0.5 * (mid.1 + end.1));
-    let [a, b] = rough.ends_px.map(halfway);
+    let central_half = Rough {
+        ends_px: rough.ends_px.map(halfway),
+        ..*rough
+    };
     let radius_px = (RADIUS_PER_THICKNESS * rough.thickness_px).max(MIN_RADIUS_PX);
     // Central pixels by depth below the level (those above it at depth 0).
     let mut by_depth = [0u32; WINDOW_LUMA + 1];
     let (mut central, mut above) = (0u32, 0u32);
-    near_path(frame, [a, mid, b], radius_px, |luma| {
+    near_path(frame, &central_half, radius_px, |luma| {
         central += 1;
         above += u32::from(luma > top_luma);
         if let Some(count) = by_depth.get_mut(usize::from(top_luma.saturating_sub(luma))) {
@@ -125,9 +128,8 @@ pub fn measure(frame: &Frame<'_>, rough: &Rough, top_luma: u8) -> ClipSpread {
 /// was left hard in some frames, and its fitted lengths came 8–19 % long.
 fn upper_deviation_luma(frame: &Frame<'_>, rough: &Rough, top_luma: u8) -> f32 {
     let radius_px = (0.5 * rough.thickness_px).max(MIN_RADIUS_PX);
-    let [a, b] = rough.ends_px;
     let (mut squares, mut above, mut at_level) = (0.0f32, 0u32, 0u32);
-    near_path(frame, [a, rough.mid_px, b], radius_px, |luma| {
+    near_path(frame, rough, radius_px, |luma| {
         if luma > top_luma {
             let d = f32::from(luma - top_luma);
             squares += d * d;
@@ -142,13 +144,10 @@ fn upper_deviation_luma(frame: &Frame<'_>, rough: &Rough, top_luma: u8) -> f32 {
     (squares / (above as f32 + 0.5 * at_level as f32)).sqrt()
 }
 
-/// Visits the luma of every pixel of `frame` within `radius_px` of the polyline `a → mid → b`.
-fn near_path(
-    frame: &Frame<'_>,
-    [a, mid, b]: [(f32, f32); 3],
-    radius_px: f32,
-    mut visit: impl FnMut(u8),
-) {
+/// Visits the luma of every pixel of `frame` within `radius_px` of `rough`'s polyline
+/// `a → mid → b`.
+fn near_path(frame: &Frame<'_>, rough: &Rough, radius_px: f32, mut visit: impl FnMut(u8)) {
+    let ([a, b], mid) = (rough.ends_px, rough.mid_px);
     let lo = |v: f32| (v - radius_px).floor().max(0.0) as usize;
     let hi = |v: f32| (v + radius_px).ceil().max(0.0) as usize;
     let (x0, x1) = (lo(a.0.min(b.0).min(mid.0)), hi(a.0.max(b.0).max(mid.0)));
@@ -156,9 +155,7 @@ fn near_path(
     let r2 = radius_px * radius_px;
     for y in y0..=y1 {
         for x in x0..=x1 {
-            let (fx, fy) = (x as f32, y as f32);
-            let d2 = segment_distance2(a, mid, fx, fy).min(segment_distance2(mid, b, fx, fy));
-            if d2 > r2 {
+            if distance2_to_rough(rough, x as f32, y as f32) > r2 {
                 continue;
             }
             if let Some(luma) = frame.luma(x, y) {

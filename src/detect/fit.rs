@@ -1241,7 +1241,7 @@ fn normal_equations(
 
 /// Squared distance from `(x, y)` to the polyline `a → mid → b` (squared, so that the
 /// collection's two passes over the streak's box take no square root per pixel).
-fn distance2_to_rough(rough: &Rough, x: f32, y: f32) -> f32 {
+pub(super) fn distance2_to_rough(rough: &Rough, x: f32, y: f32) -> f32 {
     let [a, b] = rough.ends_px;
     segment_distance2(a, rough.mid_px, x, y).min(segment_distance2(rough.mid_px, b, x, y))
 }
@@ -1274,8 +1274,7 @@ fn row_span(rough: &Rough, y: f32, reach: f32) -> Option<(f32, f32)> {
     span
 }
 
-/// Squared distance from `(x, y)` to the segment `a → b`.
-pub(super) fn segment_distance2(a: (f32, f32), b: (f32, f32), x: f32, y: f32) -> f32 {
+fn segment_distance2(a: (f32, f32), b: (f32, f32), x: f32, y: f32) -> f32 {
     let (dx, dy) = (b.0 - a.0, b.1 - a.1);
     let l2 = dx * dx + dy * dy;
     let t = if l2 > 0.0 {

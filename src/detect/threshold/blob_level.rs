@@ -87,6 +87,10 @@ pub fn cut_each_blob(
         let (Some(&top), Some(counts)) = (tops.get(slot), near_top.get_mut(slot)) else {
             continue;
         };
+        // Only a clipped blob has a plateau (see [`plateau_luma`]).
+        if top < MIN_CLIP_LUMA {
+            continue;
+        }
         for x in usize::from(run.x0)..=usize::from(run.x1) {
             count_near_top(counts, top, frame.luma(x, y));
         }
