@@ -232,12 +232,12 @@ pub fn motion_head(middles: &[Middle], exposure_us: u32) -> Option<MotionHead> {
     // (variance 6 σ² per axis; a third difference, 20 σ², for the accelerating model), and
     // the head a weighted sum of the last middles whose variance is the sum of their
     // squared weights times σ²: (1 + r) m_k − r m_{k−1} with r the head's lead over the last
-    // interval, plus c (m_k − 2 m_{k−1} + m_{k−2}) for the acceleration, c = (r + r²) / 2
-    // at equal intervals. An unmodelled acceleration shows in the prediction errors more
+    // interval, plus c (m_k − 2 m_{k−1} + m_{k−2}) for the acceleration's half interval, c =
+    // r / 2 at equal intervals. An unmodelled acceleration shows in the prediction errors more
     // than in the head, so the same ratio is an upper bound for it.
     let r = to_head_s / last_s;
     let (middle_var, c) = match model {
-        Model::Accelerating => (innovation_var / 20.0, 0.5 * (r + r * r)),
+        Model::Accelerating => (innovation_var / 20.0, 0.5 * r),
         _ => (innovation_var / 6.0, 0.0),
     };
     let head_weights_sq = (1.0 + r + c).powi(2) + (r + 2.0 * c).powi(2) + c * c;
