@@ -12,12 +12,9 @@
 //! above its level says its pixels reach below it, if that is deeper; a hard clip reads
 //! exactly its level there, and is left exactly as it was.
 
-use super::fit::{distance2_to_rough, Rough};
+use super::fit::{distance2_to_rough, row_span, Rough};
+use super::threshold::blob_level::{count_near_top, PLATEAU_WINDOW_LUMA};
 use crate::frame::Frame;
-
-/// Levels below the top looked at: a plateau spread further than this is not one (a streak
-/// that does not clip, whose ridge falls off from its top).
-const WINDOW_LUMA: usize = 16;
 /// The fraction of the path's central pixels the spread must cover: the plateau's own
 /// deepest percent still read as values a few luma below the level found, but the fit leaves
 /// out those whose four neighbours are saturated (see [`ClipSpread::holds_hole`]). (At 0.95,
@@ -75,8 +72,8 @@ impl ClipSpread {
 ///
 /// A hard clip, with no spread, where no central pixel reads above the level and no more than
 /// [`CLAMPED_BELOW`] below it (a sensor's clip, exactly as before: its central pixels all read
-/// the top), where they do not reach within [`WINDOW_LUMA`] of it (no plateau there: a streak
-/// that does not clip) or are too few.
+/// the top), where they do not reach within [`PLATEAU_WINDOW_LUMA`] of it (no plateau there:
+/// a streak that does not clip) or are too few.
 pub fn measure(frame: &Frame<'_>, rough: &Rough, top_luma: u8) -> ClipSpread {
     let mid = rough.mid_px;
     let halfway = |end: (f32, f32)| (0.5 * (mid.0 + end.0), 0.5 * (mid.1 + end.1));
@@ -86,14 +83,12 @@ pub fn measure(frame: &Frame<'_>, rough: &Rough, top_luma: u8) -> ClipSpread {
     };
     let radius_px = (RADIUS_PER_THICKNESS * rough.thickness_px).max(MIN_RADIUS_PX);
     // Central pixels by depth below the level (those above it at depth 0).
-    let mut by_depth = [0u32; WINDOW_LUMA + 1];
+    let mut by_depth = [0u32; PLATEAU_WINDOW_LUMA + 1];
     let (mut central, mut above) = (0u32, 0u32);
     near_path(frame, &central_half, radius_px, |luma| {
         central += 1;
         above += u32::from(luma > top_luma);
-        if let Some(count) = by_depth.get_mut(usize::from(top_luma.saturating_sub(luma))) {
-            *count += 1;
-        }
+        count_near_top(&mut by_depth, top_luma, Some(luma));
     });
     let at_level = by_depth.first().copied().unwrap_or(0);
     let clamped = (central - at_level) as f32 >= CLAMPED_BELOW * central as f32;
@@ -107,7 +102,9 @@ pub fn measure(frame: &Frame<'_>, rough: &Rough, top_luma: u8) -> ClipSpread {
     for (depth, &count) in by_depth.iter().enumerate() {
         reached += count;
         if reached >= needed {
-            let depth_luma = (depth as f32).max(noise_depth_luma).min(WINDOW_LUMA as f32);
+            let depth_luma = (depth as f32)
+                .max(noise_depth_luma)
+                .min(PLATEAU_WINDOW_LUMA as f32);
             return ClipSpread {
                 level_luma: f32::from(top_luma) - depth_luma,
                 depth_luma,
@@ -154,7 +151,15 @@ fn near_path(frame: &Frame<'_>, rough: &Rough, radius_px: f32, mut visit: impl F
     let (y0, y1) = (lo(a.1.min(b.1).min(mid.1)), hi(a.1.max(b.1).max(mid.1)));
     let r2 = radius_px * radius_px;
     for y in y0..=y1 {
-        for x in x0..=x1 {
+        // Only the columns that can lie within reach (most of a diagonal streak's box does not).
+        let Some((left, right)) = row_span(rough, y as f32, radius_px) else {
+            continue;
+        };
+        let (left, right) = (
+            left.floor().max(0.0) as usize,
+            right.ceil().max(0.0) as usize,
+        );
+        for x in left.max(x0)..=right.min(x1) {
             if distance2_to_rough(rough, x as f32, y as f32) > r2 {
                 continue;
             }

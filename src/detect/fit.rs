@@ -1250,7 +1250,7 @@ pub(super) fn distance2_to_rough(rough: &Rough, x: f32, y: f32) -> f32 {
 /// as a span `(left, right)` that holds them all (`None` when none can): a pixel within
 /// `reach` of a segment lies within `reach` across of the segment's part within `reach` of
 /// its row, so its column lies within `reach` of that part's columns.
-fn row_span(rough: &Rough, y: f32, reach: f32) -> Option<(f32, f32)> {
+pub(super) fn row_span(rough: &Rough, y: f32, reach: f32) -> Option<(f32, f32)> {
     let [a, b] = rough.ends_px;
     let mut span: Option<(f32, f32)> = None;
     for (p, q) in [(a, rough.mid_px), (rough.mid_px, b)] {

@@ -202,10 +202,10 @@ pub fn levels_of_blob(frame: &Frame<'_>, labeler: &Labeler, index: usize) -> Lev
 }
 
 /// Levels below a clipped blob's top where its plateau may lie.
-const PLATEAU_WINDOW_LUMA: usize = 16;
+pub const PLATEAU_WINDOW_LUMA: usize = 16;
 
 /// Counts `luma` at its depth below `top` in `counts`, when within the window.
-fn count_near_top(counts: &mut [u32; PLATEAU_WINDOW_LUMA + 1], top: u8, luma: Option<u8>) {
+pub fn count_near_top(counts: &mut [u32; PLATEAU_WINDOW_LUMA + 1], top: u8, luma: Option<u8>) {
     let Some(luma) = luma else { return };
     if let Some(count) = counts.get_mut(usize::from(top.saturating_sub(luma))) {
         *count += 1;
