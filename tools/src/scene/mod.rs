@@ -590,6 +590,15 @@ impl Scene {
     }
 
     /// Renders into a buffer of the right length (shorter buffers get whole rows only).
+    /// The camera's noise stream for `frame` (`None` for a noiseless camera): seeded per frame,
+    /// so that any frame renders alike alone or in sequence.
+    fn noise_rng(&self, frame: usize) -> Option<SplitMix64> {
+        self.config
+            .camera
+            .is_noisy()
+            .then(|| SplitMix64::new(mix64(self.config.seed ^ mix64(frame as u64 ^ NOISE_SALT))))
+    }
+
     fn render_into(&self, frame: usize, out: &mut [u8]) {
         let width = self.config.width_px as usize;
         if let Some(view) = &self.config.view {
@@ -603,10 +612,7 @@ impl Scene {
                 hide(patch, occluder);
             }
         }
-        let mut rng =
-            self.config.camera.is_noisy().then(|| {
-                SplitMix64::new(mix64(self.config.seed ^ mix64(frame as u64 ^ NOISE_SALT)))
-            });
+        let mut rng = self.noise_rng(frame);
         let mut row = vec![0.0f32; width];
         for (y, (out_row, static_row)) in out
             .chunks_exact_mut(2 * width)
@@ -646,10 +652,7 @@ impl Scene {
             extent(pose.reference_min.x, pose.reference_max.x),
             extent(pose.reference_min.y, pose.reference_max.y),
         );
-        let mut rng =
-            self.config.camera.is_noisy().then(|| {
-                SplitMix64::new(mix64(self.config.seed ^ mix64(frame as u64 ^ NOISE_SALT)))
-            });
+        let mut rng = self.noise_rng(frame);
         let mut row = vec![0.0f32; width];
         for (y, ((out_row, static_row), refs)) in out
             .chunks_exact_mut(2 * width)
