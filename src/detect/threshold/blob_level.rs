@@ -95,10 +95,15 @@ pub fn cut_each_blob(
             count_near_top(counts, top, frame.luma(x, y));
         }
     }
+    let clip_luma = sensor_clip_luma(blobs, &tops, &near_top, min_area_px);
     let mut levels = [None; MAX_BLOBS];
     let mut glare_px = 0;
     for (((level, blob), &top), counts) in levels.iter_mut().zip(blobs).zip(&tops).zip(&near_top) {
-        let clipped = top >= MIN_CLIP_LUMA;
+        // Below the frame's own clip by more than the rim's margin, a blob did not clip,
+        // however bright: a speck of floor lit by a clipped glow beside it is not a light
+        // unless it stands out as one.
+        let clipped = top >= MIN_CLIP_LUMA
+            && clip_luma.is_none_or(|clip| top.saturating_add(AUTO_MARGIN_LUMA) >= clip);
         let size = if blob.area_px < min_area_px {
             false
         } else if blob.area_px <= max_area_px {
@@ -145,6 +150,35 @@ pub fn cut_each_blob(
         glare_px,
     })
 }
+
+/// The sensor's clip level as this frame shows it: the highest plateau of a blob at least
+/// `min_area_px` (an LED's least size, so not a hot pixel) whose pixels pile up at one level
+/// near its top ([`PLATEAU_MIN_PX`] of them at least). A camera clips every saturated pixel at
+/// that level, whatever the light, so a blob that tops out well below it did not clip. `None`
+/// when no blob shows a plateau: then every top from [`MIN_CLIP_LUMA`] up may be a clip.
+fn sensor_clip_luma(
+    blobs: &[Blob],
+    tops: &[u8; MAX_BLOBS],
+    near_top: &[[u32; PLATEAU_WINDOW_LUMA + 1]; MAX_BLOBS],
+    min_area_px: u32,
+) -> Option<u8> {
+    blobs
+        .iter()
+        .zip(tops)
+        .zip(near_top)
+        .filter(|((blob, &top), _)| blob.area_px >= min_area_px && top >= MIN_CLIP_LUMA)
+        .filter_map(|((_, &top), counts)| {
+            let plateau = plateau_luma(top, counts);
+            let at_plateau = counts.get(usize::from(top - plateau)).copied().unwrap_or(0);
+            (at_plateau >= PLATEAU_MIN_PX).then_some(plateau)
+        })
+        .max()
+}
+
+/// Pixels at one level that make a clipped blob's plateau evidence of the sensor's clip
+/// (see [`sensor_clip_luma`]): a few pixels of a speck may share a level by chance, a clipped
+/// LED's core holds dozens.
+const PLATEAU_MIN_PX: u32 = 8;
 
 /// The mean luma on the rectangle [`RING_GAP_PX`] outside `bbox` (its sides clipped to the
 /// frame); `None` when no side of it lies in the frame.
@@ -252,6 +286,54 @@ const PLATEAU_PEAK: f32 = 2.0;
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::frame::FrameSize;
+
+    /// A 64×32 YUYV frame of a floor at `floor` luma with `spots` painted on it.
+    fn frame_bytes(floor: u8, spots: &[(usize, usize, usize, usize, u8)]) -> Vec<u8> {
+        let mut luma = vec![floor; 64 * 32];
+        for &(x0, y0, w, h, level) in spots {
+            for y in y0..y0 + h {
+                luma[y * 64 + x0..y * 64 + x0 + w].fill(level);
+            }
+        }
+        luma.iter().flat_map(|&y| [y, 128]).collect()
+    }
+
+    /// Cuts every blob of the frame's first cut at [`MIN_LIGHT_LUMA`]; returns the mask.
+    fn cut(bytes: &[u8]) -> BitImage {
+        let size = FrameSize::new(64, 32).unwrap();
+        let frame = Frame::new_checked(bytes, size, size.row_bytes()).unwrap();
+        let mut mask = BitImage::new(size);
+        for y in 0..32 {
+            for x in 0..64 {
+                if frame.luma(x, y).is_some_and(|l| l >= MIN_LIGHT_LUMA) {
+                    mask.set(x, y);
+                }
+            }
+        }
+        let mut labeler = Labeler::new();
+        labeler.label(&mask);
+        cut_each_blob(&frame, &labeler, 4, 10_000, |_| false, &mut mask).unwrap();
+        mask
+    }
+
+    /// A speck of floor at 238 beside an LED clipped at 255 did not clip: it is no light,
+    /// standing out from the floor by less than a light must. Alone, 238 may be a
+    /// studio-range camera's clip, and the speck stays.
+    #[test]
+    fn a_speck_well_below_the_clip_the_frame_shows_is_no_clipped_light() {
+        let speck = (40, 14, 3, 2, 238);
+        let led = (10, 10, 8, 8, 255);
+        let beside = cut(&frame_bytes(200, &[led, speck]));
+        assert_eq!(beside.count_ones(), 64, "the LED kept, the speck dropped");
+        assert!(!beside.get(41, 14));
+        let alone = cut(&frame_bytes(200, &[speck]));
+        assert_eq!(alone.count_ones(), 6, "the speck alone may be a clip");
+        // A light that does not clip but stands out from a dark floor stays beside the LED.
+        let dot = (40, 14, 3, 2, 238);
+        let on_dark = cut(&frame_bytes(120, &[led, dot]));
+        assert_eq!(on_dark.count_ones(), 70);
+    }
 
     fn counts_of(lumas: impl IntoIterator<Item = u8>) -> (u8, [u32; PLATEAU_WINDOW_LUMA + 1]) {
         let lumas: Vec<u8> = lumas.into_iter().collect();
