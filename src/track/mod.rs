@@ -23,7 +23,8 @@
 //!   where it first appeared. Among several that moved (several LEDs on one robot), the
 //!   largest. However round or elongated, a blob that has stood still since it appeared is
 //!   never taken, and when several candidates stand still the frame is `ambiguous` until one
-//!   moves.
+//!   moves. A speck beside a much larger blob (a piece of its rim or of the floor its glow
+//!   lights, see [`satellite`]) is never taken on its own, moved or not.
 //! - A lone candidate with nothing else in view is the LED when it appeared where nothing
 //!   stood in the frame before (the LED coming back after the track expired, or coming into
 //!   view). In the first frame of a run nothing has appeared: there a lone candidate is taken
@@ -51,6 +52,7 @@ pub mod body;
 pub mod marker;
 pub mod motion;
 pub mod multi;
+pub mod satellite;
 pub mod state;
 pub mod statics;
 
@@ -387,8 +389,11 @@ impl Tracker {
         t_us: u64,
     ) -> (Choice, Acquired) {
         let known = |b: &Blob| self.statics.known(b.mass_centre_px);
+        let satellite = |b: &Blob| satellite::is_satellite(b, candidates.clone().map(|(_, o)| o));
         // What may be the LED: everything but what stood still while the LED was elsewhere.
-        let possible = candidates.filter(|(_, b)| known(b) != Known::Cleared);
+        let possible = candidates
+            .clone()
+            .filter(|(_, b)| known(b) != Known::Cleared);
         let positions = possible.clone().map(|(_, b)| b.mass_centre_px);
         let something_went = self.statics.any_vanished(positions, frame_index);
         let moved = |b: &Blob, went: bool| {
@@ -396,6 +401,7 @@ impl Tracker {
             known(b) == Known::Fresh
                 && !self.statics.stood_still(here, frame_index)
                 && (went || self.statics.crept(here, frame_index))
+                && !satellite(b)
         };
         let largest_mover_if = |went: bool| {
             possible
@@ -425,7 +431,8 @@ impl Tracker {
                 if known(&blob) == Known::Fresh
                     && !self.statics.stood_still(blob.mass_centre_px, frame_index)
                     && (self.seen_a_frame || blob.elongation >= SMEARED_ELONGATION)
-                    && !another(&blob) =>
+                    && !another(&blob)
+                    && !satellite(&blob) =>
             {
                 Some(index)
             }

@@ -30,6 +30,7 @@ use crate::detect::blobs::{Blob, MAX_BLOBS};
 use crate::detect::streak::Streak;
 
 use super::assign::Assignment;
+use super::satellite::is_satellite;
 use super::statics::{Known, Statics};
 use super::{dist, Estimate, PositionMethod, Sample, TrackState, Tracker, TrackerConfig};
 
@@ -255,6 +256,7 @@ impl MultiTracker {
                     statics.known(here) == Known::Fresh
                         && !statics.stood_still(here, frame_index)
                         && (something_went || statics.crept(here, frame_index))
+                        && !is_satellite(b, self.candidates.iter().map(|&(_, o)| o))
                 })
                 .max_by_key(|(_, b)| b.area_px)
                 .copied();
