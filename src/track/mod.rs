@@ -361,10 +361,12 @@ impl Tracker {
                 .map(|(_, b)| b.mass_centre_px);
             self.body.observe(frame_index, led_px, others);
         }
+        let all = candidates.clone().map(|(_, b)| b);
         for (index, blob) in candidates {
             if choice != Choice::Blob(index) {
+                let satellite = satellite::is_satellite(&blob, all.clone());
                 self.statics
-                    .observe(blob.mass_centre_px, frame_index, led_elsewhere);
+                    .observe(blob.mass_centre_px, frame_index, led_elsewhere, satellite);
             }
         }
         self.statics.expire(frame_index);

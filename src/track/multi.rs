@@ -338,8 +338,9 @@ impl MultiTracker {
             if self.slots.iter().any(|s| s.choice.blob == Some(*index)) {
                 continue;
             }
+            let satellite = is_satellite(blob, self.candidates.iter().map(|&(_, b)| b));
             self.statics
-                .observe(blob.mass_centre_px, frame_index, led_elsewhere);
+                .observe(blob.mass_centre_px, frame_index, led_elsewhere, satellite);
         }
         self.statics.expire(frame_index);
     }

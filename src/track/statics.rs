@@ -34,6 +34,9 @@ struct Static {
     seen_frames: u32,
     last_seen_frame: u64,
     cleared: bool,
+    /// A speck beside a much larger blob when last seen (see [`super::satellite`]): never
+    /// the LED, nor where the LED came from.
+    satellite: bool,
 }
 
 impl Static {
@@ -120,7 +123,8 @@ impl Statics {
     }
 
     /// Where a blob now at `position_px` that moved came from: a blob of the frame before
-    /// `frame_index` that is not at `position_px` now and was not standing still. Of those, the
+    /// `frame_index` that is not at `position_px` now, was not standing still and was no
+    /// satellite (a speck beside a larger blob, which flickers as if it moved). Of those, the
     /// one whose displacement to `position_px` carries most of that frame's blobs onto blobs
     /// of this frame (`now`), within [`DRIFT_PX`]: LEDs on one robot move together, so the
     /// right origin explains the others' motion too, where the nearest may be another LED of
@@ -140,6 +144,7 @@ impl Statics {
                 .filter(move |e| {
                     let gone = || !now.clone().any(|p| near(e.position_px, p));
                     e.last_seen_frame + 1 == frame_index
+                        && !e.satellite
                         && if resting {
                             e.standing() && gone()
                         } else {
@@ -171,8 +176,15 @@ impl Statics {
     }
 
     /// Notes a blob that is not the LED, seen in frame `frame_index`; `led_elsewhere` when
-    /// the LED was tracked elsewhere in that frame.
-    pub fn observe(&mut self, position_px: (f32, f32), frame_index: u64, led_elsewhere: bool) {
+    /// the LED was tracked elsewhere in that frame, `satellite` when it lay beside a much
+    /// larger blob.
+    pub fn observe(
+        &mut self,
+        position_px: (f32, f32),
+        frame_index: u64,
+        led_elsewhere: bool,
+        satellite: bool,
+    ) {
         if let Some(e) = self
             .entries
             .iter_mut()
@@ -188,6 +200,7 @@ impl Statics {
             e.position_px = position_px;
             e.last_seen_frame = frame_index;
             e.cleared |= led_elsewhere;
+            e.satellite = satellite;
             return;
         }
         let entry = Static {
@@ -196,6 +209,7 @@ impl Statics {
             seen_frames: 1,
             last_seen_frame: frame_index,
             cleared: led_elsewhere,
+            satellite,
         };
         if let Err(entry) = self.entries.push(entry) {
             if let Some(oldest) = self.entries.iter_mut().min_by_key(|e| e.last_seen_frame) {
@@ -233,7 +247,7 @@ mod tests {
     #[test]
     fn a_blob_at_the_same_place_becomes_a_distractor_and_is_forgotten_later() {
         let mut s = Statics::default();
-        s.observe((10.0, 10.0), 0, false);
+        s.observe((10.0, 10.0), 0, false, false);
         assert_eq!(s.known((10.0, 10.0)), Known::Fresh);
         assert!(s.stood_still((10.2, 10.1), 1));
         assert!(
@@ -241,10 +255,10 @@ mod tests {
             "only the frame just before counts"
         );
         assert!(!s.stood_still((15.0, 10.0), 1));
-        s.observe((10.2, 10.1), 1, false);
+        s.observe((10.2, 10.1), 1, false, false);
         assert_eq!(s.known((10.0, 10.0)), Known::Still);
         assert_eq!(s.known((20.0, 10.0)), Known::Fresh);
-        s.observe((10.1, 10.1), 2, true);
+        s.observe((10.1, 10.1), 2, true, false);
         assert_eq!(s.known((10.0, 10.0)), Known::Cleared);
         s.expire(2 + FORGET_AFTER_FRAMES + 1);
         assert_eq!(s.known((10.0, 10.0)), Known::Fresh);
@@ -254,7 +268,7 @@ mod tests {
     fn a_blob_that_keeps_moving_never_does() {
         let mut s = Statics::default();
         for i in 0..20u64 {
-            s.observe((5.0 * i as f32, 0.0), i, false);
+            s.observe((5.0 * i as f32, 0.0), i, false, false);
         }
         assert!((0..20).all(|i| s.known((5.0 * i as f32, 0.0)) == Known::Fresh));
         assert!(s.any_vanished([(100.0, 0.0)].into_iter(), 20));
@@ -265,7 +279,7 @@ mod tests {
     fn a_blob_creeping_from_where_it_appeared_has_moved() {
         let mut s = Statics::default();
         for i in 0..10u64 {
-            s.observe((0.5 * i as f32, 0.0), i, false);
+            s.observe((0.5 * i as f32, 0.0), i, false, false);
             if i == 2 {
                 assert_eq!(s.known((1.0, 0.0)), Known::Still, "1 px from its origin");
             }
@@ -279,7 +293,7 @@ mod tests {
     fn a_creeping_blob_has_moved_in_the_frame_it_crosses_the_drift() {
         let mut s = Statics::default();
         for i in 0..5u64 {
-            s.observe((0.5 * i as f32, 0.0), i, false);
+            s.observe((0.5 * i as f32, 0.0), i, false, false);
         }
         // Last seen 2.0 px from its origin, now 2.5 px: it moved in this frame.
         let here = (2.5, 0.0);
@@ -295,8 +309,8 @@ mod tests {
     fn an_led_that_starts_from_rest_came_from_its_resting_place_not_from_a_lamp() {
         let mut s = Statics::default();
         for i in 0..4u64 {
-            s.observe((100.0, 100.0), i, false);
-            s.observe((300.0, 200.0), i, false);
+            s.observe((100.0, 100.0), i, false, false);
+            s.observe((300.0, 200.0), i, false, false);
         }
         // The LED leaves its place; the lamp stays on its own.
         let now = [(103.0, 100.0), (300.0, 200.0)];
@@ -305,7 +319,7 @@ mod tests {
             Some((100.0, 100.0))
         );
         // Something that moved in the frame before is the origin before any resting place.
-        s.observe((90.0, 130.0), 3, false);
+        s.observe((90.0, 130.0), 3, false, false);
         assert_eq!(
             s.came_from((103.0, 100.0), 4, now.into_iter()),
             Some((90.0, 130.0))
@@ -318,11 +332,33 @@ mod tests {
     }
 
     #[test]
+    fn a_flickering_satellite_is_never_where_the_led_came_from() {
+        let mut s = Statics::default();
+        for i in 0..4u64 {
+            s.observe((100.0, 100.0), i, false, false);
+        }
+        // A speck beside the LED's glow, which flickered in the frame before: not standing.
+        s.observe((103.0, 117.0), 3, false, true);
+        // The LED starts off: it came from its resting place, not from the speck.
+        let now = [(101.5, 100.0)];
+        assert_eq!(
+            s.came_from((101.5, 100.0), 4, now.into_iter()),
+            Some((100.0, 100.0))
+        );
+        // The same blob seen as no satellite is an origin.
+        s.observe((103.0, 117.0), 3, false, false);
+        assert_eq!(
+            s.came_from((101.5, 100.0), 4, now.into_iter()),
+            Some((103.0, 117.0))
+        );
+    }
+
+    #[test]
     fn a_full_table_replaces_the_oldest_entry() {
         let mut s = Statics::default();
         for i in 0..(MAX_STATICS as u64 + 1) {
-            s.observe((10.0 * i as f32, 0.0), i, false);
-            s.observe((10.0 * i as f32, 0.0), i + 1, false);
+            s.observe((10.0 * i as f32, 0.0), i, false, false);
+            s.observe((10.0 * i as f32, 0.0), i + 1, false, false);
         }
         assert_eq!(s.known((0.0, 0.0)), Known::Fresh, "the oldest made room");
         assert_eq!(s.known((10.0 * MAX_STATICS as f32, 0.0)), Known::Still);
