@@ -639,8 +639,9 @@ impl Tracker {
         // motion's measured from a few frames. Without a reported uncertainty (the ramps)
         // there is nothing to say the single frame's head is wrong. A path read as still
         // has its head carried from the middle below, by the three frames' velocity, which
-        // divides the middle's jitter: right for a straight motion, not on a tight circle,
-        // where the motion's turn is needed.
+        // divides the middle's jitter: right for a straight motion at a steady speed, not on
+        // a tight circle, where the motion's turn is needed, nor for an LED gaining speed
+        // inside its clipped glow (a robot starting off), where its acceleration is.
         let fit_px = streak.path.and_then(|p| p.fit_px);
         let motion = self.motion_head(mid_px, t_us);
         // The motion's head is also taken where it agrees with the single frame's but is the
@@ -659,7 +660,8 @@ impl Tracker {
                 (disagrees || fit_region > motion_region).then_some((m, disagrees))
             }
             (Some(_), None) => None,
-            (None, _) => (m.moved && m.turning && !streak.path_failed).then_some((m, true)),
+            (None, _) => (m.moved && (m.turning || m.accelerating) && !streak.path_failed)
+                .then_some((m, true)),
         });
         let fit_px = fit_px.unwrap_or(0.0);
         if let Some((m, disagrees)) = from_motion {
@@ -1310,6 +1312,42 @@ mod tests {
             }
         }
         assert_eq!(checked, 4);
+    }
+
+    /// An LED starting off inside its own clipped glow: its streak reads still (the glow hides
+    /// its ends), so the head is carried from the middle. Carried at the frames' velocity
+    /// (the slower of the last frame's and the last three's, right for an LED that stops),
+    /// it fell behind an accelerating LED by a pixel; the accelerating motion, once it
+    /// predicts the middles best, keeps up.
+    #[test]
+    fn an_accelerating_led_whose_streak_reads_still_is_carried_by_its_acceleration() {
+        let exposure_us = 10_000;
+        let exposure_s = exposure_us as f32 * 1e-6;
+        let (v0_px_s, a_px_s2) = (200.0f32, 4000.0f32);
+        let x_at = |t: f32| 100.0 + v0_px_s * t + 0.5 * a_px_s2 * t * t;
+        let mut t = Tracker::new(TrackerConfig {
+            exposure_us: Some(exposure_us),
+        });
+        let mut checked = 0;
+        for i in 0..10u64 {
+            let end_s = (i * FRAME_US) as f32 * 1e-6;
+            let (tail_x, head_x) = (x_at(end_s - exposure_s), x_at(end_s));
+            let mid = (0.5 * (tail_x + head_x), 100.0);
+            let e = t
+                .update(i * FRAME_US, Some(&streak(mid, Some([mid, mid]))))
+                .unwrap();
+            if i >= 5 {
+                let error_px = (e.position_px.0 - head_x).hypot(e.position_px.1 - 100.0);
+                assert!(
+                    error_px <= 0.1,
+                    "frame {i}: head {:?}, {head_x}",
+                    e.position_px
+                );
+                assert_eq!(e.position_method, PositionMethod::Head);
+                checked += 1;
+            }
+        }
+        assert_eq!(checked, 5);
     }
 
     /// A smear taken in the first frame has no velocity yet: its gate is the smallest, and a

@@ -81,6 +81,8 @@ pub struct MotionHead {
     /// Whether the turning motion predicted the last middles better than the straight and
     /// the accelerating ones.
     pub turning: bool,
+    /// Whether the accelerating motion predicted them best.
+    pub accelerating: bool,
     /// The path over the exposure the motion gives (its length).
     pub path_px: f32,
     /// One standard deviation of the path over the exposure the velocity gives, along it.
@@ -258,6 +260,7 @@ pub fn motion_head(middles: &[Middle], exposure_us: u32) -> Option<MotionHead> {
         head_sigma_px: head_var.sqrt(),
         moved: false,
         turning: model == Model::Turning,
+        accelerating: model == Model::Accelerating,
         path_px,
         // The path is the displacement scaled by exposure over interval.
         path_sigma_px: (path_weights_sq * middle_var).sqrt() * exposure_s / last_s,
