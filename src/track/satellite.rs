@@ -19,12 +19,21 @@ pub const SATELLITE_AREA_RATIO: u32 = 8;
 pub const SATELLITE_REACH_PX: usize = 2;
 
 /// True when `blob` lies within [`SATELLITE_REACH_PX`] of the extent of one of `others` at
-/// least [`SATELLITE_AREA_RATIO`] times its area.
+/// least [`SATELLITE_AREA_RATIO`] times its area and compact (see [`compact`]).
 pub fn is_satellite(blob: &Blob, mut others: impl Iterator<Item = Blob>) -> bool {
     others.any(|other| {
         other.area_px >= SATELLITE_AREA_RATIO.saturating_mul(blob.area_px)
+            && compact(&other)
             && within_reach(&other.bbox, &blob.bbox)
     })
+}
+
+/// Whether `blob` fills at least half its box (a disk fills π/4 of it, a window all of it),
+/// so that near its box is near its pixels. A diagonal streak or glare bar fills a sliver of
+/// its box, whose empty corners may hold another light.
+fn compact(blob: &Blob) -> bool {
+    let box_px = blob.bbox.width_px().saturating_mul(blob.bbox.height_px());
+    2 * blob.area_px as usize >= box_px
 }
 
 /// True when boxes `a` and `b` are at most [`SATELLITE_REACH_PX`] apart on both axes.
@@ -67,6 +76,17 @@ mod tests {
         // Diagonally off its corner, within reach on both axes.
         assert!(is_satellite(&blob(41, 41, 2), [glow].into_iter()));
         assert!(!is_satellite(&blob(41, 43, 2), [glow].into_iter()));
+    }
+
+    #[test]
+    fn a_speck_in_the_empty_corner_of_a_diagonal_bar_s_box_is_none() {
+        // A glare bar 3 px thick along the diagonal of a 40 px box: 120 of its 1600 pixels.
+        let bar = Blob {
+            area_px: 120,
+            ..blob(10, 10, 40)
+        };
+        assert!(!is_satellite(&blob(45, 12, 2), [bar].into_iter()));
+        assert!(!is_satellite(&blob(30, 12, 2), [bar].into_iter()));
     }
 
     #[test]
