@@ -502,3 +502,59 @@ fn the_floor_an_led_at_rest_lights_through_its_glow_is_never_reported() {
         );
     }
 }
+
+/// The goal for a nearly still LED (x, y within this of the truth, p95), as in
+/// `tests/streak_sweep.rs`.
+const STILL_P95_MAX_PX: f64 = 0.75;
+
+/// An LED come to rest in a glow that clips 20–35 px across reads still: its position at rest
+/// stays within [`STILL_P95_MAX_PX`] (p95) of where it is. Before the centre of its light
+/// above the learned floor was taken, the fit's middle of so round a blob jittered, and the
+/// default bloom read 1.24 px off at p95.
+#[test]
+fn an_led_at_rest_in_its_clipped_glow_reads_still() {
+    // Glow σ over core σ, glow over core radiance, noise σ, gamma.
+    for (glow_width, glow_ratio, noise, gamma) in [
+        (4.0, 0.05, 0.01, 1.0),
+        (3.0, 0.1, 0.004, 1.8),
+        (5.0, 0.04, 0.008, 2.2),
+    ] {
+        let mut config = preset("speed-ramp");
+        config.camera.noise_sigma = noise;
+        config.camera.gamma = gamma;
+        let sigma_px = config.led.radius_px;
+        config.led.spot = Spot::Bloom {
+            sigma_px,
+            glow_sigma_px: glow_width * sigma_px,
+            glow_ratio,
+        };
+        config.led.glow_peak = 0.0;
+        let label = format!("glow {glow_width}σ at {glow_ratio}, σ {noise}, γ {gamma}");
+        let (_, runs) = run(config);
+        // The frames after the LED came to rest, but the first (its last move's end).
+        let arrived = runs
+            .iter()
+            .rposition(|(_, t)| t.vx_px_s != Some(0.0) || t.vy_px_s != Some(0.0))
+            .unwrap_or_else(|| panic!("{label}: the LED moves"));
+        let mut errors: Vec<f64> = runs[arrived + 2..]
+            .iter()
+            .map(|(r, t)| {
+                error_px(r, t, Point::default())
+                    .unwrap_or_else(|| panic!("{label}: at rest, not found"))
+            })
+            .collect();
+        assert!(
+            errors.len() >= 20,
+            "{label}: {} frames at rest",
+            errors.len()
+        );
+        errors.sort_by(f64::total_cmp);
+        let p95 = errors[(0.95 * errors.len() as f64).ceil() as usize - 1];
+        eprintln!(
+            "{label}: at rest over {} frames, median {:.3} px, p95 {p95:.3} px",
+            errors.len(),
+            errors[errors.len() / 2]
+        );
+        assert!(p95 <= STILL_P95_MAX_PX, "{label}: p95 {p95:.3} px");
+    }
+}

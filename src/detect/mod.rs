@@ -15,6 +15,7 @@ mod clip_spread;
 pub mod fit;
 pub mod floor_bg;
 mod level_falls;
+pub mod light_centre;
 pub mod line_profile;
 pub mod mirror_middle;
 pub mod moments;

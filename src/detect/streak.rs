@@ -26,6 +26,7 @@ use super::blobs::{Blob, BoundingBox, Labeler};
 use super::cascade;
 use super::fit::{self, NoFit, Rough};
 use super::floor_bg::FloorBackground;
+use super::light_centre;
 use super::mirror_middle;
 use super::moments::{Moments, StadiumPath};
 use super::morph::{self, Kernel};
@@ -371,6 +372,41 @@ pub fn analyze(
         }
     };
 
+    // A round blob whose fitted path reads still has no axis for the fit's middle to rest on:
+    // where the floor under it is known, the centre of its light is the more precise of the
+    // two (see [`light_centre`]); the still path's ends are its middle.
+    let chord_px = (ends_px[1].0 - ends_px[0].0).hypot(ends_px[1].1 - ends_px[0].1);
+    let still_fit_px = path
+        .filter(|p| p.ends_px[0] == p.ends_px[1])
+        .and_then(|p| p.fit_px);
+    let light = still_fit_px
+        .filter(|_| chord_px < ELONGATED_WIDTHS * thickness_px)
+        .and_then(|fit_px| {
+            background
+                .and_then(|f| {
+                    let others = labeler.blobs().iter().enumerate();
+                    let others = others.filter(|&(i, _)| i != index).map(|(_, o)| o);
+                    light_centre::light_centre(
+                        frame,
+                        blob,
+                        thickness_px,
+                        levels.top_luma,
+                        f,
+                        others,
+                    )
+                })
+                .filter(|c| c.sigma_px < fit_px)
+        });
+    let (mid_px, path) = match light {
+        Some(c) => (
+            c.centre_px,
+            path.map(|p| StreakPath {
+                ends_px: [c.centre_px; 2],
+                ..p
+            }),
+        ),
+        None => (mid_px, path),
+    };
     Streak {
         centroid_px,
         seed_point_px,

@@ -19,7 +19,7 @@ pub const SATELLITE_AREA_RATIO: u32 = 8;
 pub const SATELLITE_REACH_PX: usize = 2;
 
 /// True when `blob` lies within [`SATELLITE_REACH_PX`] of the extent of one of `others` at
-/// least [`SATELLITE_AREA_RATIO`] times its area and compact (see [`compact`]).
+/// least [`SATELLITE_AREA_RATIO`] times its area and compact: filling half its box or more.
 pub fn is_satellite(blob: &Blob, mut others: impl Iterator<Item = Blob>) -> bool {
     others.any(|other| {
         other.area_px >= SATELLITE_AREA_RATIO.saturating_mul(blob.area_px)
