@@ -589,7 +589,6 @@ impl Scene {
         })
     }
 
-    /// Renders into a buffer of the right length (shorter buffers get whole rows only).
     /// The camera's noise stream for `frame` (`None` for a noiseless camera): seeded per frame,
     /// so that any frame renders alike alone or in sequence.
     fn noise_rng(&self, frame: usize) -> Option<SplitMix64> {
@@ -599,6 +598,7 @@ impl Scene {
             .then(|| SplitMix64::new(mix64(self.config.seed ^ mix64(frame as u64 ^ NOISE_SALT))))
     }
 
+    /// Renders into a buffer of the right length (shorter buffers get whole rows only).
     fn render_into(&self, frame: usize, out: &mut [u8]) {
         let width = self.config.width_px as usize;
         if let Some(view) = &self.config.view {
