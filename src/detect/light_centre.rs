@@ -14,8 +14,8 @@
 
 use super::blobs::Blob;
 use super::floor_bg::FloorBackground;
+use super::satellite::SATELLITE_AREA_RATIO;
 use crate::frame::Frame;
-use crate::track::satellite::SATELLITE_AREA_RATIO;
 
 /// The contour level, as a fraction of the least clipped light: halfway between the floor
 /// and the clip, well above the noise, and close enough to the clipped core that the contour

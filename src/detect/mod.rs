@@ -22,6 +22,7 @@ pub mod moments;
 pub mod morph;
 mod normal;
 mod ray_floor;
+pub mod satellite;
 pub mod skeleton;
 pub mod spot_memory;
 pub mod spot_shape;

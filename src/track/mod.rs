@@ -24,7 +24,7 @@
 //!   largest. However round or elongated, a blob that has stood still since it appeared is
 //!   never taken, and when several candidates stand still the frame is `ambiguous` until one
 //!   moves. A speck beside a much larger blob (a piece of its rim or of the floor its glow
-//!   lights, see [`satellite`]) is never taken on its own, moved or not.
+//!   lights, see [`crate::detect::satellite`]) is never taken on its own, moved or not.
 //! - A lone candidate with nothing else in view is the LED when it appeared where nothing
 //!   stood in the frame before (the LED coming back after the track expired, or coming into
 //!   view). In the first frame of a run nothing has appeared: there a lone candidate is taken
@@ -52,13 +52,13 @@ pub mod body;
 pub mod marker;
 pub mod motion;
 pub mod multi;
-pub mod satellite;
 pub mod state;
 pub mod statics;
 
 use heapless::HistoryBuf;
 
 use crate::detect::blobs::Blob;
+use crate::detect::satellite;
 use crate::detect::streak::Streak;
 use body::Body;
 use motion::{Middle, MotionHead, CHI2_1DOF_99, CHI2_2DOF_99, MOTION_MIDDLES};

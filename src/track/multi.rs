@@ -27,10 +27,10 @@ use core::fmt;
 use heapless::Vec as BoundedVec;
 
 use crate::detect::blobs::{Blob, MAX_BLOBS};
+use crate::detect::satellite::is_satellite;
 use crate::detect::streak::Streak;
 
 use super::assign::Assignment;
-use super::satellite::is_satellite;
 use super::statics::{Known, Statics};
 use super::{dist, Estimate, PositionMethod, Sample, TrackState, Tracker, TrackerConfig};
 

@@ -34,7 +34,7 @@ struct Static {
     seen_frames: u32,
     last_seen_frame: u64,
     cleared: bool,
-    /// A speck beside a much larger blob when last seen (see [`super::satellite`]): never
+    /// A speck beside a much larger blob when last seen (see [`crate::detect::satellite`]): never
     /// the LED, nor where the LED came from.
     satellite: bool,
 }

@@ -8,7 +8,7 @@
 //! Another LED of the same robot, at the same range, is about as large as the LED; a lamp
 //! beside the LED is no satellite of it unless it is far smaller and all but touches it.
 
-use crate::detect::blobs::{Blob, BoundingBox};
+use super::blobs::{Blob, BoundingBox};
 
 /// A blob at least this many times the area of a speck beside it makes the speck its
 /// satellite: a piece of a rim or a lit floor is a small part of the blob it lies by.
