@@ -102,6 +102,28 @@ fn check(label: &str, runs: &[(FrameReport, Truth)], offset_px: Point) -> usize 
     first
 }
 
+/// The q-quantile of `sorted` by nearest rank.
+fn nearest_rank(sorted: &[f64], q: f64) -> f64 {
+    sorted[((q * sorted.len() as f64).ceil() as usize).max(1) - 1]
+}
+
+/// `speed-ramp` (an LED at rest for about 7 frames, then a run) with its spot a bloom: a glow
+/// `glow_width` times the core's σ at `glow_ratio` of its radiance, on a camera of read noise
+/// `noise` (clip units) and tone exponent `gamma`.
+fn speed_ramp_in_bloom(glow_width: f64, glow_ratio: f64, noise: f64, gamma: f64) -> SceneConfig {
+    let mut config = preset("speed-ramp");
+    config.camera.noise_sigma = noise;
+    config.camera.gamma = gamma;
+    let sigma_px = config.led.radius_px;
+    config.led.spot = Spot::Bloom {
+        sigma_px,
+        glow_sigma_px: glow_width * sigma_px,
+        glow_ratio,
+    };
+    config.led.glow_peak = 0.0;
+    config
+}
+
 fn preset(name: &str) -> SceneConfig {
     Scene::preset_config(name).unwrap_or_else(|| panic!("no preset {name}"))
 }
@@ -310,7 +332,7 @@ fn a_dim_dot_beside_a_window_that_reads_244_and_up() {
             .collect();
         let worst = errors.iter().copied().fold(0.0, f64::max);
         errors.sort_by(f64::total_cmp);
-        let quantile = |q: f64| errors[((q * errors.len() as f64).ceil() as usize).max(1) - 1];
+        let quantile = |q: f64| nearest_rank(&errors, q);
         eprintln!(
             "{label}: found {} of {visible}, position median {:.2} p95 {:.2} worst {worst:.2} px",
             errors.len(),
@@ -444,18 +466,9 @@ fn the_floor_an_led_at_rest_lights_through_its_glow_is_never_reported() {
         (3.0, 0.05, 30.0, 0.008, 2.2),
         (3.0, 0.03, 20.0, 0.006, 1.0),
     ] {
-        let mut config = preset("speed-ramp");
+        let mut config = speed_ramp_in_bloom(glow_width, glow_ratio, noise, gamma);
         config.frame_count = 20;
-        config.camera.noise_sigma = noise;
-        config.camera.gamma = gamma;
-        let sigma_px = config.led.radius_px;
-        config.led.spot = Spot::Bloom {
-            sigma_px,
-            glow_sigma_px: glow_width * sigma_px,
-            glow_ratio,
-        };
         config.led.peak = peak;
-        config.led.glow_peak = 0.0;
         let label =
             format!("glow {glow_width}σ at {glow_ratio}, peak {peak}, σ {noise}, γ {gamma}");
         let (_, runs) = run(config);
@@ -519,18 +532,8 @@ fn an_led_at_rest_in_its_clipped_glow_reads_still() {
         (3.0, 0.1, 0.004, 1.8),
         (5.0, 0.04, 0.008, 2.2),
     ] {
-        let mut config = preset("speed-ramp");
-        config.camera.noise_sigma = noise;
-        config.camera.gamma = gamma;
-        let sigma_px = config.led.radius_px;
-        config.led.spot = Spot::Bloom {
-            sigma_px,
-            glow_sigma_px: glow_width * sigma_px,
-            glow_ratio,
-        };
-        config.led.glow_peak = 0.0;
         let label = format!("glow {glow_width}σ at {glow_ratio}, σ {noise}, γ {gamma}");
-        let (_, runs) = run(config);
+        let (_, runs) = run(speed_ramp_in_bloom(glow_width, glow_ratio, noise, gamma));
         // The frames after the LED came to rest, but the first (its last move's end).
         let arrived = runs
             .iter()
@@ -549,11 +552,11 @@ fn an_led_at_rest_in_its_clipped_glow_reads_still() {
             errors.len()
         );
         errors.sort_by(f64::total_cmp);
-        let p95 = errors[(0.95 * errors.len() as f64).ceil() as usize - 1];
+        let p95 = nearest_rank(&errors, 0.95);
         eprintln!(
             "{label}: at rest over {} frames, median {:.3} px, p95 {p95:.3} px",
             errors.len(),
-            errors[errors.len() / 2]
+            nearest_rank(&errors, 0.5)
         );
         assert!(p95 <= STILL_P95_MAX_PX, "{label}: p95 {p95:.3} px");
     }

@@ -1271,6 +1271,18 @@ mod tests {
         assert_eq!(checked, 4);
     }
 
+    /// A tracker with a 10 ms exposure, the exposure in seconds, and where an LED that
+    /// starts at x = 100 px at 200 px/s and gains 4000 px/s² is at time t (s).
+    fn accelerating_led() -> (Tracker, f32, impl Fn(f32) -> f32) {
+        let exposure_us = 10_000;
+        let tracker = Tracker::new(TrackerConfig {
+            exposure_us: Some(exposure_us),
+        });
+        let (v0_px_s, a_px_s2) = (200.0f32, 4000.0f32);
+        let x_at = move |t: f32| 100.0 + v0_px_s * t + 0.5 * a_px_s2 * t * t;
+        (tracker, exposure_us as f32 * 1e-6, x_at)
+    }
+
     /// A robot starting off: its LED gains 4000 px/s² along its path, and its single frames
     /// place the head 0.6 px across the path, either way in turn, within their reported
     /// deviation (`fit_px` 0.5 px). Once the middles' motion is known it sees the
@@ -1279,13 +1291,7 @@ mod tests {
     /// 0.33 px behind.
     #[test]
     fn an_accelerating_led_s_motion_head_keeps_up_with_it() {
-        let exposure_us = 10_000;
-        let exposure_s = exposure_us as f32 * 1e-6;
-        let (v0_px_s, a_px_s2) = (200.0f32, 4000.0f32);
-        let x_at = |t: f32| 100.0 + v0_px_s * t + 0.5 * a_px_s2 * t * t;
-        let mut t = Tracker::new(TrackerConfig {
-            exposure_us: Some(exposure_us),
-        });
+        let (mut t, exposure_s, x_at) = accelerating_led();
         let mut checked = 0;
         for i in 0..10u64 {
             let end_s = (i * FRAME_US) as f32 * 1e-6;
@@ -1321,13 +1327,7 @@ mod tests {
     /// predicts the middles best, keeps up.
     #[test]
     fn an_accelerating_led_whose_streak_reads_still_is_carried_by_its_acceleration() {
-        let exposure_us = 10_000;
-        let exposure_s = exposure_us as f32 * 1e-6;
-        let (v0_px_s, a_px_s2) = (200.0f32, 4000.0f32);
-        let x_at = |t: f32| 100.0 + v0_px_s * t + 0.5 * a_px_s2 * t * t;
-        let mut t = Tracker::new(TrackerConfig {
-            exposure_us: Some(exposure_us),
-        });
+        let (mut t, exposure_s, x_at) = accelerating_led();
         let mut checked = 0;
         for i in 0..10u64 {
             let end_s = (i * FRAME_US) as f32 * 1e-6;
