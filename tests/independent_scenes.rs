@@ -127,12 +127,14 @@ fn score(reports: &[Value], truths: &[Truth], settled_frame: usize, exposure_s: 
     s
 }
 
-/// Renders the scenes into `dir` and returns their parameters.
-fn render(dir: &Path, seed: u64, count: usize) -> Vec<Value> {
+/// Renders the scenes into `dir` (with the renderer's `extra` arguments) and returns their
+/// parameters.
+fn render(dir: &Path, seed: u64, count: usize, extra: &[&str]) -> Vec<Value> {
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/independent/render_streaks.py");
     let out = Command::new(python())
         .arg(script)
         .args(["--seed", &seed.to_string(), "--count", &count.to_string()])
+        .args(extra)
         .arg("--out")
         .arg(dir)
         .output()
@@ -151,6 +153,30 @@ fn quantiles(v: &[f64]) -> (f64, f64) {
         return (0.0, 0.0);
     }
     (quantile(v, 0.5), quantile(v, 0.95))
+}
+
+/// Replays rendered scene `params["scene"]` of `dir` with `glint track` (with `model`, else
+/// the default model): its JSON lines and its truth.
+fn replay_scene(dir: &Path, params: &Value, model: Option<&str>) -> (Vec<Value>, Vec<Truth>) {
+    let k = params["scene"].as_u64().unwrap();
+    let exposure = params["exposure_us"].as_u64().unwrap().to_string();
+    let mut cmd = glint();
+    cmd.args(["track", "--input"])
+        .arg(dir.join(format!("scene_{k}.grey")))
+        .args(["--size", "640x480", "--format-in", "grey", "--fps", "30"])
+        .args(["--exposure-us", &exposure]);
+    if let Some(model) = model {
+        cmd.args(["--streak-model", model]);
+    }
+    let out = cmd.output().expect("run glint");
+    assert!(
+        out.status.success(),
+        "scene {k}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let csv = std::fs::read(dir.join(format!("scene_{k}.csv"))).expect("truth");
+    let truths = read_truth_csv(&csv[..]).expect("truth parses");
+    (parse_jsonl(&out.stdout), truths)
 }
 
 /// What a replay of the scenes showed.
@@ -175,7 +201,7 @@ fn replay_scenes() -> Outcome {
         .map(std::path::PathBuf::from)
         .unwrap_or_else(|| temp.path().to_path_buf());
     std::fs::create_dir_all(&dir).expect("dump dir");
-    let scenes = render(&dir, seed, count);
+    let scenes = render(&dir, seed, count, &[]);
     let (mut head, mut mid60, mut speed, mut speed_missing) =
         (Vec::new(), Vec::new(), Vec::new(), 0);
     let mut outcome = Outcome {
@@ -185,26 +211,10 @@ fn replay_scenes() -> Outcome {
     };
     for params in &scenes {
         let k = params["scene"].as_u64().unwrap();
-        let exposure = params["exposure_us"].as_u64().unwrap().to_string();
-        let mut cmd = glint();
-        cmd.args(["track", "--input"])
-            .arg(dir.join(format!("scene_{k}.grey")))
-            .args(["--size", "640x480", "--format-in", "grey", "--fps", "30"])
-            .args(["--exposure-us", &exposure]);
-        if let Some(model) = &model {
-            cmd.args(["--streak-model", model]);
-        }
-        let out = cmd.output().expect("run glint");
-        assert!(
-            out.status.success(),
-            "scene {k}: {}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        let csv = std::fs::read(dir.join(format!("scene_{k}.csv"))).expect("truth");
-        let truths = read_truth_csv(&csv[..]).expect("truth parses");
+        let (reports, truths) = replay_scene(&dir, params, model.as_deref());
         let settled = params["settled_frame"].as_u64().unwrap_or(0) as usize;
         let exposure_s = params["exposure_us"].as_f64().unwrap() * 1e-6;
-        let s = score(&parse_jsonl(&out.stdout), &truths, settled, exposure_s);
+        let s = score(&reports, &truths, settled, exposure_s);
         let (h, m, v) = (
             quantiles(&s.head_px),
             quantiles(&s.mid60_px),
@@ -296,4 +306,72 @@ fn independent_scenes_hold_the_bounds() {
     let outcome = replay_scenes();
     let failures: Vec<_> = [outcome.broken, outcome.scenes_out, outcome.pooled_out].concat();
     assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+/// A spot outside the fit's family (a Moffat core in a power-law halo, a defocused pillbox)
+/// puts the fitted ends a steady distance off, so that every frame of one LED reads its speed
+/// a few per cent fast or slow (see `src/track/length_offset.rs`). Over a long run the
+/// middles' motion measures that offset and the single frame's speed is taken without it:
+/// on 60-frame arcs, half a second in, each scene's median single-frame speed error is
+/// within the issue's 3 %, and the pooled p95 within its 10 %. Without the learned offset a
+/// halo scene's median was 5.3 % and a pillbox one's 3.4 %. NOT YET HELD, so not asserted:
+/// the p95 of every scene (a halo scene's frames whose fit is poor, `fit_px` 2–6 px, read
+/// 10–12 % fast) and a streak speed in 90 % of every scene's frames (a 60 px pillbox
+/// streak's is missing in 6 of 45).
+#[test]
+fn a_long_run_on_a_spot_the_fit_does_not_describe_reads_its_speed() {
+    const WARM_FRAMES: usize = 15;
+    const FRAMES: &str = "60";
+    let (mut out, mut pooled) = (Vec::new(), Vec::new());
+    for spot in ["halo", "pillbox"] {
+        let temp = tempfile::tempdir().expect("temp dir");
+        let args = ["--motion", "arc", "--spot", spot, "--frames", FRAMES];
+        for params in &render(temp.path(), 7, 8, &args) {
+            let k = params["scene"].as_u64().unwrap();
+            let (reports, truths) = replay_scene(temp.path(), params, None);
+            let exposure_s = params["exposure_us"].as_f64().unwrap() * 1e-6;
+            let (mut speed, mut without, mut scored) = (Vec::new(), 0, 0);
+            for (r, t) in reports.iter().zip(&truths) {
+                let streak_px = t.streak_px.unwrap();
+                if t.frame < WARM_FRAMES
+                    || t.visible != Visibility::Visible
+                    || streak_px < SPEED_MIN_STREAK_PX
+                {
+                    continue;
+                }
+                scored += 1;
+                if r["found"] != true || r["v_method"] != "streak" {
+                    without += 1;
+                    continue;
+                }
+                let v = r["vx"].as_f64().unwrap().hypot(r["vy"].as_f64().unwrap());
+                let truth = streak_px / exposure_s;
+                speed.push((v - truth).abs() / truth);
+            }
+            let (median, p95) = quantiles(&speed);
+            eprintln!(
+                "{spot} scene {k}: speed {:.2} / {:.2} % over {} frames, {without} of {scored} \
+                 without",
+                100.0 * median,
+                100.0 * p95,
+                speed.len()
+            );
+            if median > SPEED_MEDIAN_MAX {
+                out.push(format!("{spot} scene {k}: median {:.2} %", 100.0 * median));
+            }
+            pooled.extend(speed);
+        }
+    }
+    let (median, p95) = quantiles(&pooled);
+    eprintln!(
+        "pooled: {:.2} / {:.2} % over {} frames",
+        100.0 * median,
+        100.0 * p95,
+        pooled.len()
+    );
+    assert!(pooled.len() >= 500, "{} frames scored", pooled.len());
+    if p95 > SPEED_P95_MAX {
+        out.push(format!("pooled p95 {:.2} %", 100.0 * p95));
+    }
+    assert!(out.is_empty(), "{}", out.join("\n"));
 }

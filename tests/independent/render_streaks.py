@@ -24,7 +24,8 @@ Pixel (0, 0)'s centre is the coordinate (0, 0), as in OpenCV.
 
 writes DIR/scene_K.grey (8-bit luma frames, 640×480) and DIR/scene_K.csv for K < N, and
 DIR/scenes.json: one object per scene with its parameters (the exposure in µs among them).
-Only numpy is used.
+`--motion KIND`, `--spot KIND` and `--frames N` make every scene of that motion, spot or
+length (the rest drawn as without them). Only numpy is used.
 """
 
 import argparse
@@ -208,17 +209,18 @@ def streak_light(motion, kernel, t_start, t_end):
     return lo, light.reshape(h, SUPER, w, SUPER).mean(axis=(1, 3)), path, length
 
 
-def render_scene(rng, index):
+def render_scene(rng, index, force):
     # The streak's length in one exposure, 2 to 60 px; a long one needs a long exposure.
     streak_px = float(rng.choice([rng.uniform(2, 20), rng.uniform(20, 40), 60.0]))
     exposure_s = float(rng.uniform(4e-3, 30e-3) if streak_px < 20 else rng.uniform(15e-3, 30e-3))
-    motion_kind = str(rng.choice(["line", "line", "arc", "accelerate", "settle"]))
+    motion_kind = force.motion or str(rng.choice(["line", "line", "arc", "accelerate", "settle"]))
     # A straight run: as many frames as stay inside the middle of the picture at that speed.
-    frames = MAX_FRAMES
+    frames = force.frames or MAX_FRAMES
     if motion_kind in ("line", "accelerate"):
         per_frame_px = streak_px / exposure_s / FPS
         frames = int(np.clip(300 / per_frame_px, 4, MAX_FRAMES))
     kind = str(rng.choice(["moffat", "moffat", "halo", "pillbox"]))
+    kind = force.spot or kind
     spot = {"kind": kind}
     if kind == "pillbox":
         spot.update(radius_px=float(rng.uniform(0.8, 3.0)), soft_px=float(rng.uniform(0.3, 0.8)))
@@ -320,11 +322,15 @@ def main():
     parser.add_argument("--seed", type=int, required=True)
     parser.add_argument("--count", type=int, required=True)
     parser.add_argument("--out", required=True)
+    # Every scene of one kind, for a check of that kind (the random draws stay the same).
+    parser.add_argument("--motion", choices=["line", "arc", "accelerate", "settle"])
+    parser.add_argument("--spot", choices=["moffat", "halo", "pillbox"])
+    parser.add_argument("--frames", type=int, help="frames of an arc or a settling LED")
     args = parser.parse_args()
     rng = np.random.default_rng(args.seed)
     scenes = []
     for k in range(args.count):
-        frames, truths, params = render_scene(rng, k)
+        frames, truths, params = render_scene(rng, k, args)
         with open(os.path.join(args.out, f"scene_{k}.grey"), "wb") as f:
             f.write(frames)
         with open(os.path.join(args.out, f"scene_{k}.csv"), "w") as f:
