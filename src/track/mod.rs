@@ -681,7 +681,22 @@ impl Tracker {
                 let disagrees = dx * dx + dy * dy > fit_region + motion_region;
                 (disagrees || fit_region > motion_region).then_some((m, disagrees))
             }
-            (Some(_), None) => None,
+            // The ramps report no deviation, so nothing says their head is off, unless the
+            // middles rule their path out: they did not move beyond their noise, the most
+            // the motion's path may be (at its quantile) is within the spot's width, and the
+            // ramps' path is longer than both together. A still LED in its glow read as a
+            // streak by the ramps put its head 16 px off. An LED that turns back may leave
+            // its middle where it was, but not the middles before: how badly they were
+            // predicted makes the motion's path uncertain by tens of pixels, and the ramps'
+            // path stands.
+            (Some(_), None) => moving
+                .is_some_and(|p| {
+                    let motion_max_px = m.path_px + m.beyond(1).sqrt() * m.path_sigma_px;
+                    !m.moved
+                        && motion_max_px < streak.thickness_px
+                        && p.path_length_px > streak.thickness_px + motion_max_px
+                })
+                .then_some((m, true)),
             (None, _) => (m.moved && (m.turning || m.accelerating) && !streak.path_failed)
                 .then_some((m, true)),
         });
@@ -1256,6 +1271,32 @@ mod tests {
                 assert!(error_px <= 0.5, "frame {i}: head {:?}", e.position_px);
                 let method = e.velocity_px_s.map(|(_, m)| m);
                 assert_eq!(method, Some(VelocityMethod::Frames), "frame {i}");
+            }
+        }
+    }
+
+    /// A still LED (its middles jitter by 0.05 px) whose glow the ramps read, in one frame, as
+    /// a 20 px path, four times the spot's width; the ramps give no deviation to weigh it by,
+    /// but the middles did not move, and a path that long would have moved them by half of
+    /// it. The head stays at the middle (it was the path's end, 10 px off), and the velocity
+    /// is the frames'.
+    #[test]
+    fn a_ramps_path_the_still_middles_rule_out_gives_way_to_their_motion() {
+        let mut t = Tracker::new(TrackerConfig {
+            exposure_us: Some(10_000),
+        });
+        let jitter_px = [0.05, -0.03, 0.0, 0.04, -0.05, 0.02, -0.01, 0.03, -0.04];
+        for (i, jitter_px) in jitter_px.into_iter().enumerate() {
+            let mid = (100.0 + jitter_px, 100.0);
+            let path = (i == 8).then_some([(mid.0 - 10.0, 100.0), (mid.0 + 10.0, 100.0)]);
+            let mut s = streak(mid, path);
+            s.thickness_px = 5.0;
+            let e = t.update(i as u64 * FRAME_US, Some(&s)).unwrap();
+            if i == 8 {
+                let error_px = (e.position_px.0 - 100.0).hypot(e.position_px.1 - 100.0);
+                assert!(error_px <= 0.5, "head {:?}", e.position_px);
+                let method = e.velocity_px_s.map(|(_, m)| m);
+                assert_eq!(method, Some(VelocityMethod::Frames));
             }
         }
     }
