@@ -193,30 +193,12 @@ pub fn motion_head(middles: &[Middle], exposure_us: u32) -> Option<MotionHead> {
         v[n - 1].0 + 0.5 * ax * last_s,
         v[n - 1].1 + 0.5 * ay * last_s,
     );
-    // On a circle the last displacement is the chord of the last interval: its direction is
-    // the tangent half an interval ago, and the head is a quarter of the exposure's turn
-    // further round from the middle's tangent, at a chord of 2 R sin(ω E / 4).
+    // The head, by the constant turn (see [`turn`]).
     let half_turn = 0.5 * rate * last_s;
-    let chord_per_arc = |angle: f32| {
-        if angle.abs() < 1e-4 {
-            1.0
-        } else {
-            angle.sin() / angle
-        }
-    };
-    let to_head_s =
-        0.5 * exposure_s * chord_per_arc(0.25 * rate * exposure_s) / chord_per_arc(half_turn);
-    let rotate = |(x, y): (f32, f32), angle: f32| {
-        let (c, s) = (angle.cos(), angle.sin());
-        (c * x - s * y, s * x + c * y)
-    };
-    // The middle is half the path's length from either end: however the speed changes, the
-    // head is the middle's velocity times half the exposure ahead of it (at a steady
-    // acceleration the path is that velocity times the exposure).
-    let (hx, hy) = rotate(
-        (vx * to_head_s, vy * to_head_s),
-        half_turn + 0.25 * rate * exposure_s,
-    );
+    let Turn {
+        to_head_s,
+        head_offset_px: (hx, hy),
+    } = turn((vx, vy), rate, last_s, exposure_s);
     let m = middles[n - 1].px;
     let speed_per_chord = 1.0 / chord_per_arc(half_turn);
     // The path over the exposure, at the middle's speed (the mean speed over it when the
@@ -268,6 +250,85 @@ pub fn motion_head(middles: &[Middle], exposure_us: u32) -> Option<MotionHead> {
     };
     head.moved = moved_sq > head.beyond(2) * 2.0 * middle_var;
     Some(head)
+}
+
+/// The head the turning motion gives from the first three or four middles of a track (oldest
+/// first, the current one last), too few to measure how well any motion predicts them, for an
+/// exposure of `exposure_us`; `None` with other counts or frame times that do not increase.
+///
+/// For a track whose path reads still in its first frames (a bloom whose fitted spot is the
+/// glow), whose head would otherwise be carried straight on from the middle at the last
+/// displacement's velocity: on a tight circle that velocity is the tangent half a frame ago,
+/// and the head landed 10–14 px off. A turn that is only the middles' noise turns the head's
+/// lead of half an exposure's travel by about the middle's error over the displacement, so
+/// it moves the head by about half the middle's error.
+pub fn early_turning_head(middles: &[Middle], exposure_us: u32) -> Option<(f32, f32)> {
+    let n = middles.len();
+    if !(3..MIN_INNOVATIONS + 3).contains(&n) {
+        return None;
+    }
+    let step = |j: usize| -> Option<((f32, f32), f32)> {
+        let dt_us = middles[j].t_us.checked_sub(middles[j - 1].t_us)?;
+        if dt_us == 0 {
+            return None;
+        }
+        let dt_s = dt_us as f32 * 1e-6;
+        let (a, b) = (middles[j - 1].px, middles[j].px);
+        Some((((b.0 - a.0) / dt_s, (b.1 - a.1) / dt_s), dt_s))
+    };
+    let ((v0, dt0), (v1, dt1)) = (step(n - 2)?, step(n - 1)?);
+    let angle = (v0.0 * v1.1 - v0.1 * v1.0).atan2(v0.0 * v1.0 + v0.1 * v1.1);
+    let rate = angle / (0.5 * (dt0 + dt1));
+    let Turn { head_offset_px, .. } = turn(v1, rate, dt1, exposure_us as f32 * 1e-6);
+    let m = middles[n - 1].px;
+    Some((m.0 + head_offset_px.0, m.1 + head_offset_px.1))
+}
+
+/// Where a constant turn puts the head from the middle.
+struct Turn {
+    /// The time ahead of the middle the chord to the head is travelled in at the middle's
+    /// speed.
+    to_head_s: f32,
+    /// The head less the middle.
+    head_offset_px: (f32, f32),
+}
+
+/// The head of an LED whose last displacement, over `last_s`, was at velocity `v_px_s` and
+/// which turns at `rate` (rad/s), for an exposure of `exposure_s`.
+///
+/// On a circle the last displacement is the chord of the last interval: its direction is the
+/// tangent half an interval ago, and the head is a quarter of the exposure's turn further
+/// round from the middle's tangent, at a chord of 2 R sin(ω E / 4). The middle is half the
+/// path's length from either end: however the speed changes, the head is the middle's
+/// velocity times half the exposure ahead of it (at a steady acceleration the path is that
+/// velocity times the exposure).
+fn turn(v_px_s: (f32, f32), rate: f32, last_s: f32, exposure_s: f32) -> Turn {
+    let half_turn = 0.5 * rate * last_s;
+    let to_head_s =
+        0.5 * exposure_s * chord_per_arc(0.25 * rate * exposure_s) / chord_per_arc(half_turn);
+    let head_offset_px = rotate(
+        (v_px_s.0 * to_head_s, v_px_s.1 * to_head_s),
+        half_turn + 0.25 * rate * exposure_s,
+    );
+    Turn {
+        to_head_s,
+        head_offset_px,
+    }
+}
+
+/// A circular arc's chord over its length, for a turn of `angle` (rad).
+fn chord_per_arc(angle: f32) -> f32 {
+    if angle.abs() < 1e-4 {
+        1.0
+    } else {
+        angle.sin() / angle
+    }
+}
+
+/// `(x, y)` turned by `angle` (rad).
+fn rotate((x, y): (f32, f32), angle: f32) -> (f32, f32) {
+    let (c, s) = (angle.cos(), angle.sin());
+    (c * x - s * y, s * x + c * y)
 }
 
 #[cfg(test)]
@@ -340,6 +401,32 @@ mod tests {
         assert!((speed / truth_speed - 1.0).abs() < 0.01, "{speed} px/s");
         let path = along(t) - along(t - exposure_s);
         assert!((h.path_px - path).abs() < 0.05, "{} px", h.path_px);
+    }
+
+    /// The sweep's tightest circle again, from three and from four middles: the turn puts
+    /// the head where it is, where the last displacement's velocity carried straight on put
+    /// it several pixels off.
+    #[test]
+    fn the_first_frames_turn_puts_a_circle_s_head_round_it() {
+        let (r, w) = (16.0f32, 23.0 / 16.0 / 0.01);
+        let at = |t: f32| (300.0 + r * (w * t).cos(), 200.0 + r * (w * t).sin());
+        for n in [3, 4] {
+            let m = middles(at, n);
+            let h = early_turning_head(&m, EXPOSURE_US).unwrap();
+            let truth = at((n - 1) as f32 * FRAME_US as f32 * 1e-6 + 0.005);
+            let error = (h.0 - truth.0).hypot(h.1 - truth.1);
+            assert!(error < 0.05, "{n} middles: {error} px");
+            let (a, b) = (m[n - 2].px, m[n - 1].px);
+            let lead = 0.005 / (FRAME_US as f32 * 1e-6);
+            let straight = (b.0 + lead * (b.0 - a.0), b.1 + lead * (b.1 - a.1));
+            let straight_error = (straight.0 - truth.0).hypot(straight.1 - truth.1);
+            assert!(straight_error > 5.0, "{n} middles: {straight_error} px");
+        }
+        assert_eq!(early_turning_head(&middles(at, 2), EXPOSURE_US), None);
+        assert_eq!(early_turning_head(&middles(at, 5), EXPOSURE_US), None);
+        let mut m = middles(at, 3);
+        m[2].t_us = m[1].t_us;
+        assert_eq!(early_turning_head(&m, EXPOSURE_US), None);
     }
 
     #[test]
