@@ -63,7 +63,7 @@ use crate::detect::satellite;
 use crate::detect::streak::Streak;
 use body::Body;
 use length_offset::LengthOffset;
-use motion::{Middle, MotionHead, CHI2_1DOF_99, CHI2_2DOF_99, MOTION_MIDDLES};
+use motion::{Middle, CHI2_1DOF_99, CHI2_2DOF_99, MOTION_MIDDLES};
 use statics::{Known, Statics};
 
 pub use marker::{MarkerPose, MarkerTracker};
@@ -651,7 +651,14 @@ impl Tracker {
         // a tight circle, where the motion's turn is needed, nor for an LED gaining speed
         // inside its clipped glow (a robot starting off), where its acceleration is.
         let fit_px = streak.path.and_then(|p| p.fit_px);
-        let motion = self.motion_head(mid_px, t_us);
+        // The middles of this run of found frames, read once for the motion's head and, in
+        // its first frames, for their turn.
+        let (middles, count) = self.middles(mid_px, t_us);
+        let middles = &middles[..count];
+        let motion = self
+            .config
+            .exposure_us
+            .and_then(|exposure_us| motion::motion_head(middles, exposure_us));
         // The single frame's length less the offset learned on the frames before; then this
         // frame's difference is learned from.
         let length_offset = &mut self.length_offsets[usize::from(fit_px.is_some())];
@@ -742,7 +749,7 @@ impl Tracker {
             // turn its three or four middles show (on a tight circle the last displacement is
             // the tangent half a frame ago).
             if motion.is_none() {
-                if let Some(h) = self.early_turning_head(mid_px, t_us) {
+                if let Some(h) = self.early_turning_head(middles) {
                     return Some(h);
                 }
             }
@@ -785,26 +792,15 @@ impl Tracker {
         estimate
     }
 
-    /// The motion head of the streak whose middle is `mid_px` at `t_us`, from the middles of
-    /// the consecutive found frames before it (see [`motion::motion_head`]); `None` without
-    /// the exposure time or with too few of them.
-    fn motion_head(&self, mid_px: (f32, f32), t_us: u64) -> Option<MotionHead> {
-        let exposure_us = self.config.exposure_us?;
-        let (middles, count) = self.middles(mid_px, t_us);
-        motion::motion_head(&middles[..count], exposure_us)
-    }
-
     /// The head of the first frames' turn (see [`motion::early_turning_head`]), where the
     /// last two displacements each moved the middle beyond a still light's drift and differ
     /// in length by less than it: a steady turn, not a start or a stop, whose head the
     /// slower of the frames' velocities places (an LED arriving where it stops, taken at
     /// its last displacement's speed, put its head 1.6 px past). `None` without the
-    /// exposure time, with other than three or four middles, or otherwise.
-    fn early_turning_head(&self, mid_px: (f32, f32), t_us: u64) -> Option<(f32, f32)> {
+    /// exposure time, with other than three or four `middles` (oldest first), or otherwise.
+    fn early_turning_head(&self, middles: &[Middle]) -> Option<(f32, f32)> {
         let exposure_us = self.config.exposure_us?;
-        let (middles, count) = self.middles(mid_px, t_us);
-        let middles = &middles[..count];
-        let [a, b, c] = middles.get(count.checked_sub(3)?..)? else {
+        let [a, b, c] = middles.get(middles.len().checked_sub(3)?..)? else {
             return None;
         };
         let (before_px, last_px) = (dist(a.px, b.px), dist(b.px, c.px));
@@ -816,7 +812,8 @@ impl Tracker {
     }
 
     /// The middles of the consecutive found frames before `t_us` and the current one,
-    /// `mid_px` (oldest first), and how many.
+    /// `mid_px` (oldest first), and how many: what the motion is measured over (see
+    /// [`motion::motion_head`]).
     fn middles(&self, mid_px: (f32, f32), t_us: u64) -> ([Middle; MOTION_MIDDLES], usize) {
         let mut middles = [Middle::default(); MOTION_MIDDLES];
         let before = self.found_run.min(MOTION_MIDDLES - 1);
