@@ -89,6 +89,41 @@ impl FloorBackground {
         self.frames_learned < u32::from(MEAN_FRAMES)
     }
 
+    /// The median floor luma seen around the box `x0..=x1`, `y0..=y1`: on the nearest of
+    /// square rings 4, 8, 16, 32 and 64 px beyond it (every other pixel of each) that holds
+    /// at least 24 learned pixels; `None` when none does. A pixel never seen unlit (under
+    /// the light of a track's first frame) has no floor of its own, but its level is most
+    /// likely the level around the light.
+    pub fn floor_around(&self, (x0, y0): (usize, usize), (x1, y1): (usize, usize)) -> Option<f32> {
+        let (w, h) = (self.size.width(), self.size.height());
+        AROUND_RINGS_PX.iter().find_map(|&d| {
+            let mut histogram = [0u16; 256];
+            let mut count = 0usize;
+            let (left, top) = (x0.checked_sub(d), y0.checked_sub(d));
+            let (right, bottom) = (
+                Some(x1 + d).filter(|&x| x < w),
+                Some(y1 + d).filter(|&y| y < h),
+            );
+            let (xa, xb) = (x0.saturating_sub(d), (x1 + d).min(w.saturating_sub(1)));
+            let (ya, yb) = (y0.saturating_sub(d), (y1 + d).min(h.saturating_sub(1)));
+            let mut take = |x: usize, y: usize| {
+                if let Some(luma) = self.luma(x, y) {
+                    if let Some(bin) = histogram.get_mut(luma.round() as usize) {
+                        *bin = bin.saturating_add(1);
+                        count += 1;
+                    }
+                }
+            };
+            for y in [top, bottom].into_iter().flatten() {
+                (xa..=xb).step_by(2).for_each(|x| take(x, y));
+            }
+            for x in [left, right].into_iter().flatten() {
+                (ya..=yb).step_by(2).for_each(|y| take(x, y));
+            }
+            (count >= AROUND_MIN_PX).then(|| median_of(&histogram, count))
+        })
+    }
+
     /// Forgets everything learned.
     pub fn clear(&mut self) {
         self.count.fill(0);
@@ -187,6 +222,27 @@ impl FloorBackground {
 /// pixel seen every few frames has the same noise as one seen every frame. Learning the whole
 /// frame every frame cost more than everything else on the per-frame path together.
 const ROW_PHASES: usize = 8;
+
+/// The rings [`FloorBackground::floor_around`] reads, by their distance beyond the box: out to
+/// past the widest glow a blob's light is followed ([`MAX_GLOW_PX`]), beyond which the floor
+/// was learned while the light was in the last frame.
+const AROUND_RINGS_PX: [usize; 5] = [4, 8, 16, 32, 64];
+/// Learned pixels a ring needs for its median: a textured floor's median steadies within a
+/// few luma over a few tens of pixels.
+const AROUND_MIN_PX: usize = 24;
+
+/// The median of the `count` values in `histogram` (one bin per luma).
+fn median_of(histogram: &[u16; 256], count: usize) -> f32 {
+    let half = count.div_ceil(2);
+    let mut seen = 0usize;
+    for (luma, &n) in histogram.iter().enumerate() {
+        seen += usize::from(n);
+        if seen >= half {
+            return luma as f32;
+        }
+    }
+    255.0
+}
 
 /// How far beyond a blob's light the floor is still learned every frame, for a blob whose
 /// longer side is `max_side_px`: about where the light is in the next frame (a streak moves
@@ -614,6 +670,49 @@ mod tests {
             assert_eq!(counts, want_counts, "round {round}: counts");
             assert_eq!(got, (want_sum, want_n), "round {round}: deviations");
         }
+    }
+
+    /// Around a light that has stood in the only frame learned, the floor under it is not
+    /// known, and the floor around it is the median of the nearest ring with enough learned
+    /// pixels: past the light's margin, on a floor textured 40 luma deep.
+    #[test]
+    fn the_floor_around_unseen_pixels_is_the_median_of_the_nearest_learned_ring() {
+        let size = FrameSize::new(160, 120).unwrap();
+        let floor = |x: usize, y: usize| (60 + (x * 7 + y * 13) % 41) as u8;
+        let mut bg = FloorBackground::new(size);
+        assert_eq!(
+            bg.floor_around((70, 50), (90, 70)),
+            None,
+            "nothing seen yet"
+        );
+        let first = yuyv(160, 120, |x, y| {
+            if (70..=90).contains(&x) && (50..=70).contains(&y) {
+                255
+            } else {
+                floor(x, y)
+            }
+        });
+        let frame = Frame::new_checked(&first, size, size.row_bytes()).unwrap();
+        // A margin of 10 px: the rings 4 and 8 px beyond the box are unknown.
+        bg.update(&frame, [blob(70, 50, 90, 70)].iter(), |_| 10);
+        assert_eq!(bg.luma(80, 60), None);
+        let around = bg
+            .floor_around((70, 50), (90, 70))
+            .expect("learned 16 px out");
+        // The ring 16 px beyond the box, every other pixel, as the function reads it.
+        let mut ring: Vec<u8> = Vec::new();
+        for x in (54..=106).step_by(2) {
+            ring.extend([floor(x, 34), floor(x, 86)]);
+        }
+        for y in (34..=86).step_by(2) {
+            ring.extend([floor(54, y), floor(106, y)]);
+        }
+        ring.sort_unstable();
+        let median = f32::from(ring[ring.len().div_ceil(2) - 1]);
+        assert_eq!(around, median);
+        // At the frame's edge the rings are cut: the two sides inside still hold enough.
+        bg.update(&frame, [blob(0, 0, 20, 20)].iter(), |_| 10);
+        assert!(bg.floor_around((0, 0), (20, 20)).is_some());
     }
 
     #[test]
