@@ -683,7 +683,7 @@ impl Tracker {
         let still_velocity = length_px
             .filter(|_| moving.is_none() && !streak.path_failed && fit_px.is_some())
             .and_then(|length_px| {
-                self.still_path_velocity(length_px, motion, mid_px, previous, t_us)
+                self.still_path_velocity(length_px, (motion, middles), mid_px, previous, t_us)
             });
         // The motion's head is also taken where it agrees with the single frame's but is the
         // more precise of the two (its region narrower at the same quantile): a fit uncertain
@@ -848,9 +848,11 @@ impl Tracker {
 
     /// The velocity of a path of `length_px` that the fit read as still, where the middles
     /// say the LED moved about that far over the exposure: the motion's path, where there is
-    /// one, or else the middle's displacement since `previous` (beyond a still light's drift)
-    /// scaled from the frame interval to the exposure. About: within [`STILL_PATH_AGREEMENT`]
-    /// of it, and the motion's own noise. Along the motion's velocity or that displacement.
+    /// one, or else, where the middle moved beyond a still light's drift since `previous`,
+    /// the path the run's first `middles` give ([`motion::early_path_px`], from three), or
+    /// that displacement scaled from the frame interval to the exposure. About: within
+    /// [`STILL_PATH_AGREEMENT`] of it, and the motion's own noise. Along the motion's
+    /// velocity or that displacement.
     ///
     /// A spot whose fitted core is its glow (a bloom clipped far into it) is wider than a
     /// path of 10–20 px, so the fit calls that path still, though it often read it within a
@@ -863,7 +865,7 @@ impl Tracker {
     fn still_path_velocity(
         &self,
         length_px: f32,
-        motion: Option<motion::MotionHead>,
+        (motion, middles): (Option<motion::MotionHead>, &[Middle]),
         mid_px: (f32, f32),
         previous: Option<Sample>,
         t_us: u64,
@@ -880,7 +882,8 @@ impl Tracker {
                 let before = previous.estimate.mid_px;
                 let moved = (mid_px.0 - before.0, mid_px.1 - before.1);
                 let moved_px = moved.0.hypot(moved.1);
-                let path_px = moved_px * exposure_s / dt_s;
+                let path_px = motion::early_path_px(middles, self.config.exposure_us?)
+                    .unwrap_or(moved_px * exposure_s / dt_s);
                 (
                     moved,
                     (moved_px > statics::DRIFT_PX).then_some(path_px),
