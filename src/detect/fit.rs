@@ -41,6 +41,7 @@ use nalgebra::{SMatrix, SVector};
 use super::arc_path::{ArcPieces, MAX_PIECES, PATH_PARAMS};
 use super::clip_spread::{self, ClipSpread};
 use super::floor_bg::FloorBackground;
+use super::luma_histogram::LumaHistogram;
 use super::normal::{normal_cdf, normal_cdf_and_density};
 use super::spot_shape::SpotShape;
 use crate::frame::Frame;
@@ -1444,21 +1445,12 @@ pub fn sample_margin_px(min_side_px: usize) -> usize {
 
 /// The 20th percentile of the samples' luma: the floor around the streak.
 fn low_percentile(s: &Samples) -> f32 {
-    let mut histogram = [0u16; 256];
-    for &luma in s.luma.iter().take(s.len) {
-        if let Some(count) = histogram.get_mut(luma as usize) {
-            *count += 1;
-        }
-    }
-    let target = s.len / 5;
-    let mut seen = 0usize;
-    for (level, &count) in histogram.iter().enumerate() {
-        seen += usize::from(count);
-        if seen > target {
-            return level as f32;
-        }
-    }
-    0.0
+    let mut histogram = LumaHistogram::new();
+    s.luma
+        .iter()
+        .take(s.len)
+        .for_each(|&luma| histogram.add(luma));
+    histogram.level_above(s.len / 5).unwrap_or(0.0)
 }
 
 #[cfg(test)]

@@ -17,6 +17,7 @@
 
 use super::bitimage::BitImage;
 use super::blobs::{Blob, BoundingBox};
+use super::luma_histogram::LumaHistogram;
 use crate::frame::{Frame, FrameSize};
 
 /// The mean follows the last this many observations of a pixel (then it is an exponential
@@ -97,8 +98,7 @@ impl FloorBackground {
     pub fn floor_around(&self, (x0, y0): (usize, usize), (x1, y1): (usize, usize)) -> Option<f32> {
         let (w, h) = (self.size.width(), self.size.height());
         AROUND_RINGS_PX.iter().find_map(|&d| {
-            let mut histogram = [0u16; 256];
-            let mut count = 0usize;
+            let mut histogram = LumaHistogram::new();
             let (left, top) = (x0.checked_sub(d), y0.checked_sub(d));
             let (right, bottom) = (
                 Some(x1 + d).filter(|&x| x < w),
@@ -108,10 +108,7 @@ impl FloorBackground {
             let (ya, yb) = (y0.saturating_sub(d), (y1 + d).min(h.saturating_sub(1)));
             let mut take = |x: usize, y: usize| {
                 if let Some(luma) = self.luma(x, y) {
-                    if let Some(bin) = histogram.get_mut(luma.round() as usize) {
-                        *bin = bin.saturating_add(1);
-                        count += 1;
-                    }
+                    histogram.add(luma);
                 }
             };
             for y in [top, bottom].into_iter().flatten() {
@@ -120,7 +117,11 @@ impl FloorBackground {
             for x in [left, right].into_iter().flatten() {
                 (ya..=yb).step_by(2).for_each(|y| take(x, y));
             }
-            (count >= AROUND_MIN_PX).then(|| median_of(&histogram, count))
+            let count = histogram.count();
+            // The median: the lower of the two middle values of an even count.
+            (count >= AROUND_MIN_PX)
+                .then(|| histogram.level_above((count - 1) / 2))
+                .flatten()
         })
     }
 
@@ -230,19 +231,6 @@ const AROUND_RINGS_PX: [usize; 5] = [4, 8, 16, 32, 64];
 /// Learned pixels a ring needs for its median: a textured floor's median steadies within a
 /// few luma over a few tens of pixels.
 const AROUND_MIN_PX: usize = 24;
-
-/// The median of the `count` values in `histogram` (one bin per luma).
-fn median_of(histogram: &[u16; 256], count: usize) -> f32 {
-    let half = count.div_ceil(2);
-    let mut seen = 0usize;
-    for (luma, &n) in histogram.iter().enumerate() {
-        seen += usize::from(n);
-        if seen >= half {
-            return luma as f32;
-        }
-    }
-    255.0
-}
 
 /// How far beyond a blob's light the floor is still learned every frame, for a blob whose
 /// longer side is `max_side_px`: about where the light is in the next frame (a streak moves

@@ -683,7 +683,7 @@ impl Tracker {
         let still_velocity = length_px
             .filter(|_| moving.is_none() && !streak.path_failed && fit_px.is_some())
             .and_then(|length_px| {
-                self.still_path_velocity(length_px, (motion, middles), mid_px, previous, t_us)
+                self.still_path_velocity(length_px, motion, middles, mid_px, previous, t_us)
             });
         // The motion's head is also taken where it agrees with the single frame's but is the
         // more precise of the two (its region narrower at the same quantile): a fit uncertain
@@ -865,7 +865,8 @@ impl Tracker {
     fn still_path_velocity(
         &self,
         length_px: f32,
-        (motion, middles): (Option<motion::MotionHead>, &[Middle]),
+        motion: Option<motion::MotionHead>,
+        middles: &[Middle],
         mid_px: (f32, f32),
         previous: Option<Sample>,
         t_us: u64,
@@ -877,10 +878,7 @@ impl Tracker {
                 (m.velocity_px_s, m.moved.then_some(m.path_px), noise_px2)
             }
             None => {
-                let previous = previous?;
-                let dt_s = t_us.checked_sub(previous.t_us).filter(|&dt| dt > 0)? as f32 * 1e-6;
-                let before = previous.estimate.mid_px;
-                let moved = (mid_px.0 - before.0, mid_px.1 - before.1);
+                let (moved, dt_s) = displacement(previous?, mid_px, t_us)?;
                 let moved_px = moved.0.hypot(moved.1);
                 let path_px = motion::early_path_px(middles, self.config.exposure_us?)
                     .unwrap_or(moved_px * exposure_s / dt_s);
@@ -911,9 +909,8 @@ impl Tracker {
             .rev()
             .take(STEADY_FRAMES)
             .last()?;
-        let dt_s = t_us.checked_sub(oldest.t_us).filter(|&dt| dt > 0)? as f32 * 1e-6;
-        let before = oldest.estimate.mid_px;
-        Some(((mid_px.0 - before.0) / dt_s, (mid_px.1 - before.1) / dt_s))
+        let ((dx, dy), dt_s) = displacement(*oldest, mid_px, t_us)?;
+        Some((dx / dt_s, dy / dt_s))
     }
 
     /// The velocity at the head: the single frame's path of `length_px` (its length less the
@@ -938,15 +935,17 @@ impl Tracker {
                 return Some(((speed * dx / len, speed * dy / len), VelocityMethod::Streak));
             }
         }
-        let previous = previous?;
-        let dt_s = t_us.checked_sub(previous.t_us).filter(|&dt| dt > 0)? as f32 * 1e-6;
-        let before = previous.estimate.mid_px;
-        let v = (
-            (streak.mid_px.0 - before.0) / dt_s,
-            (streak.mid_px.1 - before.1) / dt_s,
-        );
-        Some((v, VelocityMethod::Frames))
+        let ((dx, dy), dt_s) = displacement(previous?, streak.mid_px, t_us)?;
+        Some(((dx / dt_s, dy / dt_s), VelocityMethod::Frames))
     }
+}
+
+/// The middle's displacement from `previous` to `mid_px` at `t_us`, and the time it took
+/// (s); `None` unless that time is positive.
+fn displacement(previous: Sample, mid_px: (f32, f32), t_us: u64) -> Option<((f32, f32), f32)> {
+    let dt_s = t_us.checked_sub(previous.t_us).filter(|&dt| dt > 0)? as f32 * 1e-6;
+    let before = previous.estimate.mid_px;
+    Some(((mid_px.0 - before.0, mid_px.1 - before.1), dt_s))
 }
 
 fn dist(a: (f32, f32), b: (f32, f32)) -> f32 {
