@@ -24,7 +24,7 @@ use heapless::Deque;
 use super::bitimage::{BitImage, Window, NEIGHBOURS_8};
 use super::blobs::{Blob, BoundingBox, Labeler};
 use super::cascade;
-use super::fit::{self, NoFit, Rough};
+use super::fit::{self, NoFit, PathFit, Rough};
 use super::floor_bg::FloorBackground;
 use super::light_centre;
 use super::mirror_middle;
@@ -133,6 +133,9 @@ pub struct StreakPath {
     pub path_length_px: f32,
     /// One standard deviation of the ends, from the fit's residual ([`StreakModel::Fit`]).
     pub fit_px: Option<f32>,
+    /// One standard deviation of the path's length from the noise alone
+    /// ([`StreakModel::Fit`]): what one frame's length scatters by about its steady error.
+    pub length_noise_px: Option<f32>,
     /// The floor the fit read the light on ([`StreakModel::Fit`]).
     pub fit_floor: Option<FitFloor>,
 }
@@ -452,6 +455,7 @@ fn ramps_streak_path(tips: Option<tips::Tips>) -> Option<StreakPath> {
         ends_px: t.tips_px,
         path_length_px: t.path_length_px,
         fit_px: None,
+        length_noise_px: None,
         fit_floor: None,
     })
 }
@@ -551,9 +555,20 @@ fn fitted_path(
         ends_px: if still { [mid; 2] } else { f.ends_px },
         path_length_px: f.path_length_px,
         fit_px: Some(f.uncertainty_px),
+        length_noise_px: Some(f.length_noise_px * image_per_ideal(&f)),
         fit_floor: Some(FitFloor::of(f.floor_measured)),
     };
     (mid, Ok(path))
+}
+
+/// Image pixels per ideal pixel along a fitted path (1 where it is too short to tell): the
+/// fit states its length's deviation in ideal pixels, the tracker compares image lengths.
+fn image_per_ideal(f: &PathFit) -> f32 {
+    if f.ideal_path_length_px > 1.0 {
+        f.path_length_px / f.ideal_path_length_px
+    } else {
+        1.0
+    }
 }
 
 /// Whether the chord between the skeleton's `ends` lies across the axis of `stadium`, an

@@ -23,19 +23,61 @@
 const MEMORY_FRAMES: f32 = 16.0;
 /// Observations below which nothing is taken off: the scatter of two is no measure of it.
 const MIN_OBSERVATIONS: u32 = 3;
-/// The mean difference is taken as an offset when it is beyond its standard error (the larger
-/// of the one the observations' stated variances give and the one their scatter gives: a
-/// fit's stated deviation may be too small, and so may a few observations' scatter) times
-/// Student's t at 99 % two-sided for that scatter's degrees of freedom (index: degrees − 1).
-/// A few frames' scatter says little about itself, and the t quantile says by how much.
+/// The mean difference is taken as an offset when it is beyond its standard error times
+/// Student's t at 99 % two-sided for the variance's degrees of freedom (index: degrees − 1):
+/// a few frames' scatter says little about itself, and the t quantile says by how much.
+///
+/// The fit states its length's deviation, from its residual; on a spot outside the model's
+/// family that residual is mostly the profile's misfit, steady from frame to frame (on a
+/// Moffat arc it stated 0.3–0.6 px for lengths that scattered by 0.03 px about a steady
+/// 0.33 px short), so the stated variance is pooled with the scatter, counted as
+/// [`STATED_DEGREES`] observations' worth. Taken as the least the error could be, it kept
+/// that offset from ever being taken off. The ramps state no deviation of their own: only
+/// the motion's part is known, and the variance is at least that and at least the scatter.
 const T_99: [f32; 30] = [
     63.66, 9.925, 5.841, 4.604, 4.032, 3.707, 3.499, 3.355, 3.250, 3.169, 3.106, 3.055, 3.012,
     2.977, 2.947, 2.921, 2.898, 2.878, 2.861, 2.845, 2.831, 2.819, 2.807, 2.797, 2.787, 2.779,
     2.771, 2.763, 2.756, 2.750,
 ];
+/// The observations' worth of the stated variance beside their scatter's.
+const STATED_DEGREES: f32 = 2.0;
 /// The least variance an observation is weighted by (px²): a fit that claims to be exact is
 /// not worth more than one of a tenth of a pixel.
 const MIN_VARIANCE_PX2: f32 = 0.01;
+
+/// Which model read a frame's path, and how: each misreads a spot outside its family by its
+/// own steady offset, so each learns its own.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LengthReading {
+    /// The ramps' tips (a path they read as still has no length).
+    Ramps,
+    /// The fit, a path longer than the spot is wide.
+    FitMoving,
+    /// The fit, a path no longer than its spot is wide: a bloom clipped far into its glow,
+    /// whose fitted spot is the glow; its length is the speed where the middles moved as far
+    /// (a glow 5.8 px wide in a halo read such 22.5 px arcs 2 px long in all of 39 frames).
+    FitStill,
+}
+
+impl LengthReading {
+    /// The number of readings.
+    pub const COUNT: usize = 3;
+
+    /// Whether the reading states its length's deviation (the fit, from its residual), so
+    /// that the variance stated with an observation is all of it, not only the motion's.
+    fn states_its_deviation(self) -> bool {
+        self != LengthReading::Ramps
+    }
+
+    /// The reading of a path fitted or not, read as moving or not.
+    pub fn of(fitted: bool, moving: bool) -> LengthReading {
+        match (fitted, moving) {
+            (false, _) => LengthReading::Ramps,
+            (true, true) => LengthReading::FitMoving,
+            (true, false) => LengthReading::FitStill,
+        }
+    }
+}
 
 /// The decayed, weighted sums of one track's length differences (single frame's path less
 /// the motion's path over the exposure, px).
@@ -75,9 +117,9 @@ impl LengthOffset {
         self.observations = self.observations.saturating_add(1);
     }
 
-    /// The offset to take off a single frame's path length (px): the mean difference where
-    /// it is beyond its scatter, else 0.
-    pub fn offset_px(&self) -> f32 {
+    /// The offset to take off a single frame's path length (px) as `reading` reads it: the
+    /// mean difference where it is beyond its scatter, else 0.
+    pub fn offset_px(&self, reading: LengthReading) -> f32 {
         if self.observations < MIN_OBSERVATIONS {
             return 0.0;
         }
@@ -85,10 +127,21 @@ impl LengthOffset {
         let mean_px = self.weighted_px / self.weights;
         let scatter_px2 = (self.weighted_sq_px2 / self.weights - mean_px * mean_px).max(0.0);
         let degrees = (effective - 1.0).max(1.0);
-        let standard_error_px = (scatter_px2 / degrees)
-            .max(self.stated_px2 / (self.weights * self.weights))
-            .sqrt();
-        let t = T_99[(degrees as usize).clamp(1, T_99.len()) - 1];
+        // One observation's variance, from the scatter and as stated.
+        let scattered_px2 = scatter_px2 * effective / degrees;
+        let stated_px2 = self.stated_px2 / (self.weights * self.weights) * effective;
+        let (variance_px2, variance_degrees) = if reading.states_its_deviation() {
+            // The stated variance counts as `STATED_DEGREES` observations' worth.
+            let pooled_degrees = STATED_DEGREES + degrees;
+            let pooled_px2 =
+                (STATED_DEGREES * stated_px2 + degrees * scattered_px2) / pooled_degrees;
+            (pooled_px2, pooled_degrees)
+        } else {
+            // Only the motion's part is stated: the variance is at least that.
+            (scattered_px2.max(stated_px2), degrees)
+        };
+        let standard_error_px = (variance_px2 / effective).sqrt();
+        let t = T_99[(variance_degrees as usize).clamp(1, T_99.len()) - 1];
         if mean_px.abs() > t * standard_error_px {
             mean_px
         } else {
@@ -106,6 +159,12 @@ impl LengthOffset {
 mod tests {
     use super::*;
 
+    const READINGS: [LengthReading; 3] = [
+        LengthReading::Ramps,
+        LengthReading::FitMoving,
+        LengthReading::FitStill,
+    ];
+
     /// A small deterministic noise in [-1, 1].
     fn noise(i: u32) -> f32 {
         let x = (i.wrapping_mul(2_654_435_761) >> 8) as f32 / (1u32 << 24) as f32;
@@ -119,7 +178,10 @@ mod tests {
             // The streak reads 0.9 px short; the motion's path is noisy by ±0.3 px.
             o.observe(9.5 + 0.1 * noise(i), 10.4 + 0.3 * noise(i + 100), 0.05);
         }
-        assert!((o.offset_px() + 0.9).abs() < 0.15, "{}", o.offset_px());
+        for reading in READINGS {
+            let offset_px = o.offset_px(reading);
+            assert!((offset_px + 0.9).abs() < 0.15, "{reading:?}: {offset_px}");
+        }
     }
 
     #[test]
@@ -127,21 +189,65 @@ mod tests {
         let mut o = LengthOffset::default();
         for i in 0..40 {
             o.observe(10.0 + 0.3 * noise(i), 10.0 + 0.3 * noise(i + 1000), 0.2);
-            assert_eq!(o.offset_px(), 0.0, "after {} frames", i + 1);
+            for reading in READINGS {
+                assert_eq!(
+                    o.offset_px(reading),
+                    0.0,
+                    "{reading:?} after {} frames",
+                    i + 1
+                );
+            }
         }
     }
 
     #[test]
     fn too_few_frames_say_nothing() {
         let mut o = LengthOffset::default();
+        // Two frames say nothing however far off they read.
+        for _ in 0..2 {
+            o.observe(30.0, 10.0, 0.05);
+        }
+        for reading in READINGS {
+            assert_eq!(o.offset_px(reading), 0.0, "{reading:?}");
+        }
+        // Frames 2 px off that agree exactly, stated to be uncertain by 0.22 px (the
+        // motion's part of the ramps' deviation): three give under two degrees of freedom,
+        // t times the stated error 8 px; four give three: 1.1 px.
+        let mut o = LengthOffset::default();
         for _ in 0..3 {
             o.observe(12.0, 10.0, 0.05);
         }
-        // Three give under two degrees of freedom: t times the stated error is 8 px; four
-        // give three: 1.1 px.
-        assert_eq!(o.offset_px(), 0.0);
+        assert_eq!(o.offset_px(LengthReading::Ramps), 0.0);
         o.observe(12.0, 10.0, 0.05);
-        assert!((o.offset_px() - 2.0).abs() < 1e-4, "{}", o.offset_px());
+        let offset_px = o.offset_px(LengthReading::Ramps);
+        assert!((offset_px - 2.0).abs() < 1e-4, "{offset_px}");
+        // The same stated by the fit to be uncertain by 1 px: three hold the pooled variance
+        // at two thirds of the stated one on five degrees (t times the error 2.4 px); four
+        // on six degrees: 1.6 px.
+        let mut o = LengthOffset::default();
+        for _ in 0..3 {
+            o.observe(12.0, 10.0, 1.0);
+        }
+        assert_eq!(o.offset_px(LengthReading::FitMoving), 0.0);
+        o.observe(12.0, 10.0, 1.0);
+        let offset_px = o.offset_px(LengthReading::FitMoving);
+        assert!((offset_px - 2.0).abs() < 1e-4, "{offset_px}");
+    }
+
+    /// A spot outside the model's family, as on a Moffat arc: the fit states its length
+    /// uncertain by 0.4 px from a residual that is mostly the profile's misfit, while the
+    /// lengths scatter by a few hundredths about a steady 0.33 px short. The offset is taken
+    /// off within ten frames; with the stated variance as the floor of the error it was not.
+    #[test]
+    fn a_steady_offset_far_inside_its_stated_deviation_is_taken_off() {
+        let mut o = LengthOffset::default();
+        for i in 0..10 {
+            o.observe(8.05 + 0.03 * noise(i), 8.38 + 0.01 * noise(i + 500), 0.16);
+        }
+        let offset_px = o.offset_px(LengthReading::FitMoving);
+        assert!((offset_px + 0.33).abs() < 0.03, "{offset_px}");
+        // Were the stated deviation only part of it, as the ramps', it would not be.
+        assert_eq!(o.offset_px(LengthReading::Ramps), 0.0);
     }
 
     #[test]
@@ -153,9 +259,10 @@ mod tests {
         for i in 0..60 {
             o.observe(9.0 + 0.1 * noise(i), 10.0, 0.05);
         }
-        assert!((o.offset_px() + 1.0).abs() < 0.1, "{}", o.offset_px());
+        let offset_px = o.offset_px(LengthReading::FitMoving);
+        assert!((offset_px + 1.0).abs() < 0.1, "{offset_px}");
         o.clear();
-        assert_eq!(o.offset_px(), 0.0);
+        assert_eq!(o.offset_px(LengthReading::FitMoving), 0.0);
     }
 
     #[test]
