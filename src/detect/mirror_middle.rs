@@ -8,9 +8,11 @@
 //! points where the luma falls through a level on either side of the middle are mirror images:
 //! their midpoint lies on the bisector, which is the middle's position along the chord.
 //!
-//! The same holds across the streak at the middle, whose cross-section is mirror-symmetric
-//! about the path. Each crossing moves by the luma's error over the slope there, so each
-//! pair of crossings counts by the inverse of its variance (the slopes squared).
+//! The same holds across the streak, whose cross-sections are mirror-symmetric about the
+//! path: the mirror points of lines across it, spread along the body on either side of the
+//! middle, trace the centre line, read at the middle. Each crossing moves by the luma's error
+//! over the slope there, so each pair of crossings counts by the inverse of its variance (the
+//! slopes squared).
 //!
 //! The intensity-weighted centroid the middle started from weighs every pixel of the streak's
 //! rim, and on a 60 px streak a rim pixel 25 px from the middle whose luma the floor's texture
@@ -18,6 +20,8 @@
 //! centroid was 0.13 / 0.56 px off along the streak (median / p95), the crossings here
 //! 0.07 / 0.55 px. What is left is mostly blooms: where a glow reaches the levels on its own,
 //! every crossing is on its shallow flank, which the floor's texture moves by tenths of a pixel.
+
+use nalgebra::{Matrix3, Vector3};
 
 use super::bilinear::luma_at;
 use super::level_falls::{first_falls, Armed};
@@ -42,11 +46,18 @@ const LEVELS: [f32; 7] = [0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9];
 /// mirror images on an arc as on a line.
 const ALONG_LINES_PX: [f32; 3] = [-0.5, 0.0, 0.5];
 
-/// The lines across the streak that place the middle across it, as offsets along the chord
-/// from the bisector, in pixels: within a pixel, so that an arc's bend (its centre line moves
-/// across by `t² / 2r` at `t` from the middle) stays below 0.02 px on the sweep's tightest
-/// circle (15 px).
-const ACROSS_LINES_PX: [f32; 5] = [-1.0, -0.5, 0.0, 0.5, 1.0];
+/// The lines across the streak that place the middle across it: this many on either side of
+/// the bisector, evenly out to [`across_half_span_px`], but at least this far apart.
+const ACROSS_LINES_EACH_SIDE: usize = 6;
+const MIN_ACROSS_STEP_PX: f32 = 0.5;
+/// The farthest along the chord from the bisector the lines across reach (px).
+const MAX_ACROSS_HALF_SPAN_PX: f32 = 12.0;
+/// The least half span: lines within a pixel of the bisector (five of them) however short or
+/// bent the streak.
+const MIN_ACROSS_HALF_SPAN_PX: f32 = 1.0;
+/// The most a circle may part from the parabola fitted to it over the span (px): a circle of
+/// radius `r` parts from its osculating parabola by `t⁴ / 8r³` at `t` from the middle.
+const ARC_PARABOLA_PX: f32 = 0.02;
 
 /// How far past the chord's half-length a line is walked: the widest spot's fall to the
 /// levels (a glow's cap lies within the floor's reach, [`ray_floor::MAX_REACH_PX`]).
@@ -95,13 +106,14 @@ pub fn centre(
         half_chord_px + BEYOND_CHORD_PX,
     )?;
     let on_bisector = (mid.0 + along_px * along.0, mid.1 + along_px * along.1);
-    let across_px = mirror_offset(
+    let reach_px = a.reach_px.max(b.reach_px);
+    let across_px = centre_line_offset(
         frame,
         on_bisector,
         (across, along),
-        &ACROSS_LINES_PX,
+        across_half_span_px(half_chord_px, reach_px, lines_offset_px),
         &levels,
-        a.reach_px.max(b.reach_px),
+        reach_px,
     )?;
     Some((
         on_bisector.0 + across_px * across.0,
@@ -109,10 +121,95 @@ pub fn centre(
     ))
 }
 
+/// How far along the chord from the bisector the lines across reach: as far as the streak's
+/// body runs clear of its caps (half the chord less the floor's reach across, beyond which a
+/// line would cross a cap) and, on an arc bent by `lines_offset_px` (half its bend), as far as
+/// the circle keeps within [`ARC_PARABOLA_PX`] of the parabola fitted to the lines; at least
+/// [`MIN_ACROSS_HALF_SPAN_PX`].
+fn across_half_span_px(half_chord_px: f32, reach_px: f32, lines_offset_px: f32) -> f32 {
+    let body_px = half_chord_px - reach_px;
+    let bend_px = 2.0 * lines_offset_px.abs();
+    let arc_px = if bend_px > 0.0 {
+        // The radius of the arc of that bend on that chord: `c² / 8s` for a shallow one.
+        let radius_px = half_chord_px * half_chord_px / (2.0 * bend_px);
+        (8.0 * ARC_PARABOLA_PX * radius_px.powi(3)).powf(0.25)
+    } else {
+        f32::INFINITY
+    };
+    body_px
+        .min(arc_px)
+        .clamp(MIN_ACROSS_HALF_SPAN_PX, MAX_ACROSS_HALF_SPAN_PX)
+}
+
+/// The offset along `n` from `point` to the streak's centre line (`(n, d)`: `d` along the
+/// chord), from the lines across it spread evenly within `half_span_px` of `point` along `d`:
+/// the centre line `a + b u + c u²` (`u` the line's place along, over `half_span_px`) fitted
+/// to each line's mirror point ([`line_midpoint`]), weighed as those are, read at `u = 0`. A
+/// straight streak's cross-section at one place is placed by a few pixels, whose grid moves a
+/// sharp spot's edges by tenths of a pixel; along the streak the edges cross the grid at every
+/// phase, and the fit averages that out. The parabola follows an arc's bend, and the slope a
+/// chord a little off the path's. Within a pixel of the bisector, or where the lines on one
+/// side of it found no light, the lines' mean is the offset. `None` when no line has a level
+/// crossed on both sides.
+fn centre_line_offset(
+    frame: &Frame<'_>,
+    point: (f32, f32),
+    (n, d): ((f32, f32), (f32, f32)),
+    half_span_px: f32,
+    levels: &[f32; LEVELS.len()],
+    reach_px: f32,
+) -> Option<f32> {
+    let step_px = (half_span_px / ACROSS_LINES_EACH_SIDE as f32).max(MIN_ACROSS_STEP_PX);
+    let steps = ((half_span_px / step_px + 1e-3) as usize).min(ACROSS_LINES_EACH_SIDE) as i32;
+    // Weighted sums of u^k (k = 0..4) and of the mirror point times u^k (k = 0..2); which
+    // sides of the bisector had light.
+    let (mut moments, mut targets) = ([0.0f32; 5], [0.0f32; 3]);
+    let (mut before, mut after) = (false, false);
+    for k in -steps..=steps {
+        let t_px = k as f32 * step_px;
+        let start = (point.0 + t_px * d.0, point.1 + t_px * d.1);
+        let Some((mid_px, w)) = line_midpoint(frame, start, n, levels, reach_px) else {
+            continue;
+        };
+        before |= k < 0;
+        after |= k > 0;
+        let u = t_px / half_span_px;
+        let mut power = w;
+        for (i, m) in moments.iter_mut().enumerate() {
+            *m += power;
+            if let Some(target) = targets.get_mut(i) {
+                *target += power * mid_px;
+            }
+            power *= u;
+        }
+    }
+    if moments[0] <= 0.0 {
+        return None;
+    }
+    let mean_px = targets[0] / moments[0];
+    if steps <= 2 || !(before && after) {
+        return Some(mean_px);
+    }
+    let normal = Matrix3::new(
+        moments[0], moments[1], moments[2], //
+        moments[1], moments[2], moments[3], //
+        moments[2], moments[3], moments[4],
+    );
+    let centre_line = normal
+        .try_inverse()
+        .map(|inverse| inverse * Vector3::from(targets));
+    Some(
+        centre_line
+            .map_or(mean_px, |c| c[0])
+            .clamp(-reach_px, reach_px),
+    )
+    .filter(|a| a.is_finite())
+}
+
 /// The offset along `d` from `point` to the mirror line of the light, from the lines parallel
-/// to `d` at `offsets` along `n` (`(d, n)`): the mean over the lines and `levels` of the
-/// midpoints of the first falls through a level on either side, each walked out to
-/// `reach_px`. `None` when no level is crossed on both sides of any line.
+/// to `d` at `offsets` along `n` (`(d, n)`): the mean over the lines of their mirror points
+/// ([`line_midpoint`]), weighed as those are. `None` when no level is crossed on both sides
+/// of any line.
 fn mirror_offset(
     frame: &Frame<'_>,
     point: (f32, f32),
@@ -124,20 +221,39 @@ fn mirror_offset(
     let (mut sum, mut weights) = (0.0f32, 0.0f32);
     for offset in offsets {
         let start = (point.0 + offset * n.0, point.1 + offset * n.1);
-        let forward = first_falls(frame, start, d, levels, reach_px, Armed::AtStart);
-        let back = first_falls(frame, start, (-d.0, -d.1), levels, reach_px, Armed::AtStart);
-        for (f, b) in forward.iter().zip(&back) {
-            if let (Some(f), Some(b)) = (f, b) {
-                // A crossing moves by the luma's error over the slope there: each midpoint
-                // counts by the inverse of its variance, so that a glow's shallow flank, where
-                // the floor's texture and the noise move a crossing by pixels, counts little
-                // beside a core's steep one.
-                let (fs, bs) = (f.slope_per_px, b.slope_per_px);
-                let w = 1.0 / (1.0 / (fs * fs) + 1.0 / (bs * bs));
-                sum += w * 0.5 * (f.at_px - b.at_px);
-                weights += w;
-            }
+        if let Some((mid_px, w)) = line_midpoint(frame, start, d, levels, reach_px) {
+            sum += w * mid_px;
+            weights += w;
         }
     }
     (weights > 0.0).then(|| sum / weights)
+}
+
+/// The mirror point of the light on the line through `start` along `d`, as an offset along
+/// `d`, and its weight: the mean over `levels` of the midpoints of the first falls through a
+/// level on either side, each walked out to `reach_px`. `None` when no level is crossed on
+/// both sides.
+fn line_midpoint(
+    frame: &Frame<'_>,
+    start: (f32, f32),
+    d: (f32, f32),
+    levels: &[f32; LEVELS.len()],
+    reach_px: f32,
+) -> Option<(f32, f32)> {
+    let forward = first_falls(frame, start, d, levels, reach_px, Armed::AtStart);
+    let back = first_falls(frame, start, (-d.0, -d.1), levels, reach_px, Armed::AtStart);
+    let (mut sum, mut weights) = (0.0f32, 0.0f32);
+    for (f, b) in forward.iter().zip(&back) {
+        if let (Some(f), Some(b)) = (f, b) {
+            // A crossing moves by the luma's error over the slope there: each midpoint counts
+            // by the inverse of its variance, so that a glow's shallow flank, where the
+            // floor's texture and the noise move a crossing by pixels, counts little beside a
+            // core's steep one.
+            let (fs, bs) = (f.slope_per_px, b.slope_per_px);
+            let w = 1.0 / (1.0 / (fs * fs) + 1.0 / (bs * bs));
+            sum += w * 0.5 * (f.at_px - b.at_px);
+            weights += w;
+        }
+    }
+    (weights > 0.0).then(|| (sum / weights, weights))
 }
