@@ -59,6 +59,14 @@ const MIN_ACROSS_HALF_SPAN_PX: f32 = 1.0;
 /// radius `r` parts from its osculating parabola by `t⁴ / 8r³` at `t` from the middle.
 const ARC_PARABOLA_PX: f32 = 0.02;
 
+/// A fall along the streak nearer the middle than this share of the chord's half-length is
+/// not a cap's: the light dipped inside the body. A line off the path of a thin streak runs
+/// on its shoulder, where the noise takes the upper levels below their cut (a 1 px disk's
+/// 3 px streak, lines 0.5 px off its path: falls 0.5–2 px from the middle, whose pairs with
+/// the caps' 30 px out moved the middle 1.3 px along). The rough middle is much nearer the
+/// true one than a quarter of the chord, so the caps lie beyond half of its half-length.
+const NEAREST_CAP_OF_HALF_CHORD: f32 = 0.5;
+
 /// How far past the chord's half-length a line is walked: the widest spot's fall to the
 /// levels (a glow's cap lies within the floor's reach, [`ray_floor::MAX_REACH_PX`]).
 const BEYOND_CHORD_PX: f32 = ray_floor::MAX_REACH_PX;
@@ -103,7 +111,10 @@ pub fn centre(
         (along, across),
         &ALONG_LINES_PX,
         &levels,
-        half_chord_px + BEYOND_CHORD_PX,
+        (
+            NEAREST_CAP_OF_HALF_CHORD * half_chord_px,
+            half_chord_px + BEYOND_CHORD_PX,
+        ),
     )?;
     let on_bisector = (mid.0 + along_px * along.0, mid.1 + along_px * along.1);
     let reach_px = a.reach_px.max(b.reach_px);
@@ -168,7 +179,7 @@ fn centre_line_offset(
     for k in -steps..=steps {
         let t_px = k as f32 * step_px;
         let start = (point.0 + t_px * d.0, point.1 + t_px * d.1);
-        let Some((mid_px, w)) = line_midpoint(frame, start, n, levels, reach_px) else {
+        let Some((mid_px, w)) = line_midpoint(frame, start, n, levels, (0.0, reach_px)) else {
             continue;
         };
         before |= k < 0;
@@ -208,20 +219,20 @@ fn centre_line_offset(
 
 /// The offset along `d` from `point` to the mirror line of the light, from the lines parallel
 /// to `d` at `offsets` along `n` (`(d, n)`): the mean over the lines of their mirror points
-/// ([`line_midpoint`]), weighed as those are. `None` when no level is crossed on both sides
-/// of any line.
+/// ([`line_midpoint`], with the falls between `walk_px`), weighed as those are. `None` when
+/// no level is crossed on both sides of any line.
 fn mirror_offset(
     frame: &Frame<'_>,
     point: (f32, f32),
     (d, n): ((f32, f32), (f32, f32)),
     offsets: &[f32],
     levels: &[f32; LEVELS.len()],
-    reach_px: f32,
+    walk_px: (f32, f32),
 ) -> Option<f32> {
     let (mut sum, mut weights) = (0.0f32, 0.0f32);
     for offset in offsets {
         let start = (point.0 + offset * n.0, point.1 + offset * n.1);
-        if let Some((mid_px, w)) = line_midpoint(frame, start, d, levels, reach_px) {
+        if let Some((mid_px, w)) = line_midpoint(frame, start, d, levels, walk_px) {
             sum += w * mid_px;
             weights += w;
         }
@@ -231,20 +242,24 @@ fn mirror_offset(
 
 /// The mirror point of the light on the line through `start` along `d`, as an offset along
 /// `d`, and its weight: the mean over `levels` of the midpoints of the first falls through a
-/// level on either side, each walked out to `reach_px`. `None` when no level is crossed on
-/// both sides.
+/// level on either side, each walked out to the farther of `(nearest_px, reach_px)`; a level
+/// whose fall on either side is nearer than the nearer is left out. `None` when no level is
+/// crossed on both sides.
 fn line_midpoint(
     frame: &Frame<'_>,
     start: (f32, f32),
     d: (f32, f32),
     levels: &[f32; LEVELS.len()],
-    reach_px: f32,
+    (nearest_px, reach_px): (f32, f32),
 ) -> Option<(f32, f32)> {
     let forward = first_falls(frame, start, d, levels, reach_px, Armed::AtStart);
     let back = first_falls(frame, start, (-d.0, -d.1), levels, reach_px, Armed::AtStart);
     let (mut sum, mut weights) = (0.0f32, 0.0f32);
     for (f, b) in forward.iter().zip(&back) {
         if let (Some(f), Some(b)) = (f, b) {
+            if f.at_px < nearest_px || b.at_px < nearest_px {
+                continue;
+            }
             // A crossing moves by the luma's error over the slope there: each midpoint counts
             // by the inverse of its variance, so that a glow's shallow flank, where the
             // floor's texture and the noise move a crossing by pixels, counts little beside a
@@ -256,4 +271,49 @@ fn line_midpoint(
         }
     }
     (weights > 0.0).then(|| (sum / weights, weights))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::frame::{FrameSize, PixelFormat};
+
+    /// A clipped streak 3 rows thick from x = 12 to 68, its caps falling to a floor of 20 over
+    /// 4 px (its middle at x = 40, y = 24), whose lower row dips to 120 at x = 42–43: below
+    /// the two upper levels on the line half a pixel off the path, as a thin streak's
+    /// shoulder dips with noise.
+    fn streak_with_a_dip() -> Vec<u8> {
+        let (width, height) = (80usize, 48usize);
+        let mut bytes = vec![20u8; width * height];
+        for y in 23..=25 {
+            for x in 12..=68 {
+                bytes[y * width + x] = 250;
+            }
+            for step in 1..=4u8 {
+                let luma = 250 - 46 * step;
+                bytes[y * width + 12 - usize::from(step)] = luma;
+                bytes[y * width + 68 + usize::from(step)] = luma;
+            }
+        }
+        for x in 42..=43 {
+            bytes[25 * width + x] = 120;
+        }
+        bytes
+    }
+
+    /// A fall inside the body is not a cap's: the dip, 2 px from the middle, is left out,
+    /// and the middle is where the caps put it. Paired with the caps' falls 28 px out, it
+    /// moved the middle 1.7 px along.
+    #[test]
+    fn a_dip_inside_the_body_does_not_move_the_middle() {
+        let bytes = streak_with_a_dip();
+        let size = FrameSize::new(80, 48).unwrap();
+        let frame = Frame::new_checked_as(&bytes, size, 80, PixelFormat::Grey).unwrap();
+        let (x, y) =
+            centre(&frame, (40.3, 24.0), (1.0, 0.0), (0.0, 1.0), 27.0, 0.0, 250).expect("a middle");
+        assert!(
+            (x - 40.0).abs() < 0.1 && (y - 24.0).abs() < 0.1,
+            "({x}, {y})"
+        );
+    }
 }
