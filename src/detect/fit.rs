@@ -136,9 +136,11 @@ pub struct PathFit {
     /// from the fit's residual spread evenly over its pixels and its curvature: what the
     /// noise alone would move them by.
     pub noise_px: f32,
-    /// One standard deviation of the path's length in ideal pixels from the noise alone: the
-    /// ends' errors along the path, with their correlation (both ends move out together when
-    /// the spot narrows), which the larger end's deviation twice over overstates severalfold.
+    /// One standard deviation of the path's length in ideal pixels from the residual spread
+    /// evenly, as `noise_px`: the ends' errors along the path with their correlation (both
+    /// move out together when the spot narrows, a trade of length for width that neither
+    /// end's own deviation shows). Not calibrated: on a spot outside the model's family the
+    /// residual is mostly its misfit, and the lengths of one LED scatter far less.
     pub length_noise_px: f32,
     /// The same with each pixel's own residual (at least `noise_px`): where the model's
     /// profile misses the LED's at the pixels an end is read from, a frame whose model does

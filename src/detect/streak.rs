@@ -133,8 +133,8 @@ pub struct StreakPath {
     pub path_length_px: f32,
     /// One standard deviation of the ends, from the fit's residual ([`StreakModel::Fit`]).
     pub fit_px: Option<f32>,
-    /// One standard deviation of the path's length from the noise alone
-    /// ([`StreakModel::Fit`]): what one frame's length scatters by about its steady error.
+    /// One standard deviation of the path's length as the fit states it
+    /// ([`StreakModel::Fit`], `PathFit::length_noise_px`), in image pixels.
     pub length_noise_px: Option<f32>,
     /// The floor the fit read the light on ([`StreakModel::Fit`]).
     pub fit_floor: Option<FitFloor>,
