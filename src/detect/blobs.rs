@@ -54,6 +54,25 @@ pub struct Blob {
     pub elongation: f32,
 }
 
+#[cfg(test)]
+impl Blob {
+    /// A round blob of one pixel's area whose box is `x0..=x1`, `y0..=y1`: for the tests of
+    /// what reads only a blob's box (the light the floor is not learned under).
+    pub(crate) fn boxed(x0: usize, y0: usize, x1: usize, y1: usize) -> Blob {
+        Blob {
+            area_px: 1,
+            bbox: BoundingBox {
+                x_min_px: x0,
+                y_min_px: y0,
+                x_max_px: x1,
+                y_max_px: y1,
+            },
+            mass_centre_px: (0.5 * (x0 + x1) as f32, 0.5 * (y0 + y1) as f32),
+            elongation: 1.0,
+        }
+    }
+}
+
 /// A horizontal run of set pixels, `x0..=x1` on row `y`.
 #[derive(Debug, Clone, Copy)]
 pub struct Run {

@@ -1814,17 +1814,7 @@ mod tests {
         let floor_frame =
             Frame::new_checked_as(&floor_bytes, size, width, PixelFormat::Grey).unwrap();
         // The frame before: its light covered x 40..=160, y 30..=110.
-        let lit = crate::detect::blobs::Blob {
-            area_px: 1,
-            bbox: crate::detect::blobs::BoundingBox {
-                x_min_px: 40,
-                y_min_px: 30,
-                x_max_px: 160,
-                y_max_px: 110,
-            },
-            mass_centre_px: (100.0, 70.0),
-            elongation: 1.0,
-        };
+        let lit = crate::detect::blobs::Blob::boxed(40, 30, 160, 110);
         let mut background = FloorBackground::new(size);
         background.update(&floor_frame, [lit].iter(), |_| 0);
         // (core σ, glow width over σ, glow ratio, core's peak over the clip, path length).

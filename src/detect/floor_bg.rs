@@ -597,20 +597,6 @@ mod tests {
         bytes
     }
 
-    fn blob(x0: usize, y0: usize, x1: usize, y1: usize) -> Blob {
-        Blob {
-            area_px: 1,
-            bbox: BoundingBox {
-                x_min_px: x0,
-                y_min_px: y0,
-                x_max_px: x1,
-                y_max_px: y1,
-            },
-            mass_centre_px: (x0 as f32, y0 as f32),
-            elongation: 1.0,
-        }
-    }
-
     /// The run kernels learn exactly what [`learn_pixel`] learns one pixel at a time: random
     /// runs, most pixels near their means (as on a floor), some far above or below (light
     /// arriving or leaving), some lit, some never seen, some seen a few times, at several gates.
@@ -682,7 +668,7 @@ mod tests {
         });
         let frame = Frame::new_checked(&first, size, size.row_bytes()).unwrap();
         // A margin of 10 px: the rings 4 and 8 px beyond the box are unknown.
-        bg.update(&frame, [blob(70, 50, 90, 70)].iter(), |_| 10);
+        bg.update(&frame, [Blob::boxed(70, 50, 90, 70)].iter(), |_| 10);
         assert_eq!(bg.luma(80, 60), None);
         let around = bg
             .floor_around((70, 50), (90, 70))
@@ -699,7 +685,7 @@ mod tests {
         let median = f32::from(ring[ring.len().div_ceil(2) - 1]);
         assert_eq!(around, median);
         // At the frame's edge the rings are cut: the two sides inside still hold enough.
-        bg.update(&frame, [blob(0, 0, 20, 20)].iter(), |_| 10);
+        bg.update(&frame, [Blob::boxed(0, 0, 20, 20)].iter(), |_| 10);
         assert!(bg.floor_around((0, 0), (20, 20)).is_some());
     }
 
@@ -717,7 +703,7 @@ mod tests {
             _ => floor(x, y),
         });
         let frame = Frame::new_checked(&first, size, size.row_bytes()).unwrap();
-        bg.update(&frame, [blob(10, 0, 12, 15)].iter(), |_| 2);
+        bg.update(&frame, [Blob::boxed(10, 0, 12, 15)].iter(), |_| 2);
         assert_eq!(bg.luma(11, 5), None, "under the light");
         assert_eq!(bg.luma(9, 5), None, "within the margin");
         assert_eq!(bg.luma(30, 5), Some(f32::from(floor(30, 5))));
@@ -730,7 +716,7 @@ mod tests {
             _ => floor(x, y),
         });
         let frame = Frame::new_checked(&second, size, size.row_bytes()).unwrap();
-        bg.update(&frame, [blob(40, 0, 42, 15)].iter(), |_| 1);
+        bg.update(&frame, [Blob::boxed(40, 0, 42, 15)].iter(), |_| 1);
         assert_eq!(bg.luma(11, 5), Some(f32::from(floor(11, 5))));
         assert_eq!(bg.luma(20, 5), Some(f32::from(floor(20, 5))));
         assert_eq!(
@@ -807,7 +793,7 @@ mod tests {
             |x, y| if light(x, y) { 255 } else { floor(x, y) + 2 },
         );
         let frame = Frame::new_checked(&next, size, size.row_bytes()).unwrap();
-        bg.update(&frame, [blob(10, 20, 12, 22)].iter(), |_| 2);
+        bg.update(&frame, [Blob::boxed(10, 20, 12, 22)].iter(), |_| 2);
         let phase = usize::from(MEAN_FRAMES) % ROW_PHASES;
         let step = 2.0 / f32::from(MEAN_FRAMES);
         let learned = |x: usize, y: usize| bg.luma(x, y) == Some(f32::from(floor(x, y)) + step);

@@ -872,7 +872,8 @@ impl Tracker {
         previous: Option<Sample>,
         t_us: u64,
     ) -> Option<(f32, f32)> {
-        let exposure_s = self.config.exposure_us? as f32 * 1e-6;
+        let exposure_us = self.config.exposure_us?;
+        let exposure_s = exposure_us as f32 * 1e-6;
         let (direction, moved_px, noise_px2) = match motion {
             Some(m) => {
                 let noise_px2 = m.beyond(1) * m.path_sigma_px.powi(2);
@@ -881,7 +882,7 @@ impl Tracker {
             None => {
                 let (moved, dt_s) = displacement(previous?, mid_px, t_us)?;
                 let moved_px = moved.0.hypot(moved.1);
-                let path_px = motion::early_path_px(middles, self.config.exposure_us?)
+                let path_px = motion::early_path_px(middles, exposure_us)
                     .unwrap_or(moved_px * exposure_s / dt_s);
                 (
                     moved,
