@@ -150,6 +150,17 @@ impl LengthOffset {
         }
     }
 
+    /// The mean squared difference of the frames seen from `offset_px` (px²): how far this
+    /// track's lengths, less that offset, have read from the motion's path, misfit and noise
+    /// together; `None` before [`MIN_OBSERVATIONS`].
+    pub fn mean_square_about_px2(&self, offset_px: f32) -> Option<f32> {
+        (self.observations >= MIN_OBSERVATIONS).then(|| {
+            let mean_px = self.weighted_px / self.weights;
+            let mean_square_px2 = self.weighted_sq_px2 / self.weights;
+            (mean_square_px2 - 2.0 * offset_px * mean_px + offset_px * offset_px).max(0.0)
+        })
+    }
+
     /// Forgets everything: a new track may be another LED.
     pub fn clear(&mut self) {
         *self = LengthOffset::default();
