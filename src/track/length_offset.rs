@@ -152,7 +152,7 @@ impl LengthOffset {
 
     /// The mean squared difference of the frames seen from `offset_px` (px²): how far this
     /// track's lengths, less that offset, have read from the motion's path, misfit and noise
-    /// together; `None` before [`MIN_OBSERVATIONS`].
+    /// together; `None` before as many observations as an offset needs (three).
     pub fn mean_square_about_px2(&self, offset_px: f32) -> Option<f32> {
         (self.observations >= MIN_OBSERVATIONS).then(|| {
             let mean_px = self.weighted_px / self.weights;
