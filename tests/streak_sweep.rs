@@ -935,7 +935,7 @@ fn the_ramps_place_a_long_streak_s_middle_by_its_symmetry() {
 /// the pixel grid at every phase: its light falls from the clip to the floor within a pixel,
 /// so one cross-section places the centre line only as well as the grid allows. Placed by the
 /// lines across the whole body (a centre line fitted along it), the middle pooled over every
-/// frame is within 0.1 px (median) and the 0.5 px (p95); measured 0.063 / 0.291 px.
+/// frame is within 0.1 px (median) and the 0.5 px (p95); measured 0.068 / 0.215 px.
 /// By the lines across within a pixel of the bisector alone it was 0.153 / 0.313 px (sweep
 /// seed 11's points 114 and 134, such disks, were 0.2–0.3 px across in most frames). What is
 /// left at the p95 is along the streak, where only the two caps place the middle.
