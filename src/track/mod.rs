@@ -1669,6 +1669,20 @@ mod tests {
             .collect()
     }
 
+    /// Every frame of `read` (see [`read_short`]) from `from` on has its velocity from its
+    /// streak, within `bound` (a fraction) of the true speed.
+    fn assert_streak_speeds_within(
+        read: &[Option<(f32, VelocityMethod)>],
+        from: usize,
+        bound: f32,
+    ) {
+        for (i, &read) in read.iter().enumerate().skip(from) {
+            let (error, method) = read.unwrap_or_else(|| panic!("frame {i}: no velocity"));
+            assert_eq!(method, VelocityMethod::Streak, "frame {i}");
+            assert!(error.abs() < bound, "frame {i}: {:+.1} %", 100.0 * error);
+        }
+    }
+
     /// A defocused disk's streak, as the fit reads it: a steady 0.6–1.2 px short on a
     /// 10.5 px path (−9 %, as a pillbox's on independent seed 1, scene 41), each length
     /// stated uncertain by 0.55 px. Tracks there run 4–14 frames. The offset is learned from
@@ -1681,11 +1695,7 @@ mod tests {
         let jitter_px = [0.05, -0.07, 0.0, 0.06, -0.04];
         let short_px = [1.2, 0.8, 1.0, 0.6, 1.1, 0.9];
         let read = read_short(25_000, 420.0, (&jitter_px, &short_px), (0.3, 0.55), 14);
-        for (i, &read) in read.iter().enumerate().skip(5) {
-            let (error, method) = read.unwrap_or_else(|| panic!("frame {i}: no velocity"));
-            assert_eq!(method, VelocityMethod::Streak, "frame {i}");
-            assert!(error.abs() < 0.04, "frame {i}: {:+.1} %", 100.0 * error);
-        }
+        assert_streak_speeds_within(&read, 5, 0.04);
     }
 
     /// A pillbox's long streak, as the fit reads it: each end 0.03–0.23 px short, alike at both
@@ -1700,11 +1710,7 @@ mod tests {
         let jitter_px = [0.01, -0.01, 0.0];
         let short_px = [0.05, 0.45, 0.2, 0.35, 0.1, 0.4];
         let read = read_short(20_000, 1600.0, (&jitter_px, &short_px), (0.05, 0.07), 12);
-        for (i, &read) in read.iter().enumerate().skip(6) {
-            let (error, method) = read.unwrap_or_else(|| panic!("frame {i}: no velocity"));
-            assert_eq!(method, VelocityMethod::Streak, "frame {i}");
-            assert!(error.abs() < 0.02, "frame {i}: {:+.1} %", 100.0 * error);
-        }
+        assert_streak_speeds_within(&read, 6, 0.02);
     }
 
     /// A tracker with a 10 ms exposure, the exposure in seconds, and where an LED that
