@@ -283,7 +283,7 @@ fn print_frame(
     let path = streak.and_then(|s| s.path);
     eprintln!(
         "    frame {index:>2}: true len {:.1} px, head {:.2} px (along {:+.2}, across {:+.2}, from the start {:.2}), mid {:.2} px (along {:+.2}, across {:+.2}), \
-         {} {}, fitted len {}, fit_px {}, thickness {}",
+         {} {}, fitted len {}, fit_px {} on a {} floor, thickness {}",
         truth.streak_px.unwrap_or(f64::NAN),
         d(e.position_px, (x, y)),
         head_along,
@@ -301,6 +301,7 @@ fn print_frame(
         },
         path.map_or("-".to_string(), |p| format!("{:.2}", p.path_length_px)),
         path.and_then(|p| p.fit_px).map_or("-".to_string(), |f| format!("{f:.3}")),
+        path.and_then(|p| p.fit_floor).map_or("-", |f| f.name()),
         streak.map_or("-".to_string(), |s| format!("{:.1}", s.thickness_px)),
     );
 }
