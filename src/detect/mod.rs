@@ -30,6 +30,7 @@ pub mod spot_shape;
 pub mod streak;
 pub mod threshold;
 pub mod tips;
+pub mod tone_memory;
 
 use bgdiff::{Background, BackgroundError};
 use bitimage::{BitImage, Window};
