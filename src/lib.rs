@@ -33,6 +33,7 @@
 //! blink.
 
 pub mod budget;
+pub mod decayed_mean;
 pub mod detect;
 pub mod frame;
 pub mod fuse;

@@ -549,11 +549,15 @@ fn finish(
     // bound they say nothing.
     let tone = p[TONE];
     let tone_memory = if all[TONE] && tone > 1.01 * TONE_RANGE.0 && tone < 0.99 * TONE_RANGE.1 {
-        let mut pixels_only = normal;
-        if let Some((_, weight)) = samples.tone_prior {
-            pixels_only[(TONE, TONE)] -= weight;
-        }
-        let variance = covariance_of(&pixels_only).map_or(f32::NAN, |c| c[(TONE, TONE)]);
+        // Without a prior, the curvature is the pixels' alone.
+        let variance = match samples.tone_prior {
+            Some((_, weight)) => {
+                let mut pixels_only = normal;
+                pixels_only[(TONE, TONE)] -= weight;
+                covariance_of(&pixels_only).map_or(f32::NAN, |c| c[(TONE, TONE)])
+            }
+            None => covariance[(TONE, TONE)],
+        };
         tone_memory.with(tone, variance * residual_var)
     } else {
         tone_memory

@@ -12,6 +12,8 @@
 //!
 //! Fixed size: a few sums, kept with the LED's [`super::fit::SpotFit`].
 
+use crate::decayed_mean::DecayedMean;
+
 /// The frames an observation is remembered for: each new one scales the older ones down by
 /// `1 − 1 / MEMORY_FRAMES` (as the learned length offset's, see
 /// `crate::track::length_offset`), so that a tone that changes (an exposure that changed)
@@ -23,16 +25,10 @@ const MIN_OBSERVATIONS: u32 = 3;
 /// The decayed, weighted sums of one LED's fitted tone exponents.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct ToneMemory {
-    /// Sum of the weights (each an observation's inverse variance).
-    weights: f32,
-    /// Sum of the weighted exponents.
-    weighted: f32,
-    /// Sum of the weighted squared exponents.
-    weighted_sq: f32,
+    /// The exponents, each weighed by the inverse of its variance.
+    tones: DecayedMean,
     /// The decayed count of observations (for the stated variance of one).
     count: f32,
-    /// Observations so far (saturating).
-    observations: u32,
 }
 
 /// What the frames before say of this frame's tone exponent: its mean and the variance of
@@ -53,28 +49,25 @@ impl ToneMemory {
             return self;
         }
         let keep = 1.0 - 1.0 / MEMORY_FRAMES;
-        let w = 1.0 / variance;
+        let mut tones = self.tones;
+        tones.add(tone, 1.0 / variance, keep);
         ToneMemory {
-            weights: keep * self.weights + w,
-            weighted: keep * self.weighted + w * tone,
-            weighted_sq: keep * self.weighted_sq + w * tone * tone,
+            tones,
             count: keep * self.count + 1.0,
-            observations: self.observations.saturating_add(1),
         }
     }
 
     /// The prior for the next frame's exponent, `None` before three observations.
     pub fn prior(&self) -> Option<TonePrior> {
-        if self.observations < MIN_OBSERVATIONS || self.weights <= 0.0 {
+        let t = &self.tones;
+        if t.observations() < MIN_OBSERVATIONS || t.weights() <= 0.0 {
             return None;
         }
-        let tone = self.weighted / self.weights;
-        let scatter = (self.weighted_sq / self.weights - tone * tone).max(0.0);
         // One observation's stated variance: the harmonic mean of theirs.
-        let stated = self.count / self.weights;
+        let stated = self.count / t.weights();
         Some(TonePrior {
-            tone,
-            variance: scatter.max(stated),
+            tone: t.mean(),
+            variance: t.scatter().max(stated),
         })
     }
 }

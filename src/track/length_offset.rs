@@ -17,6 +17,8 @@
 //!
 //! [`MotionHead::path_px`]: super::motion::MotionHead::path_px
 
+use crate::decayed_mean::DecayedMean;
+
 /// The frames an observation is remembered for: each new one scales the older ones down by
 /// `1 − 1 / MEMORY_FRAMES`, so that a speed that changes (and with it how far the clip
 /// reaches along the streak) is followed within about this many frames.
@@ -92,20 +94,14 @@ impl LengthReading {
 /// the motion's path over the exposure, px).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct LengthOffset {
-    /// Sum of the weights.
-    weights: f32,
-    /// Sum of the weighted differences (px).
-    weighted_px: f32,
-    /// Sum of the weighted squared differences (px²).
-    weighted_sq_px2: f32,
+    /// The differences (px), each weighed by the inverse of its variance.
+    differences: DecayedMean,
     /// Sum of the squared weights (for the effective number of observations).
     weights_sq: f32,
     /// Sum of the squared weights times the stated variances (for the stated variance of the
     /// weighted mean: each weight is the inverse of its observation's variance when new, and
     /// decays while the variance stays).
     stated_px2: f32,
-    /// Observations so far (saturating).
-    observations: u32,
 }
 
 impl LengthOffset {
@@ -118,27 +114,26 @@ impl LengthOffset {
         }
         let keep = 1.0 - 1.0 / MEMORY_FRAMES;
         let w = 1.0 / variance_px2.max(MIN_VARIANCE_PX2);
-        self.weights = keep * self.weights + w;
-        self.weighted_px = keep * self.weighted_px + w * difference_px;
-        self.weighted_sq_px2 = keep * self.weighted_sq_px2 + w * difference_px * difference_px;
+        self.differences.add(difference_px, w, keep);
         self.weights_sq = keep * keep * self.weights_sq + w * w;
         self.stated_px2 = keep * keep * self.stated_px2 + w;
-        self.observations = self.observations.saturating_add(1);
     }
 
     /// The offset to take off a single frame's path length (px) as `reading` reads it: the
     /// mean difference where it is beyond its scatter, else 0.
     pub fn offset_px(&self, reading: LengthReading) -> f32 {
-        if self.observations < MIN_OBSERVATIONS {
+        let d = &self.differences;
+        if d.observations() < MIN_OBSERVATIONS {
             return 0.0;
         }
-        let effective = self.weights * self.weights / self.weights_sq;
-        let mean_px = self.weighted_px / self.weights;
-        let scatter_px2 = (self.weighted_sq_px2 / self.weights - mean_px * mean_px).max(0.0);
+        let weights = d.weights();
+        let effective = weights * weights / self.weights_sq;
+        let mean_px = d.mean();
+        let scatter_px2 = d.scatter();
         let degrees = (effective - 1.0).max(1.0);
         // One observation's variance, from the scatter and as stated.
         let scattered_px2 = scatter_px2 * effective / degrees;
-        let stated_px2 = self.stated_px2 / (self.weights * self.weights) * effective;
+        let stated_px2 = self.stated_px2 / (weights * weights) * effective;
         let (variance_px2, variance_degrees) = if reading.states_its_deviation() {
             // The stated variance counts as `STATED_DEGREES` observations' worth.
             let pooled_degrees = STATED_DEGREES + degrees;
@@ -162,9 +157,9 @@ impl LengthOffset {
     /// track's lengths, less that offset, have read from the motion's path, misfit and noise
     /// together; `None` before as many observations as an offset needs (three).
     pub fn mean_square_about_px2(&self, offset_px: f32) -> Option<f32> {
-        (self.observations >= MIN_OBSERVATIONS).then(|| {
-            let mean_px = self.weighted_px / self.weights;
-            let mean_square_px2 = self.weighted_sq_px2 / self.weights;
+        let d = &self.differences;
+        (d.observations() >= MIN_OBSERVATIONS).then(|| {
+            let (mean_px, mean_square_px2) = (d.mean(), d.mean_square());
             (mean_square_px2 - 2.0 * offset_px * mean_px + offset_px * offset_px).max(0.0)
         })
     }
