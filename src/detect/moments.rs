@@ -66,6 +66,11 @@ impl Moments {
         })
     }
 
+    /// The pixel count.
+    pub fn area_px(&self) -> f32 {
+        self.area_px
+    }
+
     /// The stadium of the same area whose principal moments differ as the blob's do.
     pub fn stadium(&self) -> StadiumPath {
         let half_diff = 0.5 * (self.xx - self.yy);
