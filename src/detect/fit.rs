@@ -50,7 +50,7 @@ use super::moments::Moments;
 use super::normal::{normal_cdf, normal_cdf_and_density};
 use super::spot_shape::SpotShape;
 use super::tone_memory::ToneMemory;
-use crate::frame::Frame;
+use crate::frame::{Frame, FrameSize};
 
 /// Pixels the fit uses at most: both end caps and a subsample of the body.
 pub const MAX_FIT_PX: usize = 128;
@@ -558,7 +558,7 @@ fn finish(
     // What the pixels alone say of the tone exponent, for the next frame's prior: at a
     // bound they say nothing.
     let tone = p[TONE];
-    let tone_memory = if all[TONE] && tone > 1.01 * TONE_RANGE.0 && tone < 0.99 * TONE_RANGE.1 {
+    let tone_memory = if all[TONE] && off_its_bounds(tone, TONE_RANGE) {
         // Without a prior, the curvature is the pixels' alone.
         let variance = match samples.tone_prior {
             Some((_, weight)) => {
@@ -829,9 +829,8 @@ impl Start<'_> {
         let (p, _) = levenberg_marquardt(samples, p, clip, &glow_first)?;
         let (p, cost) = levenberg_marquardt(samples, p, clip, all)?;
         let n = native(&p);
-        let inside = |v: f32, (lo, hi): (f32, f32)| v > 1.01 * lo && v < 0.99 * hi;
-        (inside(n[CORE_WIDTH].exp(), SIGMA_RANGE_PX)
-            && inside(n[TONE], TONE_RANGE)
+        (off_its_bounds(n[CORE_WIDTH].exp(), SIGMA_RANGE_PX)
+            && off_its_bounds(n[TONE], TONE_RANGE)
             && n[GLOW_RATIO] < 0.99)
             .then_some((p, cost))
     }
@@ -868,6 +867,12 @@ impl Start<'_> {
         }
         Some((p, cost))
     }
+}
+
+/// Whether the fitted `value` lies clear of both ends of its `(low, high)` range (by 1 %): one
+/// held at a bound is where the fit ran into it, not what the pixels say.
+fn off_its_bounds(value: f32, (low, high): (f32, f32)) -> bool {
+    value > low + 0.01 * low.abs() && value < 0.99 * high
 }
 
 /// Keeps the spot's widths, the amplitude, glow ratio, tone exponent and floor where they
@@ -1490,39 +1495,17 @@ fn collect(
 ) -> Option<Samples> {
     let clip = spread.level_luma;
     let half = 0.5 * rough.thickness_px;
-    let reach = half + REACH_PX;
     let cap = half + CAP_PX;
     let [a, b] = rough.ends_px;
-    let size = frame.size();
-    let lo = |v: f32| (v - reach - 1.0).floor().max(0.0) as usize;
-    let hi =
-        |v: f32, n: usize| ((v + reach + 1.0).ceil().max(0.0) as usize).min(n.saturating_sub(1));
-    let (x0, x1) = (
-        lo(a.0.min(b.0).min(rough.mid_px.0)),
-        hi(a.0.max(b.0).max(rough.mid_px.0), size.width()),
-    );
-    let (y0, y1) = (
-        lo(a.1.min(b.1).min(rough.mid_px.1)),
-        hi(a.1.max(b.1).max(rough.mid_px.1), size.height()),
-    );
-    let near = |x: usize, y: usize| {
-        distance2_to_rough(rough, x as f32, y as f32) <= reach * reach
-            && !clipped_inside(frame, x, y, spread)
-    };
+    let within = Reach::of(rough, frame.size());
+    let near = |x: usize, y: usize| within.holds(x, y) && !clipped_inside(frame, x, y, spread);
     let in_cap =
         |x: f32, y: f32| distance2((x, y), a) <= cap * cap || distance2((x, y), b) <= cap * cap;
-    // The columns of row `y` worth testing: every pixel `near` accepts, and fewer than the
-    // box's (the box of a diagonal streak is mostly beyond its reach).
-    let columns = |y: usize| {
-        let span = row_span(rough, y as f32, reach + 1.0).map(|(left, right)| {
-            (left.floor().max(0.0) as usize).max(x0)..=(right.ceil().max(0.0) as usize).min(x1)
-        });
-        span.into_iter().flatten()
-    };
+    let (x0, x1, y0, y1) = (within.x0, within.x1, within.y0, within.y1);
     // First pass: count both kinds of pixel, to subsample each evenly.
     let (mut caps, mut body) = (0usize, 0usize);
     for y in y0..=y1 {
-        for x in columns(y) {
+        for x in within.columns(y) {
             if near(x, y) {
                 if in_cap(x as f32, y as f32) {
                     caps += 1;
@@ -1544,7 +1527,7 @@ fn collect(
     };
     let (mut caps_seen, mut body_seen) = (0usize, 0usize);
     for y in y0..=y1 {
-        for x in columns(y) {
+        for x in within.columns(y) {
             if !near(x, y) {
                 continue;
             }
@@ -1594,27 +1577,65 @@ fn collect(
 /// within the fit's reach of `rough` (see [`Moments::stadium`]), where there are at least
 /// [`MIN_CLIPPED_PX`]: how far from the path the spot's light reaches the clip (image pixels).
 fn clip_radius_px(frame: &Frame<'_>, rough: &Rough, clip: f32) -> Option<f32> {
-    let reach = 0.5 * rough.thickness_px + REACH_PX;
-    let [a, b] = rough.ends_px;
-    let m = rough.mid_px;
-    let (top, bottom) = (a.1.min(b.1).min(m.1) - reach, a.1.max(b.1).max(m.1) + reach);
-    let last_row = frame.size().height().checked_sub(1)?;
-    let last_column = frame.size().width().checked_sub(1)?;
-    let rows = (top.floor().max(0.0) as usize)..=(bottom.ceil().max(0.0) as usize).min(last_row);
+    let within = Reach::of(rough, frame.size());
     // Each clipped pixel is a run of one.
-    let clipped = rows.flat_map(|y| {
-        let span = row_span(rough, y as f32, reach).map(|(left, right)| {
-            (left.floor().max(0.0) as usize)..=(right.ceil().max(0.0) as usize).min(last_column)
-        });
-        span.into_iter().flatten().filter_map(move |x| {
-            let near = distance2_to_rough(rough, x as f32, y as f32) <= reach * reach;
+    let clipped = (within.y0..=within.y1).flat_map(|y| {
+        within.columns(y).filter_map(move |x| {
             let clipped = frame.luma(x, y).is_some_and(|l| f32::from(l) >= clip);
-            (near && clipped).then_some((y as u16, x as u16, x as u16))
+            (clipped && within.holds(x, y)).then_some((y as u16, x as u16, x as u16))
         })
     });
     Moments::of_runs(clipped)
         .filter(|m| m.area_px() >= MIN_CLIPPED_PX)
         .map(|m| 0.5 * m.stadium().width_px)
+}
+
+/// The pixels the fit reads around a rough streak: those within half its thickness and
+/// [`REACH_PX`] of its polyline, and the box (clamped to the frame) and row spans that hold
+/// them, so that a walk over them tests few pixels beyond.
+#[derive(Clone, Copy)]
+struct Reach<'a> {
+    rough: &'a Rough,
+    reach_px: f32,
+    x0: usize,
+    x1: usize,
+    y0: usize,
+    y1: usize,
+}
+
+impl<'a> Reach<'a> {
+    fn of(rough: &'a Rough, size: FrameSize) -> Reach<'a> {
+        let reach_px = 0.5 * rough.thickness_px + REACH_PX;
+        let [a, b] = rough.ends_px;
+        let m = rough.mid_px;
+        let lo = |v: f32| (v - reach_px - 1.0).floor().max(0.0) as usize;
+        let hi = |v: f32, n: usize| {
+            ((v + reach_px + 1.0).ceil().max(0.0) as usize).min(n.saturating_sub(1))
+        };
+        Reach {
+            rough,
+            reach_px,
+            x0: lo(a.0.min(b.0).min(m.0)),
+            x1: hi(a.0.max(b.0).max(m.0), size.width()),
+            y0: lo(a.1.min(b.1).min(m.1)),
+            y1: hi(a.1.max(b.1).max(m.1), size.height()),
+        }
+    }
+
+    /// The columns of row `y` worth testing: every pixel [`Reach::holds`] accepts, and fewer
+    /// than the box's (the box of a diagonal streak is mostly beyond its reach).
+    fn columns(&self, y: usize) -> impl Iterator<Item = usize> + use<> {
+        let (x0, x1) = (self.x0, self.x1);
+        let span = row_span(self.rough, y as f32, self.reach_px + 1.0).map(|(left, right)| {
+            (left.floor().max(0.0) as usize).max(x0)..=(right.ceil().max(0.0) as usize).min(x1)
+        });
+        span.into_iter().flatten()
+    }
+
+    /// Whether the pixel at `(x, y)` lies within reach of the rough polyline.
+    fn holds(&self, x: usize, y: usize) -> bool {
+        distance2_to_rough(self.rough, x as f32, y as f32) <= self.reach_px * self.reach_px
+    }
 }
 
 /// How far beyond a blob's bounding box the fit may read pixels, for a blob whose shorter
@@ -1638,7 +1659,7 @@ fn low_percentile(s: &Samples) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::frame::{FrameSize, PixelFormat};
+    use crate::frame::PixelFormat;
 
     /// Parameters of a path from `a` to `b` with sagitta `sagitta`, core σ `sigma`, a glow
     /// three times wider at a tenth of the light, a 2.2 tone and both floors.
