@@ -25,7 +25,11 @@ Pixel (0, 0)'s centre is the coordinate (0, 0), as in OpenCV.
 writes DIR/scene_K.grey (8-bit luma frames, 640×480) and DIR/scene_K.csv for K < N, and
 DIR/scenes.json: one object per scene with its parameters (the exposure in µs among them).
 `--motion KIND`, `--spot KIND` and `--frames N` make every scene of that motion, spot or
-length (the rest drawn as without them). Only numpy is used.
+length (the rest drawn as without them). `--size WxH` draws its scenes from the same
+distributions as a camera of that size sees them: every length in pixels (the spot, the
+streak, the arc, the floor's texture, where the path lies) scaled by W / 640. The scenes are
+not the 640×480 ones scaled: the floor and the noise draw as many numbers as there are pixels,
+so from the second scene on the draws differ. Only numpy is used.
 """
 
 import argparse
@@ -36,6 +40,8 @@ import os
 import numpy as np
 
 WIDTH, HEIGHT = 640, 480
+# Pixels of this picture per pixel of a 640-wide one (`--size`).
+SCALE = 1.0
 FPS = 30.0
 MAX_FRAMES = 14
 SUPER = 4
@@ -83,12 +89,13 @@ def kernel_reach_px(spot, peak_full_wells):
         if level < 1.0:
             halo = spot["halo_alpha_px"] * math.sqrt(level ** (-1.0 / spot["halo_beta"]) - 1.0)
             reach = max(reach, halo)
-    return min(4.0 / 3.0 * reach + 1.0, 80.0)
+    return min(4.0 / 3.0 * reach + 1.0, 80.0 * SCALE)
 
 
 def floor_texture(rng, level):
     """Linear-light floor: smoothed noise at two scales under a vignette, mean about `level`."""
     def smooth_noise(cell):
+        cell = max(1, int(round(cell * SCALE)))
         h, w = HEIGHT // cell + 2, WIDTH // cell + 2
         coarse = rng.standard_normal((h, w))
         ys = np.arange(HEIGHT) / cell
@@ -120,9 +127,9 @@ class Motion:
         self.speed = streak_px / exposure_s
         self.t0 = -exposure_s
         span_s = (frames - 1) / FPS + exposure_s
-        centre = np.array([WIDTH / 2, HEIGHT / 2]) + rng.uniform(-60, 60, 2)
+        centre = np.array([WIDTH / 2, HEIGHT / 2]) + SCALE * rng.uniform(-60, 60, 2)
         if kind == "arc":
-            self.radius = rng.uniform(25, 120)
+            self.radius = SCALE * rng.uniform(25, 120)
             self.omega = self.speed / self.radius * rng.choice([-1, 1])
             self.phase = rng.uniform(0, 2 * math.pi)
             self.centre = centre
@@ -135,9 +142,9 @@ class Motion:
             # Moves 40 px into place over the first 3 to 5 frames with a raised-cosine speed,
             # then stands, or creeps at up to 3 px/s.
             self.move_s = rng.uniform(3, 5) / FPS
-            self.move_px = 40.0
-            self.creep = rng.uniform(0.0, 3.0)
-            self.start = centre - self.dir * 20
+            self.move_px = 40.0 * SCALE
+            self.creep = SCALE * rng.uniform(0.0, 3.0)
+            self.start = centre - self.dir * 20 * SCALE
         else:
             self.start = centre - self.dir * self.speed * span_s / 2
 
@@ -219,13 +226,17 @@ def render_scene(rng, index, force):
     if motion_kind in ("line", "accelerate"):
         per_frame_px = streak_px / exposure_s / FPS
         frames = int(np.clip(300 / per_frame_px, 4, MAX_FRAMES))
+    streak_px *= SCALE
     kind = str(rng.choice(["moffat", "moffat", "halo", "pillbox"]))
     kind = force.spot or kind
     spot = {"kind": kind}
     if kind == "pillbox":
-        spot.update(radius_px=float(rng.uniform(0.8, 3.0)), soft_px=float(rng.uniform(0.3, 0.8)))
+        spot.update(
+            radius_px=SCALE * float(rng.uniform(0.8, 3.0)),
+            soft_px=SCALE * float(rng.uniform(0.3, 0.8)),
+        )
     else:
-        fwhm = float(rng.uniform(1.5, 6.0))
+        fwhm = SCALE * float(rng.uniform(1.5, 6.0))
         beta = float(rng.uniform(2.5, 5.0))
         spot.update(fwhm_px=fwhm, beta=beta, alpha_px=moffat_fwhm_alpha(fwhm, beta))
         if kind == "halo":
@@ -302,6 +313,7 @@ def render_scene(rng, index, force):
         )
     params = {
         "scene": index,
+        "size": f"{WIDTH}x{HEIGHT}",
         "frames": frames,
         "exposure_us": int(round(exposure_s * 1e6)),
         "streak_px": streak_px,
@@ -326,7 +338,11 @@ def main():
     parser.add_argument("--motion", choices=["line", "arc", "accelerate", "settle"])
     parser.add_argument("--spot", choices=["moffat", "halo", "pillbox"])
     parser.add_argument("--frames", type=int, help="frames of an arc or a settling LED")
+    parser.add_argument("--size", default="640x480", help="the picture's WxH")
     args = parser.parse_args()
+    global WIDTH, HEIGHT, SCALE
+    WIDTH, HEIGHT = (int(v) for v in args.size.split("x"))
+    SCALE = WIDTH / 640.0
     rng = np.random.default_rng(args.seed)
     scenes = []
     for k in range(args.count):
