@@ -22,8 +22,9 @@ Pixel (0, 0)'s centre is the coordinate (0, 0), as in OpenCV.
 
     render_streaks.py --seed S --count N --out DIR
 
-writes DIR/scene_K.grey (8-bit luma frames, 640×480) and DIR/scene_K.csv for K < N, and
-DIR/scenes.json: one object per scene with its parameters (the exposure in µs among them).
+writes DIR/scene_K.grey (8-bit luma frames, 640×480 unless `--size` says otherwise) and
+DIR/scene_K.csv for K < N, and DIR/scenes.json: one object per scene with its parameters (the
+exposure in µs and the picture's size among them).
 `--motion KIND`, `--spot KIND` and `--frames N` make every scene of that motion, spot or
 length (the rest drawn as without them). `--size WxH` draws its scenes from the same
 distributions as a camera of that size sees them: every length in pixels (the spot, the
