@@ -2054,38 +2054,54 @@ mod tests {
 
     /// Sweep seed 12's point 109 in the model's own family: a bloom whose core (σ 1.31 px) is
     /// clipped 14× and whose glow (3.8× wider, 6 % of the core) peaks just under the clip,
-    /// on an 8.3 px line through a 2.23 gamma. Its path's ends, and its parameters.
-    fn clipped_bloom() -> ([(f32, f32); 2], Params) {
-        let (a, b) = ((44.0f32, 40.3f32), (52.0f32, 42.6f32));
-        let mut truth = params(a, b, 0.0, 1.31);
-        truth[GLOW_WIDTH] = (3.8f32 * 1.31).ln();
-        truth[GLOW_RATIO] = 0.059;
-        truth[TONE] = 1.0 / 2.23;
-        truth[FLAT_FLOOR] = 0.1;
-        let path = Path::new(&truth, true);
-        let mid = (0.5 * (a.0 + b.0), 0.5 * (a.1 + b.1));
-        let (core, glow) = path.light2(mid.0, mid.1);
-        truth[LN_AMPLITUDE] = (13.8 / (core + truth[GLOW_RATIO] * glow)).ln();
-        ([a, b], truth)
+    /// on an 8.3 px line through a 2.23 gamma, in a 96 × 80 picture clipping at 250.
+    struct ClippedBloom {
+        width: usize,
+        size: FrameSize,
+        clip: f32,
+        ends: [(f32, f32); 2],
+        mid: (f32, f32),
+        truth: Params,
+        path: Path,
     }
 
-    /// A grey frame of `width × height` of the model `truth` along `path`, clipped at `clip`,
-    /// with noise of up to 6 luma either way from the generator `state`.
-    fn render(
-        path: &Path,
-        truth: &Params,
-        (width, height): (usize, usize),
-        clip: f32,
-        state: &mut u32,
-    ) -> Vec<u8> {
-        (0..width * height)
-            .map(|i| {
-                let xy = ((i % width) as f32, (i / width) as f32);
-                (model(path, truth, xy, None, clip).0 + noise(state, 6.0))
-                    .clamp(0.0, clip)
-                    .round() as u8
-            })
-            .collect()
+    impl ClippedBloom {
+        fn new() -> ClippedBloom {
+            let (width, height) = (96usize, 80usize);
+            let (a, b) = ((44.0f32, 40.3f32), (52.0f32, 42.6f32));
+            let mut truth = params(a, b, 0.0, 1.31);
+            truth[GLOW_WIDTH] = (3.8f32 * 1.31).ln();
+            truth[GLOW_RATIO] = 0.059;
+            truth[TONE] = 1.0 / 2.23;
+            truth[FLAT_FLOOR] = 0.1;
+            let path = Path::new(&truth, true);
+            let mid = (0.5 * (a.0 + b.0), 0.5 * (a.1 + b.1));
+            let (core, glow) = path.light2(mid.0, mid.1);
+            truth[LN_AMPLITUDE] = (13.8 / (core + truth[GLOW_RATIO] * glow)).ln();
+            ClippedBloom {
+                width,
+                size: FrameSize::new(width as u32, height as u32).unwrap(),
+                clip: 250.0,
+                ends: [a, b],
+                mid,
+                // The amplitude draws nothing of the path: the path drawn above stands.
+                path,
+                truth,
+            }
+        }
+
+        /// A grey frame of the bloom, clipped, with noise of up to 6 luma either way from the
+        /// generator `state`.
+        fn render(&self, state: &mut u32) -> Vec<u8> {
+            (0..self.size.pixels())
+                .map(|i| {
+                    let xy = ((i % self.width) as f32, (i / self.width) as f32);
+                    (model(&self.path, &self.truth, xy, None, self.clip).0 + noise(state, 6.0))
+                        .clamp(0.0, self.clip)
+                        .round() as u8
+                })
+                .collect()
+        }
     }
 
     /// A bloom whose core is clipped 14× and whose glow (3.8× wider, 6 % of the core) peaks
@@ -2098,15 +2114,11 @@ mod tests {
     /// truth and every length within half a pixel.
     #[test]
     fn a_spot_clipped_into_its_glow_keeps_the_tone_its_frames_before_read() {
-        let (width, height) = (96usize, 80usize);
-        let size = FrameSize::new(width as u32, height as u32).unwrap();
-        let clip = 250.0f32;
-        let ([a, b], truth) = clipped_bloom();
-        let path = Path::new(&truth, true);
-        let mid = (0.5 * (a.0 + b.0), 0.5 * (a.1 + b.1));
+        let bloom = ClippedBloom::new();
+        let (size, truth) = (bloom.size, bloom.truth);
         let rough = Rough {
             ends_px: [(45.0, 40.5), (51.0, 42.4)],
-            mid_px: mid,
+            mid_px: bloom.mid,
             thickness_px: 12.0,
         };
         // The fits of twelve frames of fresh noise, each from the last one's spot; the LED's
@@ -2129,15 +2141,16 @@ mod tests {
             };
             let mut read = Vec::new();
             for _ in 0..12 {
-                let bytes = render(&path, &truth, (width, height), clip, &mut state);
-                let frame = Frame::new_checked_as(&bytes, size, width, PixelFormat::Grey).unwrap();
+                let bytes = bloom.render(&mut state);
+                let frame =
+                    Frame::new_checked_as(&bytes, size, bloom.width, PixelFormat::Grey).unwrap();
                 if !remembered {
                     warm.tone = ToneMemory::default();
                 }
                 let found = fit(
                     &frame,
                     &rough,
-                    250,
+                    bloom.clip as u8,
                     None,
                     SpotShape::identity(),
                     Some(&warm),
@@ -2149,7 +2162,7 @@ mod tests {
             }
             read
         };
-        let length_px = dist(a, b);
+        let length_px = dist(bloom.ends[0], bloom.ends[1]);
         let worst = |read: &[(f32, f32)]| {
             read.iter()
                 .fold((0.0f32, 0.0f32), |(l, k), &(length, tone)| {
@@ -2500,28 +2513,23 @@ mod tests {
     /// width (4.8–8.5 px), and the lengths read 9.0–17.6 px.
     #[test]
     fn a_bloom_clipped_into_its_glow_is_fitted_cold_to_its_narrow_core() {
-        let (width, height) = (96usize, 80usize);
-        let size = FrameSize::new(width as u32, height as u32).unwrap();
-        let clip = 250.0f32;
-        let ([a, b], truth) = clipped_bloom();
-        let sigma_px = truth[CORE_WIDTH].exp();
-        let path = Path::new(&truth, true);
-        let mid = (0.5 * (a.0 + b.0), 0.5 * (a.1 + b.1));
+        let bloom = ClippedBloom::new();
+        let sigma_px = bloom.truth[CORE_WIDTH].exp();
         let mut state = 11u32;
         let mut read = Vec::new();
         for thickness_px in [6.0f32, 9.0, 12.0, 15.0] {
             let rough = Rough {
                 ends_px: [(45.0, 40.5), (51.0, 42.4)],
-                mid_px: mid,
+                mid_px: bloom.mid,
                 thickness_px,
             };
             for _ in 0..4 {
-                let bytes = render(&path, &truth, (width, height), clip, &mut state);
-                let found = plain_fit_of(&bytes, size, &rough);
+                let bytes = bloom.render(&mut state);
+                let found = plain_fit_of(&bytes, bloom.size, &rough);
                 read.push((thickness_px, found.spot_sigma_px, found.path_length_px));
             }
         }
-        let length_px = dist(a, b);
+        let length_px = dist(bloom.ends[0], bloom.ends[1]);
         let narrow = read.iter().filter(|r| r.1 < 2.0 * sigma_px).count();
         let mut errors: Vec<f32> = read.iter().map(|r| (r.2 - length_px).abs()).collect();
         errors.sort_by(f32::total_cmp);
