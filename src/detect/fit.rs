@@ -7,6 +7,10 @@
 //! - the path is a circular arc from `start` through `mid` to `end` (a straight line when
 //!   `mid` lies on the chord), swept at constant speed, as a robot turning steadily moves
 //!   (`arc_path::ArcPieces`: drawn by as few straight pieces as keep within 0.1 px of it);
+//!   where the LED's last frames say its speed changes, its light along the path falls
+//!   evenly toward the fast end instead, by as much as they say (`gradient_of`): an LED
+//!   that speeds up lays less light where it is faster, and fitted at one speed both ends
+//!   were read toward the slow end;
 //! - the spot is a Gaussian core of standard deviation `σ` in a wider, dimmer Gaussian glow,
 //!   so the swept light at a pixel is their line integral along the path, in closed form per
 //!   straight piece (an error-function difference times a Gaussian across);
@@ -52,6 +56,8 @@ use super::spot_shape::SpotShape;
 use super::tone_memory::ToneMemory;
 use crate::frame::{Frame, FrameSize};
 
+/// A Gaussian's full width at half maximum over its standard deviation.
+pub const FWHM_PER_SIGMA: f32 = 2.354_82;
 /// Pixels the fit uses at most: both end caps and a subsample of the body.
 pub const MAX_FIT_PX: usize = 128;
 /// Of those, pixels taken from the body (between the end caps).
@@ -116,6 +122,13 @@ const FLAT_FLOOR: usize = 10;
 /// The pedestal's index: light added evenly to the measured floor over the fitted pixels (a
 /// glow wider than they reach, which the spot model need not draw).
 const PEDESTAL: usize = 11;
+/// The most an LED's speed may change during one exposure, relative to its mean then, for the
+/// light laid along its path to be drawn with a gradient ([`gradient_of`]): up to half, the
+/// light per pixel (the inverse of the speed) is within 8 % of its mean from a straight
+/// gradient along the path (3 % at a change of 0.3, 50 % at 1). More is an LED starting or
+/// stopping within the exposure, whose light piles up where it was still and whose
+/// acceleration was not the same over the frames before: the fit at one speed stands there.
+const MAX_SPEED_CHANGE: f32 = 0.5;
 
 type Params = SVector<f32, PARAMS>;
 type Normal = SMatrix<f32, PARAMS, PARAMS>;
@@ -184,6 +197,23 @@ pub struct SpotFit {
     offset: PathOffset,
     /// The tone exponents this LED's fits have read so far, the prior of the next.
     tone: ToneMemory,
+    /// Where the fitted path lay and how long it was, for the next frame's change of speed.
+    travel: Travel,
+}
+
+/// A fitted path's middle (image pixels), and its length and the length's standard
+/// deviation (ideal pixels): the larger of the noise's and the model's misfit's (the
+/// sandwich, see [`finish`]), since a bloom's lengths wander from frame to frame by more than
+/// the noise alone says.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+struct Travel {
+    mid_px: (f32, f32),
+    length_px: f32,
+    length_deviation_px: f32,
+    /// Whether the LED's fit in the frame before this one was a path too (longer than this
+    /// spot is wide): then this path is a whole exposure's motion, not an LED that started
+    /// moving during it, whose short path would read as a speed that grew.
+    after_a_path: bool,
 }
 
 #[cfg(test)]
@@ -199,6 +229,7 @@ impl SpotFit {
                 sagitta_px: 0.0,
             },
             tone: ToneMemory::default(),
+            travel: Travel::default(),
         }
     }
 }
@@ -286,6 +317,11 @@ struct Samples {
     /// weighed as a pseudo-pixel: the exponent, and the weight in luma² a unit of it costs
     /// (the last fit's residual variance per pixel over the prior's variance).
     tone_prior: Option<(f32, f32)>,
+    /// The light laid along the path changes along it by this, relative to its mean
+    /// ([`Path::gradient`]): zero, or what the LED's change of speed since its last frame
+    /// says ([`gradient_of`]). It is not fitted: left free, it traded against the ends of
+    /// streaks at one speed.
+    gradient: f32,
 }
 
 /// The lens's local linear map around a point of the image: ideal pixels there are where a
@@ -420,10 +456,10 @@ fn fit_from(seen: &Seen<'_, '_>, rough: &Rough) -> Result<PathFit, Miss> {
     // The fit from one start, bent where the pixels ask, and read out; the rough streak it
     // went to where its ends moved farther than the pixels read support, `None` where it
     // cannot be read.
-    let conclude = |(p, cost): (Params, f32)| {
-        let (p, cost) = bent_if_asked(&samples, (p, cost), clip, &all);
+    let conclude = |samples: &Samples, (p, cost): (Params, f32)| {
+        let (p, cost) = bent_if_asked(samples, (p, cost), clip, &all);
         if beyond_the_rough(&p, [a, b], rough.thickness_px) {
-            let path = Path::new(&native(&p), true);
+            let path = Path::new(&native(&p), true, samples.gradient);
             return Err(Some(Rough {
                 ends_px: [(p[0], p[1]), (p[2], p[3])].map(|end| local.to_image(end)),
                 mid_px: local.to_image(path.arc.mid),
@@ -434,7 +470,7 @@ fn fit_from(seen: &Seen<'_, '_>, rough: &Rough) -> Result<PathFit, Miss> {
         let mut fitted_all = all;
         fitted_all[SAGITTA] = !is_straight(&[p[0], p[1], p[2], p[3], p[SAGITTA]]);
         let found = finish(
-            &samples,
+            samples,
             (&local, [a, b]),
             (p, cost),
             clip,
@@ -447,27 +483,92 @@ fn fit_from(seen: &Seen<'_, '_>, rough: &Rough) -> Result<PathFit, Miss> {
     let warm_fit = warm.and_then(|w| start.warm(w).map(|found| (found, w.cost_per_px)));
     let (p, cost, found) = match warm_fit {
         Some((found, before)) if found.1 <= WARM_COST_RATIO * before * samples.len as f32 => {
-            conclude(found)
+            conclude(&samples, found)
         }
         // The spot changed more than a frame's light and noise explain (another LED, a
         // glow that began to clip): from scratch, keeping the better of the two.
         Some((found, _)) => match cold() {
-            Some(cold) if cold.1 < found.1 => conclude(cold),
-            _ => conclude(found),
+            Some(cold) if cold.1 < found.1 => conclude(&samples, cold),
+            _ => conclude(&samples, found),
         },
-        None => cold().ok_or(None).and_then(conclude),
+        None => cold().ok_or(None).and_then(|cold| conclude(&samples, cold)),
     }
     .map_err(|moved| moved.map_or(Miss::No(NoFit::Failed), Miss::Beyond))?;
+    // An LED whose speed changed since its last frame changed it during this exposure too:
+    // once more from here, with the light laid along the path as that change says. Where
+    // that fit cannot be read, the one at an even speed stands.
+    let gradient = warm.and_then(|w| gradient_of(&w.travel, &found));
+    let (p, cost, mut found) = match gradient {
+        Some(gradient) => {
+            samples.gradient = gradient;
+            let mut active = all;
+            active[SAGITTA] = !is_straight(&[p[0], p[1], p[2], p[3], p[SAGITTA]]);
+            match levenberg_marquardt(&samples, p, clip, &active)
+                .map(|laid| conclude(&samples, laid))
+            {
+                Some(Ok(laid)) => laid,
+                _ => {
+                    samples.gradient = 0.0;
+                    (p, cost, found)
+                }
+            }
+        }
+        None => (p, cost, found),
+    };
+    found.spot.travel.after_a_path =
+        warm.is_some_and(|w| w.travel.length_px > FWHM_PER_SIGMA * found.spot_sigma_px);
     let pixels = Pixels {
         frame,
         background,
         spread,
         residual_sd: (cost / samples.len.saturating_sub(PARAMS).max(1) as f32).sqrt(),
+        gradient: samples.gradient,
     };
     if seen.check_ends && end_off_the_clip(&pixels, &local, &native(&p), found.noise_px) {
         return Err(Miss::No(NoFit::EndOffTheClip));
     }
     Ok(found)
+}
+
+/// The light's gradient along `found`'s path ([`Path::gradient`]) from the LED's change of
+/// speed since its last fitted frame, `before`: `None` where the change is within the two
+/// lengths' deviations, where either frame's path is no longer than the spot is wide, where
+/// the LED was not moving already in the frame before `before` (it may have started during
+/// that exposure: a bloom moving into place read its second frame's head 4.3 px off at p95
+/// with the gradient of its first frame's short path), and where the speed changed by more
+/// than [`MAX_SPEED_CHANGE`].
+///
+/// The path's length `L` is the exposure times the mean speed during it, so it grows by
+/// `ΔL = a e` a frame at an acceleration `a` (pixels a frame²) and an exposure of `e` of the
+/// frame, and the speed changes by `a e` during the exposure: by `ΔL / v` of the speed `v`
+/// at this exposure's middle. The middles moved `D`, the mean speed between the two middles,
+/// `v − a / 2`; with `a = ΔL v / L`, that is `v = D / (1 − ΔL / 2L)`. Neither the exposure
+/// nor the frame rate is needed. The light laid per pixel is the inverse of the speed, so
+/// it falls by that fraction from the slow end to the fast one, which is the start of the
+/// path when the LED speeds up (the path's start is the end that lies behind the motion).
+fn gradient_of(before: &Travel, found: &PathFit) -> Option<f32> {
+    let moved = (
+        found.mid_px.0 - before.mid_px.0,
+        found.mid_px.1 - before.mid_px.1,
+    );
+    let moved_px = moved.0.hypot(moved.1);
+    let length_px = found.ideal_path_length_px;
+    let spot_width_px = FWHM_PER_SIGMA * found.spot_sigma_px;
+    let grew_px = length_px - before.length_px;
+    if !before.after_a_path
+        || before.length_px <= spot_width_px
+        || length_px <= spot_width_px
+        || moved_px <= 0.0
+        || grew_px.abs()
+            <= 2.0 * (before.length_deviation_px).hypot(found.spot.travel.length_deviation_px)
+    {
+        return None;
+    }
+    let change = grew_px * (1.0 - grew_px / (2.0 * length_px)) / moved_px;
+    let [a, b] = found.ends_px;
+    let forwards = (b.0 - a.0) * moved.0 + (b.1 - a.1) * moved.1 >= 0.0;
+    let gradient = if forwards { -change } else { change };
+    (change.abs() <= MAX_SPEED_CHANGE).then_some(gradient)
 }
 
 /// The frame a fit was read from, as [`end_off_the_clip`] checks it.
@@ -477,6 +578,8 @@ struct Pixels<'a, 'f> {
     spread: ClipSpread,
     /// The fit's residual standard deviation, in luma.
     residual_sd: f32,
+    /// The light's gradient along the fitted path ([`Path::gradient`]).
+    gradient: f32,
 }
 
 /// Whether the fitted model of parameters `p` (native, in `local`'s ideal pixels), whose ends
@@ -500,7 +603,7 @@ fn end_off_the_clip(
     p: &Params,
     uncertainty_px: f32,
 ) -> bool {
-    let path = Path::new(p, true);
+    let path = Path::new(p, true, pixels.gradient);
     let ends = [(p[0], p[1]), (p[2], p[3])];
     let clip = pixels.spread.level_luma;
     ends.iter().zip(ends.iter().rev()).any(|(&end, &other)| {
@@ -584,7 +687,8 @@ fn finish(
     let noise_var = end_var_of(&covariance) * residual_var;
     let length_slopes = length_slopes(&p);
     let length_var = length_slopes.dot(&(covariance * length_slopes)).max(0.0) * residual_var;
-    let path = Path::new(&native(&p), true);
+    let robust_length_var = length_slopes.dot(&(robust * length_slopes)).max(0.0);
+    let path = Path::new(&native(&p), true, samples.gradient);
     let measured = samples.floor_ln.iter().take(samples.len).flatten().count();
     let corners = path.arc.corners.iter().take(path.arc.count + 1);
     let image_corners = corners.map(|&c| local.to_image(c));
@@ -608,6 +712,13 @@ fn finish(
             cost_per_px: cost / samples.len.max(1) as f32,
             offset: PathOffset::of([a, b], &p),
             tone: tone_memory,
+            travel: Travel {
+                mid_px: local.to_image(path.arc.mid),
+                length_px: path.length(),
+                length_deviation_px: length_var.max(robust_length_var).sqrt(),
+                // Known to the caller only (see `fit_from`).
+                after_a_path: false,
+            },
         },
     })
 }
@@ -1022,6 +1133,10 @@ struct Path {
     /// Components whose light is drawn: the core alone while the glow is left out (the
     /// first stage), which halves that stage's cost.
     components: usize,
+    /// The light laid along the path per pixel of it, relative to its mean, is
+    /// `1 + gradient (s/L − ½)` at `s` of the path's `L` from its start: an LED that speeds
+    /// up during the exposure lays less light at its fast end (see [`Samples::gradient`]).
+    gradient: f32,
 }
 
 #[derive(Clone, Copy, Default)]
@@ -1032,29 +1147,31 @@ struct Piece {
 }
 
 impl Path {
-    /// The path of `p`, with the glow's light drawn when `glow` (else it reads zero).
-    fn new(p: &Params, glow: bool) -> Path {
+    /// The path of `p`, with the glow's light drawn when `glow` (else it reads zero), and
+    /// the light laid along it with `gradient` ([`Path::gradient`]).
+    fn new(p: &Params, glow: bool, gradient: f32) -> Path {
         Path::drawn(
             p,
             glow,
             ArcPieces::new([p[0], p[1], p[2], p[3], p[4]], false),
+            gradient,
         )
     }
 
     /// The path of `p` with its corners' slopes in the path's parameters, for
     /// [`Path::lights`]; with `bend`, in at least two pieces, so that a straight path's
     /// sagitta has a slope too ([`ArcPieces::bendable`]).
-    fn with_slopes(p: &Params, glow: bool, bend: bool) -> Path {
+    fn with_slopes(p: &Params, glow: bool, bend: bool, gradient: f32) -> Path {
         let params = [p[0], p[1], p[2], p[3], p[4]];
         let arc = if bend {
             ArcPieces::bendable(params)
         } else {
             ArcPieces::new(params, true)
         };
-        Path::drawn(p, glow, arc)
+        Path::drawn(p, glow, arc, gradient)
     }
 
-    fn drawn(p: &Params, glow: bool, arc: ArcPieces) -> Path {
+    fn drawn(p: &Params, glow: bool, arc: ArcPieces, gradient: f32) -> Path {
         let mut pieces = [Piece::default(); MAX_PIECES];
         let mut length = 0.0;
         for (piece, ends) in pieces
@@ -1085,11 +1202,19 @@ impl Path {
             sigmas: variances.map(|v| (v + PIXEL_VARIANCE_PX2).sqrt()),
             ln_sigma_slopes: variances.map(|v| v / (v + PIXEL_VARIANCE_PX2)),
             components: if glow { 2 } else { 1 },
+            gradient,
         }
     }
 
     fn length(&self) -> f32 {
         self.length
+    }
+
+    /// The light laid along a piece that starts `piece_start_px` along the path, per pixel
+    /// of it, as `c0 + c1 τ` at `τ` along the piece (see [`Path::gradient`]).
+    fn density_along(&self, piece_start_px: f32) -> (f32, f32) {
+        let c1 = self.gradient / self.length;
+        (1.0 + c1 * piece_start_px - 0.5 * self.gradient, c1)
     }
 
     /// The swept Gaussians' light at `(x, y)` (core, glow), each relative to a still spot's
@@ -1104,7 +1229,10 @@ impl Path {
                 continue;
             }
             let mut sum = 0.0;
+            let mut start_px = 0.0;
             for piece in self.pieces.iter().take(self.arc.count) {
+                let piece_start_px = start_px;
+                start_px += piece.length;
                 if piece.length < MIN_PIECE_PX {
                     continue;
                 }
@@ -1117,10 +1245,22 @@ impl Path {
                 if beyond_piece(along, piece.length * inv) {
                     continue;
                 }
-                let span = normal_cdf(along) - normal_cdf(along - piece.length * inv);
-                if span > 0.0 {
-                    sum += (-0.5 * across * across).exp() * span;
+                let length = piece.length * inv;
+                if self.gradient == 0.0 {
+                    let span = normal_cdf(along) - normal_cdf(along - length);
+                    if span > 0.0 {
+                        sum += (-0.5 * across * across).exp() * span;
+                    }
+                    continue;
                 }
+                let (cdf_s, density_s) = normal_cdf_and_density(along);
+                let (cdf_e, density_e) = normal_cdf_and_density(along - length);
+                // In units of σ√(2π): the light laid evenly, and its first moment along the
+                // piece over σ (see [`Path::swept_light`]).
+                let even = cdf_s - cdf_e;
+                let moment = along * even - (density_e - density_s);
+                let (c0, c1) = self.density_along(piece_start_px);
+                sum += (-0.5 * across * across).exp() * (c0 * even + c1 * sigma * moment);
             }
             *light = sum * SQRT_TAU * sigma / self.length;
         }
@@ -1177,7 +1317,15 @@ impl Path {
         // ∂(Σ I)/∂ corner, and the path's length per corner (∂L/∂E = d, ∂L/∂S = −d).
         let mut at_corners = [(0.0f32, 0.0f32); MAX_PIECES + 1];
         let mut length_at_corners = [(0.0f32, 0.0f32); MAX_PIECES + 1];
+        // With a gradient, the light of a piece also moves with the whole length and with
+        // where the piece starts along the path: ∂(Σ I)/∂(whole length), and per piece
+        // ∂I/∂(its start along the path).
+        let mut at_total = 0.0f32;
+        let mut at_start = [0.0f32; MAX_PIECES];
+        let mut start_px = 0.0f32;
         for (k, piece) in self.pieces.iter().enumerate().take(self.arc.count) {
+            let piece_start_px = start_px;
+            start_px += piece.length;
             let d = piece.unit;
             if let Some(s) = length_at_corners.get_mut(k) {
                 *s = (s.0 - d.0, s.1 - d.1);
@@ -1207,13 +1355,46 @@ impl Path {
             }
             // e^(−c²/2σ²) √(2π): the densities' constant folded in.
             let across_weight = (-0.5 * across * across).exp() * SQRT_TAU;
-            let i = across_weight * sigma * span;
-            let i_t = across_weight * (density_s - density_e);
-            let i_l = across_weight * density_e;
+            let even = across_weight * sigma * span;
+            let even_t = across_weight * (density_s - density_e);
+            let even_sigma = even * (across * across + 1.0) * inv
+                + across_weight * ((along - length) * density_e - along * density_s);
+            let (i, i_t, i_l, i_sigma) = if self.gradient == 0.0 {
+                (even, even_t, across_weight * density_e, even_sigma)
+            } else {
+                // The light laid evenly (B above) and its first moment along the piece,
+                // M = ∫ τ e^(−(t−τ)²/2σ²) dτ = t B + σ² (e_0 − e_L), each times e^(−c²/2σ²)
+                // (e the densities at the piece's ends, with the constant above): the piece's
+                // light is c0 B + c1 M for the density c0 + c1 τ. M's slopes: in t,
+                // B − L e_L; in L, L e_L; in σ, t ∂B/∂σ + 2σ (e_0 − e_L) + σ (u_0² e_0 −
+                // u_L² e_L) with the across part c²/σ³ (M − t B) (u = the ends' along / σ).
+                let (c0, c1) = self.density_along(piece_start_px);
+                let t_px = along * sigma;
+                let ends = across_weight * (density_s - density_e);
+                let at_end_density = piece.length * across_weight * density_e;
+                let moment = t_px * even + sigma * sigma * ends;
+                let moment_sigma = t_px * even_sigma
+                    + 2.0 * sigma * ends
+                    + sigma
+                        * across_weight
+                        * (along * along * density_s - (along - length).powi(2) * density_e)
+                    + across * across * inv * (moment - t_px * even);
+                let i = c0 * even + c1 * moment;
+                at_total -=
+                    self.gradient * (piece_start_px * even + moment) / (self.length * self.length);
+                if let Some(a) = at_start.get_mut(k) {
+                    *a = c1 * even;
+                }
+                (
+                    i,
+                    c0 * even_t + c1 * (even - at_end_density),
+                    c0 * across_weight * density_e + c1 * at_end_density,
+                    c0 * even_sigma + c1 * moment_sigma,
+                )
+            };
             let i_c = -across * inv * i;
             sum += i;
-            d_sigma_sum += i * (across * across + 1.0) * inv
-                + across_weight * ((along - length) * density_e - along * density_s);
+            d_sigma_sum += i_sigma;
             let bend = (i_t * across - i_c * along) / length;
             let at_end = (bend * n.0 + i_l * d.0, bend * n.1 + i_l * d.1);
             let at_pixel = (i_t * d.0 + i_c * n.0, i_t * d.1 + i_c * n.1);
@@ -1223,6 +1404,9 @@ impl Path {
             if let Some(e) = at_corners.get_mut(k + 1) {
                 *e = (e.0 + at_end.0, e.1 + at_end.1);
             }
+        }
+        if self.gradient != 0.0 {
+            self.gradient_slopes(&mut at_corners, &length_at_corners, &at_start, at_total);
         }
         // The light is Σ I / length: its slope is (∂ΣI − light ∂length) / length.
         let inv_length = 1.0 / self.length;
@@ -1237,6 +1421,34 @@ impl Path {
             value,
             d_path: self.arc.gradient(&at_corners),
             d_ln_sigma: sigma * d_sigma_sum * inv_length,
+        }
+    }
+
+    /// Adds to `at_corners` (∂(Σ I)/∂ corner) what a gradient along the path adds: the whole
+    /// length moves with every corner (`at_total` of light per pixel of it, along
+    /// `length_at_corners`), and a piece's start along the path with the pieces before it
+    /// (`at_start` per piece: piece j's length moves its end corner along its direction and
+    /// its start corner against it).
+    fn gradient_slopes(
+        &self,
+        at_corners: &mut [(f32, f32); MAX_PIECES + 1],
+        length_at_corners: &[(f32, f32); MAX_PIECES + 1],
+        at_start: &[f32; MAX_PIECES],
+        at_total: f32,
+    ) {
+        let mut later = 0.0f32;
+        for (j, piece) in self.pieces.iter().enumerate().take(self.arc.count).rev() {
+            let d = piece.unit;
+            if let Some(s) = at_corners.get_mut(j) {
+                *s = (s.0 - later * d.0, s.1 - later * d.1);
+            }
+            if let Some(e) = at_corners.get_mut(j + 1) {
+                *e = (e.0 + later * d.0, e.1 + later * d.1);
+            }
+            later += at_start.get(j).copied().unwrap_or(0.0);
+        }
+        for (c, l) in at_corners.iter_mut().zip(length_at_corners) {
+            *c = (c.0 + at_total * l.0, c.1 + at_total * l.1);
         }
     }
 }
@@ -1320,7 +1532,7 @@ fn residual(luma: f32, model: f32, clip: f32) -> f32 {
 fn cost_of(s: &Samples, p: &Params, clip: f32, active: &[bool; PARAMS], bound: f32) -> Option<f32> {
     let mut cost = prior_cost(s, p);
     let p = &native(p);
-    let path = Path::new(p, active[GLOW_RATIO]);
+    let path = Path::new(p, active[GLOW_RATIO], s.gradient);
     for ((&xy, &luma), &floor_ln) in s.xy.iter().zip(&s.luma).zip(&s.floor_ln).take(s.len) {
         let r = residual(luma, model(&path, p, xy, floor_ln, clip).0, clip);
         cost += r * r;
@@ -1343,7 +1555,7 @@ fn normal_equations(
 ) -> Option<(Normal, Params)> {
     let fit = p;
     let p = &native(fit);
-    let path = Path::with_slopes(p, active[GLOW_RATIO], active[SAGITTA]);
+    let path = Path::with_slopes(p, active[GLOW_RATIO], active[SAGITTA], s.gradient);
     let ratio = p[GLOW_RATIO].max(0.0);
     let inv_k = 1.0 / p[TONE];
     let amplitude = p[LN_AMPLITUDE].exp();
@@ -1524,6 +1736,7 @@ fn collect(
         len: 0,
         around_luma: None,
         tone_prior: None,
+        gradient: 0.0,
     };
     let (mut caps_seen, mut body_seen) = (0usize, 0usize);
     for y in y0..=y1 {
@@ -1694,7 +1907,7 @@ mod tests {
     /// Pixels on, beside and beyond the ends of the path of `p`.
     fn pixels_around(p: &Params) -> impl Iterator<Item = (f32, f32)> {
         let (a, b) = ((p[0], p[1]), (p[2], p[3]));
-        let path = Path::new(p, true);
+        let path = Path::new(p, true, 0.0);
         let mid = path.arc.mid;
         let spread = 2.0 * p[5].exp();
         [a, b, mid, (0.5 * (a.0 + mid.0), 0.5 * (a.1 + mid.1))]
@@ -1714,8 +1927,13 @@ mod tests {
 
     #[test]
     fn the_lights_slopes_are_those_of_its_values() {
-        for p in paths() {
-            let path = Path::with_slopes(&p, true, false);
+        // Laid evenly along the path, and unevenly (a fast end, then a slow one), whose
+        // light's slopes have their own terms.
+        for (gradient, p) in [0.0, 0.3, -0.6]
+            .into_iter()
+            .flat_map(|g| paths().map(move |p| (g, p)))
+        {
+            let path = Path::with_slopes(&p, true, false, gradient);
             // A still path stays still under the step: f32 cannot resolve the light of a
             // path a few thousandths of a pixel long, which is why that is drawn as a spot.
             let path_h = if path.length < 0.1 { 5e-4 } else { 2e-3 };
@@ -1729,7 +1947,7 @@ mod tests {
                     let light_at = |delta: f32| {
                         let mut q = p;
                         q[j] += delta;
-                        Path::new(&q, true).light2(x, y)
+                        Path::new(&q, true, gradient).light2(x, y)
                     };
                     let (plus, minus) = (light_at(h), light_at(-h));
                     let numeric = [
@@ -1744,7 +1962,8 @@ mod tests {
                     for (n, a) in numeric.iter().zip(&analytic) {
                         assert!(
                             (n - a).abs() < 2e-3 + 1e-2 * n.abs(),
-                            "parameter {j} of {p:?} at ({x}, {y}): differences {n}, closed form {a}"
+                            "parameter {j} of {p:?}, gradient {gradient}, at ({x}, {y}): differences \
+                             {n}, closed form {a}"
                         );
                     }
                 }
@@ -1761,6 +1980,7 @@ mod tests {
             len: 0,
             around_luma: None,
             tone_prior: None,
+            gradient: 0.0,
         }
     }
 
@@ -1768,7 +1988,7 @@ mod tests {
     /// few clipped; every third pixel's floor unmeasured.
     fn samples_of(truth: &Params, clip: f32) -> Samples {
         let mut s = no_samples();
-        let path = Path::new(truth, true);
+        let path = Path::new(truth, true, 0.0);
         for (k, xy) in pixels_around(truth).enumerate() {
             let floor_ln = (k % 3 != 0)
                 .then_some((40.0 + (k % 7) as f32) / clip)
@@ -1947,6 +2167,7 @@ mod tests {
                 cost_per_px: cold_cost / s.len as f32,
                 offset: PathOffset::of(rough, &native(&cold)),
                 tone: ToneMemory::default(),
+                travel: Travel::default(),
             };
             let (warm, warm_cost) = start.warm(&spot).expect("a warm fit");
             assert!(
@@ -2003,7 +2224,7 @@ mod tests {
             truth[GLOW_WIDTH] = (glow_width * sigma).ln();
             truth[GLOW_RATIO] = glow_ratio;
             truth[PEDESTAL] = 0.0;
-            let path = Path::new(&truth, true);
+            let path = Path::new(&truth, true, 0.0);
             let (core, glow) = path.light2(100.0, 70.0);
             truth[LN_AMPLITUDE] = (peak / (core + glow_ratio * glow)).ln();
             let mut state = 5u32;
@@ -2052,6 +2273,202 @@ mod tests {
         plain_fit(&frame, rough).expect("a path")
     }
 
+    /// An LED at `s(t) = v0 t + a t² / 2` pixels along a line (times in frames), seen by a
+    /// camera that exposes `exposure` of each frame around the frame's time: where it was at
+    /// the start and end of frame `k`'s exposure.
+    struct Speeding {
+        v0: f32,
+        a: f32,
+        exposure: f32,
+        origin: (f32, f32),
+        unit: (f32, f32),
+    }
+
+    impl Speeding {
+        fn at(&self, t: f32) -> (f32, f32) {
+            let s = self.v0 * t + 0.5 * self.a * t * t;
+            (
+                self.origin.0 + s * self.unit.0,
+                self.origin.1 + s * self.unit.1,
+            )
+        }
+
+        fn ends(&self, k: f32) -> [(f32, f32); 2] {
+            [-0.5, 0.5].map(|h| self.at(k + h * self.exposure))
+        }
+
+        /// Frame `k` through a 2.2 gamma on a floor of 20, a Gaussian spot of `sigma_px`
+        /// `gain` times brighter than the clip at 250: the spot's light averaged over 400
+        /// instants of the exposure, each pixel over 3 × 3 points of its area.
+        fn render(&self, k: f32, sigma_px: f32, gain: f32, size: FrameSize) -> Vec<u8> {
+            let instants: Vec<(f32, f32)> = (0..400)
+                .map(|i| self.at(k + ((i as f32 + 0.5) / 400.0 - 0.5) * self.exposure))
+                .collect();
+            let width = size.width();
+            let [a, b] = self.ends(k);
+            let reach_px = 6.0 * sigma_px + 1.0;
+            (0..size.pixels())
+                .map(|i| {
+                    let (px, py) = ((i % width) as f32, (i / width) as f32);
+                    // Beyond six σ of the path the light is below a 30th of a luma.
+                    let t =
+                        ((px - a.0) * (b.0 - a.0) + (py - a.1) * (b.1 - a.1)) / dist(a, b).powi(2);
+                    let t = t.clamp(0.0, 1.0);
+                    let nearest = (a.0 + t * (b.0 - a.0), a.1 + t * (b.1 - a.1));
+                    if dist((px, py), nearest) > reach_px {
+                        return 20;
+                    }
+                    let light = (0..9)
+                        .map(|j| {
+                            let x = px + ((j % 3) as f32 - 1.0) / 3.0;
+                            let y = py + ((j / 3) as f32 - 1.0) / 3.0;
+                            instants
+                                .iter()
+                                .map(|&(cx, cy)| {
+                                    let r2 = (x - cx).powi(2) + (y - cy).powi(2);
+                                    (-0.5 * r2 / (sigma_px * sigma_px)).exp()
+                                })
+                                .sum::<f32>()
+                        })
+                        .sum::<f32>()
+                        / (9.0 * instants.len() as f32);
+                    let linear = 0.003 + gain * light;
+                    (250.0 * linear.powf(1.0 / 2.2)).clamp(20.0, 250.0).round() as u8
+                })
+                .collect()
+        }
+    }
+
+    /// An LED speeding up by a quarter during the exposure lays less light at its fast end,
+    /// so its clipped streak reaches less far beyond that end and farther beyond the slow
+    /// one. Fitted at one speed, both ends are read toward the slow end; fitted with the
+    /// gradient its last frame's length says (the change of speed worked out from the
+    /// lengths and the middles alone, see [`gradient_of`]), they are where the LED was.
+    #[test]
+    fn an_led_that_speeds_up_is_read_with_its_light_laid_unevenly() {
+        let size = FrameSize::new(200, 72).unwrap();
+        // Rough ends in the order of time, and (the other way along) the other order.
+        for (unit, forwards) in [((0.98f32, 0.199f32), true), ((-0.98, -0.199), false)] {
+            let in_order = |[s, e]: [(f32, f32); 2]| if forwards { [s, e] } else { [e, s] };
+            let origin = if forwards {
+                (60.0, 26.0)
+            } else {
+                (140.0, 46.0)
+            };
+            let led = Speeding {
+                v0: 40.0,
+                a: 20.0,
+                exposure: 0.8,
+                origin,
+                unit,
+            };
+            // The speed at frame 1's middle, and its change during the exposure.
+            let change = led.a * led.exposure / (led.v0 + led.a);
+            for (sigma_px, gain) in [(1.2f32, 30.0f32), (1.2, 120.0), (1.8, 60.0), (2.5, 30.0)] {
+                let rough = |k: f32| {
+                    let [s, e] = in_order(led.ends(k));
+                    Rough {
+                        ends_px: [s, e],
+                        mid_px: ((s.0 + e.0) / 2.0, (s.1 + e.1) / 2.0),
+                        thickness_px: 3.0 * sigma_px,
+                    }
+                };
+                let fit_frame = |k: f32, warm: Option<&SpotFit>| {
+                    let bytes = led.render(k, sigma_px, gain, size);
+                    let frame =
+                        Frame::new_checked_as(&bytes, size, size.width(), PixelFormat::Grey)
+                            .unwrap();
+                    let shape = SpotShape::identity();
+                    fit(&frame, &rough(k), 250, None, shape, warm, false).expect("a path")
+                };
+                // Frame 0 after frame −1, so that its path is known to be a whole exposure's.
+                let first = fit_frame(-1.0, None);
+                let before = fit_frame(0.0, Some(&first.spot));
+                let mut even_spot = before.spot;
+                even_spot.travel = Travel::default();
+                let even = fit_frame(1.0, Some(&even_spot));
+                let laid = fit_frame(1.0, Some(&before.spot));
+                // Without frame −1, frame 0's short path might be an LED that started moving
+                // during its exposure: no gradient.
+                let alone = fit_frame(0.0, None);
+                assert_eq!(gradient_of(&alone.spot.travel, &even), None);
+                // The gradient from the fits' lengths and middles: the light falls toward
+                // the fast end, which is the path's start where the rough ends run backwards.
+                let gradient = gradient_of(&before.spot.travel, &even).expect("a gradient");
+                let truth = if forwards { -change } else { change };
+                assert!(
+                    (gradient - truth).abs() < 0.2 * change,
+                    "σ {sigma_px}: gradient {gradient}, the LED's {truth}"
+                );
+                let truth_ends = in_order(led.ends(1.0));
+                let off = |f: &PathFit| -> Vec<f32> {
+                    f.ends_px
+                        .iter()
+                        .zip(truth_ends)
+                        .map(|(&e, t)| dist(e, t))
+                        .collect()
+                };
+                let (even_off, laid_off) = (off(&even), off(&laid));
+                assert!(
+                    laid_off.iter().all(|&e| e < 0.15),
+                    "σ {sigma_px}: ends {laid_off:?} px off with the gradient ({even_off:?} \
+                     without)"
+                );
+                assert!(
+                    even_off.iter().cloned().fold(0.0, f32::max)
+                        > 2.0 * laid_off.iter().cloned().fold(0.0, f32::max),
+                    "σ {sigma_px}: ends {even_off:?} px off at one speed, {laid_off:?} with \
+                     the gradient"
+                );
+            }
+        }
+    }
+
+    /// At one speed, the lengths of two frames agree to within their noise, or so nearly
+    /// that the light laid along the path is even to a hundredth.
+    #[test]
+    fn an_led_at_one_speed_lays_its_light_evenly() {
+        let size = FrameSize::new(176, 72).unwrap();
+        let led = Speeding {
+            v0: 50.0,
+            a: 0.0,
+            exposure: 0.7,
+            origin: (90.0, 30.0),
+            unit: (0.995, 0.0998),
+        };
+        for (sigma_px, gain) in [(1.2f32, 30.0f32), (2.5, 30.0)] {
+            let fitted = |k: f32, warm: Option<&SpotFit>| {
+                let [s, e] = led.ends(k);
+                let rough = Rough {
+                    ends_px: [s, e],
+                    mid_px: ((s.0 + e.0) / 2.0, (s.1 + e.1) / 2.0),
+                    thickness_px: 3.0 * sigma_px,
+                };
+                let bytes = led.render(k, sigma_px, gain, size);
+                let frame =
+                    Frame::new_checked_as(&bytes, size, size.width(), PixelFormat::Grey).unwrap();
+                fit(
+                    &frame,
+                    &rough,
+                    250,
+                    None,
+                    SpotShape::identity(),
+                    warm,
+                    false,
+                )
+                .expect("a path")
+            };
+            let first = fitted(-1.0, None);
+            let before = fitted(0.0, Some(&first.spot));
+            let after = fitted(1.0, None);
+            let gradient = gradient_of(&before.spot.travel, &after);
+            assert!(
+                gradient.is_none_or(|g| g.abs() < 0.01),
+                "σ {sigma_px}: gradient {gradient:?} at one speed"
+            );
+        }
+    }
+
     /// Sweep seed 12's point 109 in the model's own family: a bloom whose core (σ 1.31 px) is
     /// clipped 14× and whose glow (3.8× wider, 6 % of the core) peaks just under the clip,
     /// on an 8.3 px line through a 2.23 gamma, in a 96 × 80 picture clipping at 250.
@@ -2074,7 +2491,7 @@ mod tests {
             truth[GLOW_RATIO] = 0.059;
             truth[TONE] = 1.0 / 2.23;
             truth[FLAT_FLOOR] = 0.1;
-            let path = Path::new(&truth, true);
+            let path = Path::new(&truth, true, 0.0);
             let mid = (0.5 * (a.0 + b.0), 0.5 * (a.1 + b.1));
             let (core, glow) = path.light2(mid.0, mid.1);
             truth[LN_AMPLITUDE] = (13.8 / (core + truth[GLOW_RATIO] * glow)).ln();
@@ -2138,6 +2555,7 @@ mod tests {
                     sagitta_px: 0.0,
                 },
                 tone: memory,
+                travel: Travel::default(),
             };
             let mut read = Vec::new();
             for _ in 0..12 {
@@ -2195,7 +2613,7 @@ mod tests {
         let size = FrameSize::new(width, height).unwrap();
         let clip = 250.0;
         let mut truth = params((30.0, 40.0), (90.0, 40.0), 0.0, 1.5);
-        let path = Path::new(&truth, true);
+        let path = Path::new(&truth, true, 0.0);
         // Bright enough that the core's light is three times the clip's in linear light.
         let (core, glow) = path.light2(60.0, 40.0);
         truth[LN_AMPLITUDE] = (3.0 / (core + truth[GLOW_RATIO] * glow)).ln();
@@ -2366,7 +2784,7 @@ mod tests {
     /// up to `noise_luma` either way, on a flat floor.
     fn samples_across(truth: &Params, clip: f32, noise_luma: f32) -> Samples {
         let mut s = no_samples();
-        let path = Path::new(truth, true);
+        let path = Path::new(truth, true, 0.0);
         let corners = &path.arc.corners[..=path.arc.count];
         let reach = 3.0 * truth[GLOW_WIDTH].exp();
         let mut state = 7u32;
@@ -2444,7 +2862,7 @@ mod tests {
                 let (mut ahead, mut behind) = (p, p);
                 ahead[i] += step;
                 behind[i] -= step;
-                let length = |q: &Params| Path::new(q, true).length();
+                let length = |q: &Params| Path::new(q, true, 0.0).length();
                 let numeric = (length(&ahead) - length(&behind)) / (2.0 * step);
                 assert!(
                     (slopes[i] - numeric).abs() <= 0.05 * numeric.abs().max(0.05),

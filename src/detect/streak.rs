@@ -24,7 +24,7 @@ use heapless::Deque;
 use super::bitimage::{BitImage, Window, NEIGHBOURS_8};
 use super::blobs::{Blob, BoundingBox, Labeler};
 use super::cascade;
-use super::fit::{self, NoFit, PathFit, Rough};
+use super::fit::{self, NoFit, PathFit, Rough, FWHM_PER_SIGMA};
 use super::floor_bg::FloorBackground;
 use super::light_centre;
 use super::mirror_middle;
@@ -48,9 +48,6 @@ const FLOOR_DEVIATIONS: f32 = 3.0;
 
 /// A chord shorter than this gives no direction; the streak is treated as a dot.
 pub const MIN_CHORD_PX: f32 = 2.0;
-
-/// A Gaussian's full width at half maximum over its standard deviation.
-const FWHM_PER_SIGMA: f32 = 2.354_82;
 
 /// A path within this many of the fit's standard deviations of the spot's width is still.
 const STILL_UNCERTAINTIES: f32 = 2.0;
