@@ -1367,7 +1367,8 @@ impl Path {
                 // (e the densities at the piece's ends, with the constant above): the piece's
                 // light is c0 B + c1 M for the density c0 + c1 τ. M's slopes: in t,
                 // B − L e_L; in L, L e_L; in σ, t ∂B/∂σ + 2σ (e_0 − e_L) + σ (u_0² e_0 −
-                // u_L² e_L) with the across part c²/σ³ (M − t B) (u = the ends' along / σ).
+                // u_L² e_L) with the across part c²/σ³ (M − t B) = c²/σ (e_0 − e_L) (u = the
+                // ends' along / σ).
                 let (c0, c1) = self.density_along(piece_start_px);
                 let t_px = along * sigma;
                 let ends = across_weight * (density_s - density_e);
@@ -1378,7 +1379,7 @@ impl Path {
                     + sigma
                         * across_weight
                         * (along * along * density_s - (along - length).powi(2) * density_e)
-                    + across * across * inv * (moment - t_px * even);
+                    + across * across * sigma * ends;
                 let i = c0 * even + c1 * moment;
                 at_total -=
                     self.gradient * (piece_start_px * even + moment) / (self.length * self.length);
