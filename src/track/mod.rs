@@ -1526,6 +1526,24 @@ mod tests {
         assert_eq!(checked, 4);
     }
 
+    /// Frame `i` of an LED moving along x at 800 px/s from x = 100 with a 10 ms exposure,
+    /// whose middle is read `jitter_px[i % 5]` off and whose path `read_px` long (the true
+    /// one is 8 px), by a fit of deviation `fit_px`: the streak and the true head's x.
+    fn steady_line(i: u64, jitter_px: [f32; 5], read_px: f32, fit_px: f32) -> (Streak, f32) {
+        let x =
+            100.0 + STEADY_SPEED_PX_S * (i * FRAME_US) as f32 * 1e-6 + jitter_px[i as usize % 5];
+        let ends = [(x - 0.5 * read_px, 100.0), (x + 0.5 * read_px, 100.0)];
+        let mut s = streak((x, 100.0), Some(ends));
+        if let Some(p) = s.path.as_mut() {
+            p.fit_px = Some(fit_px);
+        }
+        (s, x + 0.5 * STEADY_PATH_PX)
+    }
+
+    const STEADY_SPEED_PX_S: f32 = 800.0;
+    const STEADY_EXPOSURE_US: u32 = 10_000;
+    const STEADY_PATH_PX: f32 = STEADY_SPEED_PX_S * STEADY_EXPOSURE_US as f32 * 1e-6;
+
     /// A spot the streak model does not describe reads each end of every path half a pixel
     /// short (a defocused disk's sharp rim): 7 px of a true 8 px, 12.5 % slow. The middles
     /// are right (to ±0.05 px), so their motion measures the path, and once it has done so
@@ -1533,27 +1551,18 @@ mod tests {
     /// frames, before the motion is known, keep the streak's own length.
     #[test]
     fn a_path_every_frame_reads_short_is_corrected_by_the_middles_motion() {
-        let exposure_us = 10_000;
-        let speed_px_s = 800.0f32;
         let mut t = Tracker::new(TrackerConfig {
-            exposure_us: Some(exposure_us),
+            exposure_us: Some(STEADY_EXPOSURE_US),
         });
-        let true_px = speed_px_s * exposure_us as f32 * 1e-6;
-        let read_px = true_px - 1.0;
         let mut corrected = 0;
         for i in 0..16u64 {
-            let jitter_px = [0.05, -0.03, 0.0, 0.04, -0.05][i as usize % 5];
-            let x = 100.0 + speed_px_s * (i * FRAME_US) as f32 * 1e-6 + jitter_px;
-            let ends = [(x - 0.5 * read_px, 100.0), (x + 0.5 * read_px, 100.0)];
-            let mut s = streak((x, 100.0), Some(ends));
-            if let Some(p) = s.path.as_mut() {
-                p.fit_px = Some(0.3);
-            }
+            let jitter_px = [0.05, -0.03, 0.0, 0.04, -0.05];
+            let (s, _) = steady_line(i, jitter_px, STEADY_PATH_PX - 1.0, 0.3);
             let e = t.update(i * FRAME_US, Some(&s)).unwrap();
             let Some(((vx, vy), VelocityMethod::Streak)) = e.velocity_px_s else {
                 continue;
             };
-            let error = (vx.hypot(vy) - speed_px_s) / speed_px_s;
+            let error = (vx.hypot(vy) - STEADY_SPEED_PX_S) / STEADY_SPEED_PX_S;
             if i < 5 {
                 assert!((error + 0.125).abs() < 0.01, "frame {i}: {error}");
             } else if i >= 10 {
@@ -1571,24 +1580,15 @@ mod tests {
     /// half of it, within 0.1 px of the LED, where it stayed 0.5 px ahead.
     #[test]
     fn a_path_every_frame_reads_long_has_its_head_pulled_in() {
-        let exposure_us = 10_000;
-        let speed_px_s = 800.0f32;
         let mut t = Tracker::new(TrackerConfig {
-            exposure_us: Some(exposure_us),
+            exposure_us: Some(STEADY_EXPOSURE_US),
         });
-        let true_px = speed_px_s * exposure_us as f32 * 1e-6;
-        let read_px = true_px + 1.0;
         let mut pulled = 0;
         for i in 0..16u64 {
-            let jitter_px = [0.2, -0.12, 0.0, 0.16, -0.2][i as usize % 5];
-            let x = 100.0 + speed_px_s * (i * FRAME_US) as f32 * 1e-6 + jitter_px;
-            let ends = [(x - 0.5 * read_px, 100.0), (x + 0.5 * read_px, 100.0)];
-            let mut s = streak((x, 100.0), Some(ends));
-            if let Some(p) = s.path.as_mut() {
-                p.fit_px = Some(0.05);
-            }
+            let jitter_px = [0.2, -0.12, 0.0, 0.16, -0.2];
+            let (s, head_x) = steady_line(i, jitter_px, STEADY_PATH_PX + 1.0, 0.05);
             let e = t.update(i * FRAME_US, Some(&s)).unwrap();
-            let ahead_px = e.position_px.0 - (x + 0.5 * true_px);
+            let ahead_px = e.position_px.0 - head_x;
             if i == 1 {
                 assert!(
                     (ahead_px - 0.5).abs() < 0.01,
