@@ -467,8 +467,7 @@ fn fit_from(seen: &Seen<'_, '_>, rough: &Rough) -> Result<PathFit, Miss> {
             }));
         }
         // A path left straight was fitted with its sagitta held: so is its uncertainty read.
-        let mut fitted_all = all;
-        fitted_all[SAGITTA] = !is_straight(&[p[0], p[1], p[2], p[3], p[SAGITTA]]);
+        let fitted_all = sagitta_held_if_straight(&all, &path_of(&p));
         let found = finish(
             samples,
             (&local, [a, b]),
@@ -501,8 +500,7 @@ fn fit_from(seen: &Seen<'_, '_>, rough: &Rough) -> Result<PathFit, Miss> {
     let (p, cost, mut found) = match gradient {
         Some(gradient) => {
             samples.gradient = gradient;
-            let mut active = all;
-            active[SAGITTA] = !is_straight(&[p[0], p[1], p[2], p[3], p[SAGITTA]]);
+            let active = sagitta_held_if_straight(&all, &path_of(&p));
             match levenberg_marquardt(&samples, p, clip, &active)
                 .map(|laid| conclude(&samples, laid))
             {
@@ -560,7 +558,10 @@ fn gradient_of(before: &Travel, found: &PathFit) -> Option<f32> {
         || length_px <= spot_width_px
         || moved_px <= 0.0
         || grew_px.abs()
-            <= 2.0 * (before.length_deviation_px).hypot(found.spot.travel.length_deviation_px)
+            <= 2.0
+                * before
+                    .length_deviation_px
+                    .hypot(found.spot.travel.length_deviation_px)
     {
         return None;
     }
@@ -772,6 +773,20 @@ const SAGITTA: usize = 4;
 /// does not bend it.
 const BEND_DEVIATIONS: f32 = 3.0;
 
+/// The path's parameters in `p`: start x, y, end x, y, sagitta.
+fn path_of(p: &Params) -> [f32; PATH_PARAMS] {
+    [p[0], p[1], p[2], p[3], p[SAGITTA]]
+}
+
+/// `all` with the sagitta held where `path` is drawn straight: a straight path is fitted,
+/// and its uncertainty read, with its sagitta held, and bends only where the pixels ask
+/// ([`bent_if_asked`]).
+fn sagitta_held_if_straight(all: &[bool; PARAMS], path: &[f32; PATH_PARAMS]) -> [bool; PARAMS] {
+    let mut active = *all;
+    active[SAGITTA] = !is_straight(path);
+    active
+}
+
 /// Whether the path `path` (start x, y, end x, y, sagitta) is drawn straight: within
 /// [`ArcPieces`]' tolerance of its chord, one piece.
 fn is_straight(path: &[f32; PATH_PARAMS]) -> bool {
@@ -799,9 +814,7 @@ fn bent_if_asked(
     clip: f32,
     all: &[bool; PARAMS],
 ) -> (Params, f32) {
-    if !is_straight(&[p[0], p[1], p[2], p[3], p[SAGITTA]])
-        || !bend_asked(samples, &p, cost, clip, all)
-    {
+    if !is_straight(&path_of(&p)) || !bend_asked(samples, &p, cost, clip, all) {
         return (p, cost);
     }
     match levenberg_marquardt(samples, p, clip, all) {
@@ -890,9 +903,7 @@ impl Start<'_> {
     /// The parameters to fit from this start: all of them, but the sagitta held where the
     /// start is straight (see [`bend_asked`]).
     fn active(&self) -> [bool; PARAMS] {
-        let mut active = *self.all;
-        active[SAGITTA] = !is_straight(&self.path);
-        active
+        sagitta_held_if_straight(self.all, &self.path)
     }
 
     /// From scratch: from the streak's thickness ([`Start::by_thickness`]) and, where the
@@ -1150,23 +1161,17 @@ impl Path {
     /// The path of `p`, with the glow's light drawn when `glow` (else it reads zero), and
     /// the light laid along it with `gradient` ([`Path::gradient`]).
     fn new(p: &Params, glow: bool, gradient: f32) -> Path {
-        Path::drawn(
-            p,
-            glow,
-            ArcPieces::new([p[0], p[1], p[2], p[3], p[4]], false),
-            gradient,
-        )
+        Path::drawn(p, glow, ArcPieces::new(path_of(p), false), gradient)
     }
 
     /// The path of `p` with its corners' slopes in the path's parameters, for
     /// [`Path::lights`]; with `bend`, in at least two pieces, so that a straight path's
     /// sagitta has a slope too ([`ArcPieces::bendable`]).
     fn with_slopes(p: &Params, glow: bool, bend: bool, gradient: f32) -> Path {
-        let params = [p[0], p[1], p[2], p[3], p[4]];
         let arc = if bend {
-            ArcPieces::bendable(params)
+            ArcPieces::bendable(path_of(p))
         } else {
-            ArcPieces::new(params, true)
+            ArcPieces::new(path_of(p), true)
         };
         Path::drawn(p, glow, arc, gradient)
     }
@@ -2348,6 +2353,31 @@ mod tests {
                 })
                 .collect()
         }
+
+        /// Frame `k` rendered through `camera` ([`Speeding::render`]) and fitted from rough
+        /// ends at the true ones, in the order of time or else `backwards`, warm from `warm`.
+        fn fitted(
+            &self,
+            k: f32,
+            (sigma_px, gain): (f32, f32),
+            camera: &Camera,
+            size: FrameSize,
+            backwards: bool,
+            warm: Option<&SpotFit>,
+        ) -> PathFit {
+            let [s, e] = self.ends(k);
+            let [s, e] = if backwards { [e, s] } else { [s, e] };
+            let rough = Rough {
+                ends_px: [s, e],
+                mid_px: ((s.0 + e.0) / 2.0, (s.1 + e.1) / 2.0),
+                thickness_px: 3.0 * sigma_px,
+            };
+            let bytes = self.render(k, sigma_px, gain, camera, size);
+            let frame =
+                Frame::new_checked_as(&bytes, size, size.width(), PixelFormat::Grey).unwrap();
+            let shape = SpotShape::identity();
+            fit(&frame, &rough, 250, None, shape, warm, false).expect("a path")
+        }
     }
 
     /// The camera a [`Speeding`] LED is rendered through: its tone curve's gamma and its
@@ -2440,21 +2470,8 @@ mod tests {
             // The speed at frame 1's middle, and its change during the exposure.
             let change = led.a * led.exposure / (led.v0 + led.a);
             for (sigma_px, gain) in [(1.2f32, 30.0f32), (1.2, 120.0), (1.8, 60.0), (2.5, 30.0)] {
-                let rough = |k: f32| {
-                    let [s, e] = in_order(led.ends(k));
-                    Rough {
-                        ends_px: [s, e],
-                        mid_px: ((s.0 + e.0) / 2.0, (s.1 + e.1) / 2.0),
-                        thickness_px: 3.0 * sigma_px,
-                    }
-                };
                 let fit_frame = |k: f32, warm: Option<&SpotFit>| {
-                    let bytes = led.render(k, sigma_px, gain, camera, size);
-                    let frame =
-                        Frame::new_checked_as(&bytes, size, size.width(), PixelFormat::Grey)
-                            .unwrap();
-                    let shape = SpotShape::identity();
-                    fit(&frame, &rough(k), 250, None, shape, warm, false).expect("a path")
+                    led.fitted(k, (sigma_px, gain), camera, size, !forwards, warm)
                 };
                 // Frame 0 after frame −1, so that its path is known to be a whole exposure's.
                 let first = fit_frame(-1.0, None);
@@ -2513,25 +2530,7 @@ mod tests {
         };
         for (sigma_px, gain) in [(1.2f32, 30.0f32), (2.5, 30.0)] {
             let fitted = |k: f32, warm: Option<&SpotFit>| {
-                let [s, e] = led.ends(k);
-                let rough = Rough {
-                    ends_px: [s, e],
-                    mid_px: ((s.0 + e.0) / 2.0, (s.1 + e.1) / 2.0),
-                    thickness_px: 3.0 * sigma_px,
-                };
-                let bytes = led.render(k, sigma_px, gain, &Camera::CLEAN, size);
-                let frame =
-                    Frame::new_checked_as(&bytes, size, size.width(), PixelFormat::Grey).unwrap();
-                fit(
-                    &frame,
-                    &rough,
-                    250,
-                    None,
-                    SpotShape::identity(),
-                    warm,
-                    false,
-                )
-                .expect("a path")
+                led.fitted(k, (sigma_px, gain), &Camera::CLEAN, size, false, warm)
             };
             let first = fitted(-1.0, None);
             let before = fitted(0.0, Some(&first.spot));

@@ -1526,18 +1526,28 @@ mod tests {
         assert_eq!(checked, 4);
     }
 
-    /// Frame `i` of an LED moving along x at 800 px/s from x = 100 with a 10 ms exposure,
-    /// whose middle is read `jitter_px[i % 5]` off and whose path `read_px` long (the true
-    /// one is 8 px), by a fit of deviation `fit_px`: the streak and the true head's x.
-    fn steady_line(i: u64, jitter_px: [f32; 5], read_px: f32, fit_px: f32) -> (Streak, f32) {
-        let x =
-            100.0 + STEADY_SPEED_PX_S * (i * FRAME_US) as f32 * 1e-6 + jitter_px[i as usize % 5];
-        let ends = [(x - 0.5 * read_px, 100.0), (x + 0.5 * read_px, 100.0)];
-        let mut s = streak((x, 100.0), Some(ends));
-        if let Some(p) = s.path.as_mut() {
-            p.fit_px = Some(fit_px);
-        }
-        (s, x + 0.5 * STEADY_PATH_PX)
+    /// 16 frames of an LED moving along x at 800 px/s from x = 100 with a 10 ms exposure,
+    /// whose middle in frame `i` is read `jitter_px[i % 5]` off and whose path `read_px` long
+    /// (the true one is 8 px), by a fit of deviation `fit_px`, tracked: each frame's estimate
+    /// and the true head's x.
+    fn track_steady_line(jitter_px: [f32; 5], read_px: f32, fit_px: f32) -> Vec<(Estimate, f32)> {
+        let mut t = Tracker::new(TrackerConfig {
+            exposure_us: Some(STEADY_EXPOSURE_US),
+        });
+        (0..16u64)
+            .map(|i| {
+                let x = 100.0
+                    + STEADY_SPEED_PX_S * (i * FRAME_US) as f32 * 1e-6
+                    + jitter_px[i as usize % 5];
+                let ends = [(x - 0.5 * read_px, 100.0), (x + 0.5 * read_px, 100.0)];
+                let mut s = streak((x, 100.0), Some(ends));
+                if let Some(p) = s.path.as_mut() {
+                    p.fit_px = Some(fit_px);
+                }
+                let e = t.update(i * FRAME_US, Some(&s)).unwrap();
+                (e, x + 0.5 * STEADY_PATH_PX)
+            })
+            .collect()
     }
 
     const STEADY_SPEED_PX_S: f32 = 800.0;
@@ -1551,14 +1561,12 @@ mod tests {
     /// frames, before the motion is known, keep the streak's own length.
     #[test]
     fn a_path_every_frame_reads_short_is_corrected_by_the_middles_motion() {
-        let mut t = Tracker::new(TrackerConfig {
-            exposure_us: Some(STEADY_EXPOSURE_US),
-        });
+        let jitter_px = [0.05, -0.03, 0.0, 0.04, -0.05];
         let mut corrected = 0;
-        for i in 0..16u64 {
-            let jitter_px = [0.05, -0.03, 0.0, 0.04, -0.05];
-            let (s, _) = steady_line(i, jitter_px, STEADY_PATH_PX - 1.0, 0.3);
-            let e = t.update(i * FRAME_US, Some(&s)).unwrap();
+        for (i, (e, _)) in track_steady_line(jitter_px, STEADY_PATH_PX - 1.0, 0.3)
+            .into_iter()
+            .enumerate()
+        {
             let Some(((vx, vy), VelocityMethod::Streak)) = e.velocity_px_s else {
                 continue;
             };
@@ -1580,14 +1588,12 @@ mod tests {
     /// half of it, within 0.1 px of the LED, where it stayed 0.5 px ahead.
     #[test]
     fn a_path_every_frame_reads_long_has_its_head_pulled_in() {
-        let mut t = Tracker::new(TrackerConfig {
-            exposure_us: Some(STEADY_EXPOSURE_US),
-        });
+        let jitter_px = [0.2, -0.12, 0.0, 0.16, -0.2];
         let mut pulled = 0;
-        for i in 0..16u64 {
-            let jitter_px = [0.2, -0.12, 0.0, 0.16, -0.2];
-            let (s, head_x) = steady_line(i, jitter_px, STEADY_PATH_PX + 1.0, 0.05);
-            let e = t.update(i * FRAME_US, Some(&s)).unwrap();
+        for (i, (e, head_x)) in track_steady_line(jitter_px, STEADY_PATH_PX + 1.0, 0.05)
+            .into_iter()
+            .enumerate()
+        {
             let ahead_px = e.position_px.0 - head_x;
             if i == 1 {
                 assert!(
