@@ -2119,7 +2119,7 @@ mod tests {
             }
             let same = offset.apply(rough_path);
             let swapped = offset.apply([rough[1].0, rough[1].1, rough[0].0, rough[0].1, 0.0]);
-            let expected = [p[0], p[1], p[2], p[3], p[4]];
+            let expected = path_of(&p);
             let expected_swapped = [p[2], p[3], p[0], p[1], -p[4]];
             for j in 0..PATH_PARAMS {
                 assert!((same[j] - expected[j]).abs() < 1e-3, "{p:?}: {same:?}");
@@ -2898,13 +2898,7 @@ mod tests {
             all: &all,
         };
         let straight = start.cold(3.0, None).expect("a straight fit");
-        assert!(is_straight(&[
-            straight.0[0],
-            straight.0[1],
-            straight.0[2],
-            straight.0[3],
-            straight.0[SAGITTA]
-        ]));
+        assert!(is_straight(&path_of(&straight.0)));
         bent_if_asked(s, straight, clip, &all)
     }
 
@@ -2956,8 +2950,7 @@ mod tests {
             let truth = params((10.0, 12.0 + k as f32), (50.0, 20.0), 0.0, 1.2);
             let s = samples_across(&truth, clip, noise_luma);
             let (p, _) = fitted_from_straight(&truth, &s, clip);
-            let path = [p[0], p[1], p[2], p[3], p[SAGITTA]];
-            assert!(is_straight(&path), "noise {noise_luma}: {p:?}");
+            assert!(is_straight(&path_of(&p)), "noise {noise_luma}: {p:?}");
         }
     }
 
