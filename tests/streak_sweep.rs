@@ -16,7 +16,8 @@
 //! ramps alone, `GLINT_STREAK_MODEL=fit` the fit alone).
 //! To see where the errors come from: `GLINT_SWEEP_ONLY=5,13` runs only those points,
 //! `GLINT_SWEEP_FLAT_FLOOR=1` renders the floor without texture, `GLINT_SWEEP_NO_NOISE=1`
-//! without noise (neither read noise nor noise after the clip), and `GLINT_SWEEP_NO_OPTICS=1` keeps the lens from the detector.
+//! without noise (neither the read noise nor the noise after the clip), and
+//! `GLINT_SWEEP_NO_OPTICS=1` keeps the lens from the detector.
 //!
 //! NOT YET HELD: neither model holds these bounds on every point of the sweep yet (README,
 //! "Accuracy over the sweep"), so the test is ignored by default and run on purpose with
