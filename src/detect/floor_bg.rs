@@ -144,6 +144,9 @@ impl FloorBackground {
         if frame.size() != self.size {
             return;
         }
+        if self.frames_learned == 1 {
+            self.noise_luma = self.first_deviation_luma(frame);
+        }
         let mut any_lit = false;
         let gate = (GATE_DEVIATIONS * self.noise_luma).max(MIN_GATE_LUMA);
         let (width, height) = (self.size.width(), self.size.height());
@@ -217,6 +220,15 @@ impl FloorBackground {
         }
     }
 }
+
+/// The first deviation is measured on at most this many pixels (a histogram bin holds up to
+/// `u16::MAX`), evenly spread over the frame.
+const NOISE_SAMPLES: usize = 32_768;
+/// The first deviations are counted in steps of an eighth of a luma (up to 32 luma, beyond
+/// which they are light, not noise).
+const DEVIATION_STEPS_PER_LUMA: f32 = 8.0;
+/// Median absolute deviation of a Gaussian over its standard deviation.
+const MEDIAN_DEVIATION_PER_SIGMA: f32 = 0.674_49;
 
 /// Past the first [`MEAN_FRAMES`] frames, a pixel away from the blobs is learned in one frame
 /// of this many (a row of this many, in turn): the floor changes slowly, and the mean of a
@@ -539,6 +551,48 @@ fn learn_pixel(
 }
 
 impl FloorBackground {
+    /// The deviation of `frame` from a floor learned from one frame, measured before any is
+    /// learned into it (standard deviation, luma): the median absolute deviation of up to
+    /// [`NOISE_SAMPLES`] pixels on a grid over the frame, over that of a Gaussian.
+    ///
+    /// Every later frame's gate is four of the deviations the frame before measured on the
+    /// pixels it learned, but the second frame has no frame before it to measure: gated at
+    /// the least gate (3 luma), it learned only the deviations below 3 luma, read a camera
+    /// with 3.2 luma of noise as 2.0 (deviations of 4.5), and took half the floor's pixels
+    /// for light arriving or leaving, so that they kept or restarted from one frame's value.
+    /// A median is not moved by the few pixels that are light.
+    fn first_deviation_luma(&self, frame: &Frame<'_>) -> f32 {
+        let mut histogram = LumaHistogram::new();
+        let width = self.size.width();
+        // The grid's step, the same across and down.
+        let grid = (self.size.pixels() as f32 / NOISE_SAMPLES as f32)
+            .sqrt()
+            .ceil() as usize;
+        let grid = grid.max(1);
+        let step = frame.luma_step();
+        for (y, row) in frame.luma_rows().enumerate().step_by(grid) {
+            let start = y * width;
+            let (Some(means), Some(counts)) = (
+                self.mean.get(start..start + width),
+                self.count.get(start..start + width),
+            ) else {
+                continue;
+            };
+            let pixels = row.iter().step_by(step).zip(means).zip(counts);
+            for ((&luma, &mean), &count) in pixels.step_by(grid) {
+                if count > 0 {
+                    let deviation = (f32::from(luma) - f32::from(mean) / MEAN_SCALE).abs();
+                    // Light far off the floor still counts as above the median.
+                    histogram.add((deviation * DEVIATION_STEPS_PER_LUMA).min(255.0));
+                }
+            }
+        }
+        let median = histogram
+            .level_above(histogram.count().saturating_sub(1) / 2)
+            .unwrap_or(0.0);
+        median / DEVIATION_STEPS_PER_LUMA / MEDIAN_DEVIATION_PER_SIGMA
+    }
+
     /// How far the light of the blob in `b` reaches beyond its box, measured on the frame:
     /// walking out from the box's middle in the four directions, the distance at which the
     /// luma is back within `gate` of the learned floor (where it is not known yet, of the luma
@@ -726,6 +780,50 @@ mod tests {
         );
         bg.clear();
         assert_eq!(bg.luma(30, 5), None);
+    }
+
+    /// The second frame is gated by its own deviation from the first, measured before any of
+    /// it is learned: on a textured floor with 3 luma of noise, the floor learned from one
+    /// frame deviates from the next by √2 × 3 luma, and nearly every pixel of the second frame
+    /// is learned into its mean. Gated at the least gate (3 luma), about half of them were
+    /// taken for light arriving or leaving, and the deviation was read as 2.0 luma.
+    #[test]
+    fn the_second_frame_is_gated_by_its_own_deviation() {
+        let (width, height) = (256usize, 128usize);
+        let size = FrameSize::new(256, 128).unwrap();
+        let sigma_luma = 3.0f32;
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut uniform = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f32 / (1u64 << 53) as f32
+        };
+        let floor = |x: usize, y: usize| (100 + (x * 7 + y * 13) % 40) as f32;
+        let mut bg = FloorBackground::new(size);
+        for _ in 0..2 {
+            // Irwin–Hall: twelve uniforms less six are close to a standard normal.
+            let noise: Vec<f32> = (0..width * height)
+                .map(|_| (0..12).map(|_| uniform()).sum::<f32>() - 6.0)
+                .collect();
+            let bytes = yuyv(width, height, |x, y| {
+                (floor(x, y) + sigma_luma * noise[y * width + x]).round() as u8
+            });
+            let frame = Frame::new_checked(&bytes, size, size.row_bytes()).unwrap();
+            bg.update(&frame, core::iter::empty(), |_| 0);
+        }
+        let want = 2f32.sqrt() * sigma_luma;
+        assert!(
+            (bg.noise_luma() - want).abs() < 0.1 * want,
+            "deviation {} luma, want {want}",
+            bg.noise_luma()
+        );
+        let twice = bg.count.iter().filter(|&&c| c == 2).count();
+        assert!(
+            twice as f32 > 0.99 * (width * height) as f32,
+            "{twice} of {} pixels learned from both frames",
+            width * height
+        );
     }
 
     #[test]
