@@ -565,10 +565,10 @@ impl FloorBackground {
         let mut histogram = LumaHistogram::new();
         let width = self.size.width();
         // The grid's step, the same across and down.
-        let grid = (self.size.pixels() as f32 / NOISE_SAMPLES as f32)
+        let grid = ((self.size.pixels() as f32 / NOISE_SAMPLES as f32)
             .sqrt()
-            .ceil() as usize;
-        let grid = grid.max(1);
+            .ceil() as usize)
+            .max(1);
         let step = frame.luma_step();
         for (y, row) in frame.luma_rows().enumerate().step_by(grid) {
             let start = y * width;
