@@ -13,6 +13,9 @@ pub(super) struct Path {
     length: f32,
     /// The corners and their slopes in the path's parameters, for the derivatives.
     pub(super) arc: ArcPieces,
+    /// How the path's length moves with each corner: `∂L/∂E = d` for a piece's end and
+    /// `∂L/∂S = −d` for its start (`d` its direction), summed over the pieces that share it.
+    length_at_corners: [(f32, f32); MAX_PIECES + 1],
     /// The core's and the glow's σ as the pixels see them: widened by the pixel's own area
     /// ([`PIXEL_VARIANCE_PX2`]).
     sigmas: [f32; 2],
@@ -57,10 +60,12 @@ impl Path {
     fn drawn(p: &Params, glow: bool, arc: ArcPieces, gradient: f32) -> Path {
         let mut pieces = [Piece::default(); MAX_PIECES];
         let mut length = 0.0;
-        for (piece, ends) in pieces
+        let mut length_at_corners = [(0.0f32, 0.0f32); MAX_PIECES + 1];
+        for (k, (piece, ends)) in pieces
             .iter_mut()
             .zip(arc.corners.windows(2))
             .take(arc.count)
+            .enumerate()
         {
             let (s, e) = (ends[0], ends[1]);
             let l = dist(s, e);
@@ -75,6 +80,12 @@ impl Path {
                 length: l,
             };
             length += l;
+            if let Some(c) = length_at_corners.get_mut(k) {
+                *c = (c.0 - unit.0, c.1 - unit.1);
+            }
+            if let Some(c) = length_at_corners.get_mut(k + 1) {
+                *c = (c.0 + unit.0, c.1 + unit.1);
+            }
         }
         // The spot's own variances, which the pixel's area widens.
         let variances = [p[5], p[6]].map(|ln_sigma| ln_sigma.exp().powi(2));
@@ -82,6 +93,7 @@ impl Path {
             pieces,
             length,
             arc,
+            length_at_corners,
             sigmas: variances.map(|v| (v + PIXEL_VARIANCE_PX2).sqrt()),
             ln_sigma_slopes: variances.map(|v| v / (v + PIXEL_VARIANCE_PX2)),
             components: if glow { 2 } else { 1 },
@@ -199,7 +211,6 @@ impl Path {
         let (mut sum, mut d_sigma_sum) = (0.0f32, 0.0f32);
         // ∂(Σ I)/∂ corner, and the path's length per corner (∂L/∂E = d, ∂L/∂S = −d).
         let mut at_corners = [(0.0f32, 0.0f32); MAX_PIECES + 1];
-        let mut length_at_corners = [(0.0f32, 0.0f32); MAX_PIECES + 1];
         // With a gradient, the light of a piece also moves with the whole length and with
         // where the piece starts along the path: ∂(Σ I)/∂(whole length), and per piece
         // ∂I/∂(its start along the path).
@@ -210,12 +221,6 @@ impl Path {
             let piece_start_px = start_px;
             start_px += piece.length;
             let d = piece.unit;
-            if let Some(s) = length_at_corners.get_mut(k) {
-                *s = (s.0 - d.0, s.1 - d.1);
-            }
-            if let Some(e) = length_at_corners.get_mut(k + 1) {
-                *e = (e.0 + d.0, e.1 + d.1);
-            }
             if piece.length < MIN_PIECE_PX {
                 continue;
             }
@@ -290,12 +295,17 @@ impl Path {
             }
         }
         if self.gradient != 0.0 {
-            self.gradient_slopes(&mut at_corners, &length_at_corners, &at_start, at_total);
+            self.gradient_slopes(&mut at_corners, &at_start, at_total);
         }
         // The light is Σ I / length: its slope is (∂ΣI − light ∂length) / length.
         let inv_length = 1.0 / self.length;
         let value = sum * inv_length;
-        for (g, l) in at_corners.iter_mut().zip(&length_at_corners) {
+        let corners = self.arc.count + 1;
+        for (g, l) in at_corners
+            .iter_mut()
+            .zip(&self.length_at_corners)
+            .take(corners)
+        {
             *g = (
                 (g.0 - value * l.0) * inv_length,
                 (g.1 - value * l.1) * inv_length,
@@ -310,13 +320,12 @@ impl Path {
 
     /// Adds to `at_corners` (∂(Σ I)/∂ corner) what a gradient along the path adds: the whole
     /// length moves with every corner (`at_total` of light per pixel of it, along
-    /// `length_at_corners`), and a piece's start along the path with the pieces before it
+    /// [`Path::length_at_corners`]), and a piece's start along the path with the pieces before it
     /// (`at_start` per piece: piece j's length moves its end corner along its direction and
     /// its start corner against it).
     fn gradient_slopes(
         &self,
         at_corners: &mut [(f32, f32); MAX_PIECES + 1],
-        length_at_corners: &[(f32, f32); MAX_PIECES + 1],
         at_start: &[f32; MAX_PIECES],
         at_total: f32,
     ) {
@@ -331,7 +340,12 @@ impl Path {
             }
             later += at_start.get(j).copied().unwrap_or(0.0);
         }
-        for (c, l) in at_corners.iter_mut().zip(length_at_corners) {
+        let corners = self.arc.count + 1;
+        for (c, l) in at_corners
+            .iter_mut()
+            .zip(&self.length_at_corners)
+            .take(corners)
+        {
             *c = (c.0 + at_total * l.0, c.1 + at_total * l.1);
         }
     }
