@@ -18,14 +18,15 @@ pub(super) struct Samples {
     /// The floor seen around the streak (luma), where no sample's own floor was learned:
     /// where the flat floor starts.
     pub(super) around_luma: Option<f32>,
-    /// What the LED's frames before say of the tone exponent (see [`crate::detect::tone_memory`]),
-    /// weighed as a pseudo-pixel: the exponent, and the weight in luma² a unit of it costs
-    /// (the last fit's residual variance per pixel over the prior's variance).
+    /// What the LED's frames before say of the tone exponent (see
+    /// [`crate::detect::tone_memory`]), weighed as a pseudo-pixel: the exponent, and the weight
+    /// in luma² a unit of it costs (the last fit's residual variance per pixel over the prior's
+    /// variance).
     pub(super) tone_prior: Option<(f32, f32)>,
     /// The light laid along the path changes along it by this, relative to its mean
-    /// ([`super::swept::Path::gradient`]): zero, or what the LED's change of speed since its last frame
-    /// says ([`super::gradient_of`]). It is not fitted: left free, it traded against the ends of
-    /// streaks at one speed.
+    /// ([`super::swept::Path::gradient`]): zero, or what the LED's change of speed since its
+    /// last frame says ([`super::gradient_of`]). It is not fitted: left free, it traded against
+    /// the ends of streaks at one speed.
     pub(super) gradient: f32,
 }
 

@@ -27,7 +27,8 @@ pub(super) struct Path {
     components: usize,
     /// The light laid along the path per pixel of it, relative to its mean, is
     /// `1 + gradient (s/L − ½)` at `s` of the path's `L` from its start: an LED that speeds
-    /// up during the exposure lays less light at its fast end (see [`super::samples::Samples::gradient`]).
+    /// up during the exposure lays less light at its fast end (see
+    /// [`super::samples::Samples::gradient`]).
     gradient: f32,
 }
 
