@@ -862,10 +862,12 @@ impl Tracker {
 
     /// The path over the exposure that the middles say the LED drew, with its variance, where
     /// they say it moved: the motion's (see [`motion`]), or in a run's first frames, before
-    /// the motion has prediction errors to measure its noise by, the path its first three or
-    /// four middles give ([`motion::early_path_px`]), its variance not known. Most tracks
-    /// of the independent scenes run 4–14 frames; the motion's path comes from the fifth, and
-    /// a length offset learned from it alone came too late for half of such a track.
+    /// the motion has prediction errors to measure its noise by, the path its first two,
+    /// three or four middles give ([`motion::first_path_px`]), its variance not known. Most
+    /// tracks of the independent scenes run 4–14 frames; the motion's path comes from the
+    /// fifth, and a length offset learned from it alone came too late for half of such a
+    /// track. Learned from the third frame, an offset was taken off from the fifth; from the
+    /// second, it is from the fourth.
     ///
     /// The early path only for a `reading` that states its length's deviation (the fit's),
     /// which then weighs these observations: the ramps state none, and their offsets learned
@@ -884,7 +886,7 @@ impl Tracker {
                     return None;
                 };
                 let moved_px = dist(last.px, before.px);
-                let path_px = motion::early_path_px(middles, self.config.exposure_us?)?;
+                let path_px = motion::first_path_px(middles, self.config.exposure_us?)?;
                 (moved_px > statics::DRIFT_PX).then_some((path_px, 0.0))
             }
             None => None,
@@ -1557,8 +1559,9 @@ mod tests {
     /// A spot the streak model does not describe reads each end of every path half a pixel
     /// short (a defocused disk's sharp rim): 7 px of a true 8 px, 12.5 % slow. The middles
     /// are right (to ±0.05 px), so their motion measures the path, and once it has done so
-    /// for a few frames the single frame's speed is the true one within 1 %; the first
-    /// frames, before the motion is known, keep the streak's own length.
+    /// for three frames (from the second, whose two middles give the path) the single
+    /// frame's speed is the true one within 1 %; the first four frames keep the streak's own
+    /// length.
     #[test]
     fn a_path_every_frame_reads_short_is_corrected_by_the_middles_motion() {
         let jitter_px = [0.05, -0.03, 0.0, 0.04, -0.05];
@@ -1571,14 +1574,14 @@ mod tests {
                 continue;
             };
             let error = (vx.hypot(vy) - STEADY_SPEED_PX_S) / STEADY_SPEED_PX_S;
-            if i < 5 {
+            if i < 4 {
                 assert!((error + 0.125).abs() < 0.01, "frame {i}: {error}");
-            } else if i >= 10 {
+            } else {
                 assert!(error.abs() < 0.01, "frame {i}: {error}");
                 corrected += 1;
             }
         }
-        assert_eq!(corrected, 6);
+        assert_eq!(corrected, 12);
     }
 
     /// A spot read half a pixel long at each end of every path (a spot's wings or a tone
@@ -1746,16 +1749,17 @@ mod tests {
     /// A defocused disk's streak, as the fit reads it: a steady 0.6–1.2 px short on a
     /// 10.5 px path (−9 %, as a pillbox's on independent seed 1, scene 41), each length
     /// stated uncertain by 0.55 px. Tracks there run 4–14 frames. The offset is learned from
-    /// the third frame, where three middles give the path, and taken off from the fifth: from
+    /// the second frame, where two middles give the path, and taken off from the fourth: from
     /// there every speed is within 4 % of the truth (the lengths scatter by ±3 % about their
-    /// offset). Learned only once the motion had its prediction errors, frame 5 was still
-    /// 8.6 % slow.
+    /// offset). Learned from the third frame, where three middles give the path's turn and
+    /// change of speed, frame 4 was still 10.5 % slow; learned only once the motion had its
+    /// prediction errors, frame 5 was still 8.6 % slow.
     #[test]
     fn a_steady_shortfall_is_taken_off_within_a_short_track() {
         let jitter_px = [0.05, -0.07, 0.0, 0.06, -0.04];
         let short_px = [1.2, 0.8, 1.0, 0.6, 1.1, 0.9];
         let read = read_short(25_000, 420.0, (&jitter_px, &short_px), (0.3, 0.55), 14);
-        assert_streak_speeds_within(&read, 5, 0.04);
+        assert_streak_speeds_within(&read, 4, 0.04);
     }
 
     /// A pillbox's long streak, as the fit reads it: each end 0.03–0.23 px short, alike at both
