@@ -1082,23 +1082,10 @@ mod tests {
             })
     }
 
-    /// No samples yet.
-    fn no_samples() -> Samples {
-        Samples {
-            xy: [(0.0, 0.0); MAX_FIT_PX],
-            luma: [0.0; MAX_FIT_PX],
-            floor_ln: [None; MAX_FIT_PX],
-            len: 0,
-            around_luma: None,
-            tone_prior: None,
-            gradient: 0.0,
-        }
-    }
-
     /// Samples around the path of `truth`, its model's luma with a deterministic ripple, a
     /// few clipped; every third pixel's floor unmeasured.
     pub(super) fn samples_of(truth: &Params, clip: f32) -> Samples {
-        let mut s = no_samples();
+        let mut s = Samples::empty();
         let path = Path::new(truth, true, 0.0);
         for (k, xy) in pixels_around(truth).enumerate() {
             let floor_ln = (k % 3 != 0)
@@ -1866,7 +1853,7 @@ mod tests {
     /// side, and up to 3 px past its ends), their luma its model's with a pseudo-random noise of
     /// up to `noise_luma` either way, on a flat floor.
     fn samples_across(truth: &Params, clip: f32, noise_luma: f32) -> Samples {
-        let mut s = no_samples();
+        let mut s = Samples::empty();
         let path = Path::new(truth, true, 0.0);
         let corners = &path.arc.corners[..=path.arc.count];
         let reach = 3.0 * truth[GLOW_WIDTH].exp();

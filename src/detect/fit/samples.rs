@@ -30,6 +30,21 @@ pub(super) struct Samples {
     pub(super) gradient: f32,
 }
 
+impl Samples {
+    /// No pixels yet, nothing known around them, no prior, the light laid evenly.
+    pub(super) fn empty() -> Samples {
+        Samples {
+            xy: [(0.0, 0.0); MAX_FIT_PX],
+            luma: [0.0; MAX_FIT_PX],
+            floor_ln: [None; MAX_FIT_PX],
+            len: 0,
+            around_luma: None,
+            tone_prior: None,
+            gradient: 0.0,
+        }
+    }
+}
+
 /// Squared distance from `(x, y)` to the polyline `a → mid → b` (squared, so that the
 /// collection's two passes over the streak's box take no square root per pixel).
 pub(in crate::detect) fn distance2_to_rough(rough: &Rough, x: f32, y: f32) -> f32 {
@@ -137,15 +152,7 @@ pub(super) fn collect(
     }
     let cap_stride = caps.div_ceil(MAX_FIT_PX - BODY_PX).max(1);
     let body_stride = body.div_ceil(BODY_PX).max(1);
-    let mut s = Samples {
-        xy: [(0.0, 0.0); MAX_FIT_PX],
-        luma: [0.0; MAX_FIT_PX],
-        floor_ln: [None; MAX_FIT_PX],
-        len: 0,
-        around_luma: None,
-        tone_prior: None,
-        gradient: 0.0,
-    };
+    let mut s = Samples::empty();
     let (mut caps_seen, mut body_seen) = (0usize, 0usize);
     for y in y0..=y1 {
         for x in within.columns(y) {
