@@ -866,9 +866,8 @@ impl Tracker {
     /// three or four middles give ([`motion::first_path_px`]), its variance not known. Most
     /// tracks of the independent scenes run 4–14 frames; the motion's path comes from the
     /// fifth, and a length offset learned from it alone came too late for half of such a
-    /// track. Learned from the third frame, an offset was taken off from the fifth at the
-    /// earliest; from the second, from the third (two observations, see
-    /// [`length_offset::LengthOffset::offset_px`]).
+    /// track. Learned from the third frame, an offset was taken off from the fifth; from the
+    /// second, it is from the fourth.
     ///
     /// The early path only for a `reading` that states its length's deviation (the fit's),
     /// which then weighs these observations: the ramps state none, and their offsets learned
@@ -1560,8 +1559,9 @@ mod tests {
     /// A spot the streak model does not describe reads each end of every path half a pixel
     /// short (a defocused disk's sharp rim): 7 px of a true 8 px, 12.5 % slow. The middles
     /// are right (to ±0.05 px), so their motion measures the path, and once it has done so
-    /// for two frames (from the second, whose two middles give the path) the single frame's
-    /// speed is the true one within 1 %; the first three frames keep the streak's own length.
+    /// for three frames (from the second, whose two middles give the path) the single
+    /// frame's speed is the true one within 1 %; the first four frames keep the streak's own
+    /// length.
     #[test]
     fn a_path_every_frame_reads_short_is_corrected_by_the_middles_motion() {
         let jitter_px = [0.05, -0.03, 0.0, 0.04, -0.05];
@@ -1574,14 +1574,14 @@ mod tests {
                 continue;
             };
             let error = (vx.hypot(vy) - STEADY_SPEED_PX_S) / STEADY_SPEED_PX_S;
-            if i < 3 {
+            if i < 4 {
                 assert!((error + 0.125).abs() < 0.01, "frame {i}: {error}");
             } else {
                 assert!(error.abs() < 0.01, "frame {i}: {error}");
                 corrected += 1;
             }
         }
-        assert_eq!(corrected, 13);
+        assert_eq!(corrected, 12);
     }
 
     /// A spot read half a pixel long at each end of every path (a spot's wings or a tone
