@@ -117,10 +117,8 @@ impl FloorBackground {
             for x in [left, right].into_iter().flatten() {
                 (ya..=yb).step_by(2).for_each(|y| take(x, y));
             }
-            let count = histogram.count();
-            // The median: the lower of the two middle values of an even count.
-            (count >= AROUND_MIN_PX)
-                .then(|| histogram.level_above((count - 1) / 2))
+            (histogram.count() >= AROUND_MIN_PX)
+                .then(|| histogram.median())
                 .flatten()
         })
     }
@@ -587,9 +585,7 @@ impl FloorBackground {
                 }
             }
         }
-        let median = histogram
-            .level_above(histogram.count().saturating_sub(1) / 2)
-            .unwrap_or(0.0);
+        let median = histogram.median().unwrap_or(0.0);
         median / DEVIATION_STEPS_PER_LUMA / MEDIAN_DEVIATION_PER_SIGMA
     }
 

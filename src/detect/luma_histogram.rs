@@ -46,6 +46,11 @@ impl LumaHistogram {
         }
         None
     }
+
+    /// The median: the lower of the two middle values of an even count; `None` when empty.
+    pub fn median(&self) -> Option<f32> {
+        self.level_above(self.count.checked_sub(1)? / 2)
+    }
 }
 
 impl Default for LumaHistogram {
@@ -71,5 +76,10 @@ mod tests {
         }
         assert_eq!(h.level_above(6), None);
         assert_eq!(LumaHistogram::new().level_above(0), None);
+        // Of six, the lower middle value; of seven, the middle one.
+        assert_eq!(h.median(), Some(7.0));
+        h.add(11.6);
+        assert_eq!(h.median(), Some(12.0));
+        assert_eq!(LumaHistogram::new().median(), None);
     }
 }
