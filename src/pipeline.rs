@@ -65,7 +65,7 @@ impl Pipeline {
     pub fn new(size: FrameSize, config: PipelineConfig) -> Result<Self, BackgroundError> {
         Ok(Pipeline {
             front: Front::Led {
-                detector: Detector::new(size, config.detector)?,
+                detector: detector(size, &config)?,
                 tracker: Tracker::new(config.tracker),
             },
             floor: None,
@@ -83,7 +83,7 @@ impl Pipeline {
     ) -> Result<Self, BackgroundError> {
         Ok(Pipeline {
             front: Front::Leds {
-                detector: Detector::new(size, config.detector)?,
+                detector: detector(size, &config)?,
                 tracks,
             },
             floor: None,
@@ -299,6 +299,14 @@ fn identify_tracks(
         }
     }
     step.request
+}
+
+/// The LED detector of `config`, told the tracker's exposure time (how far an LED moves
+/// between frames, for the streak fit's warm start).
+fn detector(size: FrameSize, config: &PipelineConfig) -> Result<Detector, BackgroundError> {
+    let mut detector = Detector::new(size, config.detector)?;
+    detector.set_exposure_us(config.tracker.exposure_us);
+    Ok(detector)
 }
 
 /// The report of a run's one robot, whose id is certain.

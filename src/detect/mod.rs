@@ -195,7 +195,7 @@ impl Detector {
             background,
             floor: (config.streak_model != StreakModel::Ramps).then(|| FloorBackground::new(size)),
             floor_learning: config.streak_model == StreakModel::Fit,
-            spot_memory: SpotMemory::default(),
+            spot_memory: SpotMemory::new(None),
             statics: StaticMap::new(size.width(), size.height()),
             keep_out: heapless::Vec::new(),
             last_blobs: LastBlobs::new(),
@@ -239,7 +239,7 @@ impl Detector {
     pub fn segment_at(&mut self, frame: &Frame<'_>, t_us: u64) -> Detection {
         self.frames_segmented += 1;
         self.t_us = t_us;
-        self.spot_memory.next_frame();
+        self.spot_memory.next_frame(t_us);
         self.moved_large.clear();
         self.streak.reset();
         let mut learning = false;
@@ -493,6 +493,13 @@ impl Detector {
         // run's first frames only).
         self.floor_learning |= streak.fitted();
         Some((blob, streak))
+    }
+
+    /// The camera's exposure time (set once, at start-up; `None`, the default, when unknown):
+    /// how far an LED can move between frames for its last fitted spot to start its next fit
+    /// ([`SpotMemory`]). Forgets the spots fitted so far.
+    pub fn set_exposure_us(&mut self, exposure_us: Option<u32>) {
+        self.spot_memory = SpotMemory::new(exposure_us);
     }
 
     /// Places streak tips for the spot shape `optics` makes of a round spot (set once, at
