@@ -2,8 +2,9 @@
 //! same LED starts warm ([`SpotFit`]).
 //!
 //! An LED is recognised by place, not by the tracker's identity: a spot fitted in one of the
-//! last [`MAX_AGE_FRAMES`] frames whose middle lies within reach of this streak's
-//! ([`SpotMemory::reach_px`]: as far as the LED can have moved since). Each remembered spot
+//! last [`MAX_AGE_FRAMES`] frames whose middle lies within reach of this streak's (as far as
+//! the LED can have moved since: its path's length for each exposure time since, when the
+//! exposure is known, else its path's length; and a margin). Each remembered spot
 //! starts at most one fit a frame, so a second blob beside the LED starts cold; a spot not
 //! fitted for longer (the LED lost, or read by the ramps) is forgotten, and so is one whose fit
 //! failed. Fixed memory: one slot per LED the detector keeps apart ([`MAX_KEEP_OUT`]), the
