@@ -86,17 +86,18 @@ impl SpotMemory {
         found
     }
 
-    /// How far from the middle of `slot`'s streak the same LED's may lie now: its path's
+    /// How far from the middle of `slot`'s streak the same LED's middle may lie now: its path's
     /// length for each exposure time since (the LED swept that path in one exposure, and a
     /// short exposure at a steady frame rate leaves gaps of several streaks between frames),
     /// at [`MAX_SPEEDUP`], and never less than the path's length, plus
     /// [`KEEP_OUT_MARGIN_PX`] for the streak's own ends. With the exposure unknown, the path's
     /// length and the margin: the LED is taken to move about its streak's length a frame.
     ///
-    /// The path's length alone lost the warm start of every frame of a fast LED filmed at a
-    /// quarter of the frame interval (independent 1280×720 scenes: accelerating lines moving
-    /// 80–110 px a frame with 50–110 px streaks), and with it the light's gradient that the
-    /// last frame's length gives: their middles stayed 0.4–1 px behind.
+    /// The path's length alone lost the warm start of every frame of a fast LED whose
+    /// exposure is shorter than the frame interval (independent 1280×720 scenes: a line
+    /// speeding up at 25 of 33 ms, 48–112 px streaks 80–110 px apart), and with it the
+    /// light's gradient that the last frame's length gives: its middles stayed 0.4–0.5 px
+    /// behind the path's halfway point.
     fn reach_px(&self, slot: &Slot) -> f32 {
         let exposures = match self.exposure_us {
             Some(exposure_us) if exposure_us > 0 => {
