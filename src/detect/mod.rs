@@ -22,6 +22,7 @@ pub mod mirror_middle;
 pub mod moments;
 pub mod morph;
 mod normal;
+pub mod place_memory;
 mod ray_floor;
 pub mod satellite;
 pub mod skeleton;
