@@ -13,10 +13,21 @@ use glint::frame::{Frame, FrameSize};
 use glint::track::VelocityMethod;
 use glint_tools::scene::{Scene, Squeeze, SweepPoint, Visibility};
 
-/// Per visible frame in which the LED was found: whether its streak was fitted, the head's
-/// error in px (in frames after the first found, which has no previous position), and whether
-/// its velocity was read from its own streak.
-fn run(scene: &Scene, frames: usize) -> Vec<(bool, Option<f64>, bool)> {
+/// What a visible frame in which the LED was found gave.
+struct Read {
+    /// Whether its streak was fitted.
+    fitted: bool,
+    /// The head's error (px), in frames after the first found (which has no previous
+    /// position).
+    head_px: Option<f64>,
+    /// Whether its velocity was read from its own streak.
+    from_streak: bool,
+    /// That speed's error relative to the true speed.
+    speed_error: Option<f64>,
+}
+
+/// The frames of `scene` up to `frames` in which the LED was visible and found.
+fn run(scene: &Scene, frames: usize) -> Vec<Read> {
     let size = FrameSize::new(scene.width_px(), scene.height_px()).unwrap();
     let mut pipeline = in_process::pipeline(scene, StreakModel::Auto);
     let mut bytes = vec![0u8; scene.frame_len_bytes()];
@@ -32,10 +43,22 @@ fn run(scene: &Scene, frames: usize) -> Vec<(bool, Option<f64>, bool)> {
             continue;
         }
         let (x, y) = (truth.x_px.unwrap(), truth.y_px.unwrap());
-        let head = (!out.is_empty())
+        let head_px = (!out.is_empty())
             .then(|| (f64::from(e.position_px.0) - x).hypot(f64::from(e.position_px.1) - y));
-        let from_streak = matches!(e.velocity_px_s, Some((_, VelocityMethod::Streak)));
-        out.push((streak.fitted(), head, from_streak));
+        let (speed_error, from_streak) = match e.velocity_px_s {
+            Some(((vx, vy), VelocityMethod::Streak)) => {
+                let true_speed = truth.vx_px_s.unwrap().hypot(truth.vy_px_s.unwrap());
+                let speed = f64::from(vx).hypot(f64::from(vy));
+                (Some((speed - true_speed).abs() / true_speed), true)
+            }
+            _ => (None, false),
+        };
+        out.push(Read {
+            fitted: streak.fitted(),
+            head_px,
+            from_streak,
+            speed_error,
+        });
     }
     out
 }
@@ -58,11 +81,7 @@ fn round(mut point: SweepPoint) -> SweepPoint {
 
 /// Point `index` of the sweep of `seed`, drawn round, run in full: the point, and its frames
 /// (at least `min_found` found).
-fn run_round_point(
-    seed: u64,
-    index: usize,
-    min_found: usize,
-) -> (SweepPoint, Vec<(bool, Option<f64>, bool)>) {
+fn run_round_point(seed: u64, index: usize, min_found: usize) -> (SweepPoint, Vec<Read>) {
     let point = round(SweepPoint::new(seed, index));
     let frames = run(&Scene::new(point.config()).unwrap(), usize::MAX);
     assert!(
@@ -81,11 +100,11 @@ fn run_round_point(
 fn a_streak_in_a_glow_the_ramps_misread_is_fitted() {
     let (point, frames) = run_round_point(11, 14, 4);
     assert!(
-        frames.iter().all(|&(fitted, _, _)| fitted),
+        frames.iter().all(|f| f.fitted),
         "{point}: fitted {:?}",
-        frames.iter().map(|f| f.0).collect::<Vec<_>>()
+        frames.iter().map(|f| f.fitted).collect::<Vec<_>>()
     );
-    let mut heads: Vec<f64> = frames.iter().filter_map(|f| f.1).collect();
+    let mut heads: Vec<f64> = frames.iter().filter_map(|f| f.head_px).collect();
     let (median, p95) = median_p95(&mut heads);
     assert!(
         median <= 0.5 && p95 <= 1.5,
@@ -100,7 +119,7 @@ fn a_sharp_disk_s_streak_is_left_to_the_ramps() {
     let scene = Scene::preset("fast-line").unwrap();
     let frames = run(&scene, 32);
     assert!(frames.len() >= 30, "found in {} frames of 32", frames.len());
-    let fitted = frames.iter().filter(|f| f.0).count();
+    let fitted = frames.iter().filter(|f| f.fitted).count();
     assert_eq!(fitted, 0, "{fitted} of {} frames fitted", frames.len());
 }
 
@@ -113,13 +132,13 @@ fn a_sharp_disk_s_streak_is_left_to_the_ramps() {
 #[test]
 fn a_streak_the_ramps_call_still_across_their_own_path_is_fitted() {
     let (point, frames) = run_round_point(11, 179, 8);
-    let fitted = frames.iter().filter(|f| f.0).count();
+    let fitted = frames.iter().filter(|f| f.fitted).count();
     assert!(
         fitted == frames.len(),
         "{point}: fitted in {fitted} of {} frames",
         frames.len()
     );
-    let mut heads: Vec<f64> = frames.iter().filter_map(|f| f.1).collect();
+    let mut heads: Vec<f64> = frames.iter().filter_map(|f| f.head_px).collect();
     let (median, p95) = median_p95(&mut heads);
     assert!(
         median <= 0.5 && p95 <= 1.5,
@@ -142,7 +161,7 @@ fn a_grout_line_along_the_ray_does_not_make_a_sharp_edge_resolved() {
     let scene = Scene::preset("circles").unwrap();
     let frames = run(&scene, 60);
     assert!(frames.len() >= 55, "found in {} frames of 60", frames.len());
-    let fitted = frames.iter().filter(|f| f.0).count();
+    let fitted = frames.iter().filter(|f| f.fitted).count();
     assert!(
         fitted * 5 <= frames.len(),
         "{fitted} of {} frames fitted",
@@ -160,11 +179,55 @@ fn a_grout_line_along_the_ray_does_not_make_a_sharp_edge_resolved() {
 fn short_disk_streaks_the_ramps_call_still_keep_their_speed() {
     for (seed, index) in [(11, 37), (11, 161), (12, 97)] {
         let (point, frames) = run_round_point(seed, index, 4);
-        let without: Vec<usize> = (1..frames.len()).filter(|&i| !frames[i].2).collect();
+        let without: Vec<usize> = (1..frames.len())
+            .filter(|&i| !frames[i].from_streak)
+            .collect();
         assert!(
             without.is_empty(),
             "{point}: frames {without:?} of {} without a speed from the streak",
             frames.len()
+        );
+    }
+}
+
+/// Spots whose edge reads either side of `SHARP_EDGE_PX` from frame to frame: point 155 of
+/// seed 13 (a Gaussian of σ 1.28 px at 15× the clip on a 15.3 px arc) and point 117 of seed
+/// 11 (σ 1.50 px at 3.9×, a 10.6 px line). Judged frame by frame, the first was read
+/// `FFrFrrrFrF` (F fitted, r the ramps), its speed 3.6 / 6.0 % off (median / p95; the issue's
+/// bound 3 / 10 %), and the second fitted in all but its last frame. The edge is judged by the
+/// median of its falls over the LED's last frames (alone, that read the first `FFrrrrrrrr`),
+/// and an LED whose median has read resolved stays with the fit (`src/detect/cascade.rs`):
+/// each is fitted in every frame from its first fitted one, and its single-frame speed holds
+/// the bound (the first 1.0 / 6.3 %).
+#[test]
+fn an_led_whose_edge_reads_either_side_of_sharp_is_read_by_one_model() {
+    for (seed, index) in [(13, 155), (11, 117)] {
+        let (point, frames) = run_round_point(seed, index, 8);
+        let readers: String = frames
+            .iter()
+            .map(|f| if f.fitted { 'F' } else { 'r' })
+            .collect();
+        let first_fitted = readers.find('F').unwrap_or(readers.len());
+        assert!(
+            !readers[first_fitted..].contains('r'),
+            "{point}: read {readers}"
+        );
+        let mut speeds: Vec<f64> = frames
+            .iter()
+            .skip(1)
+            .filter_map(|f| f.speed_error)
+            .collect();
+        assert!(
+            speeds.len() + 1 >= frames.len(),
+            "{point}: {} speeds",
+            speeds.len()
+        );
+        let (median, p95) = median_p95(&mut speeds);
+        assert!(
+            median <= 0.03 && p95 <= 0.10,
+            "{point}: read {readers}, speed {:.1} / {:.1} %",
+            100.0 * median,
+            100.0 * p95
         );
     }
 }

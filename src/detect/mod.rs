@@ -12,6 +12,7 @@ pub mod bitimage;
 pub mod blobs;
 pub mod cascade;
 mod clip_spread;
+pub mod edge_memory;
 pub mod fit;
 pub mod floor_bg;
 mod level_falls;
@@ -36,6 +37,7 @@ pub mod tone_memory;
 use bgdiff::{Background, BackgroundError};
 use bitimage::{BitImage, Window};
 use blobs::{Blob, Labeler, Overflow};
+use edge_memory::EdgeMemory;
 use floor_bg::FloorBackground;
 use morph::Kernel;
 use skeleton::SkeletonMethod;
@@ -158,6 +160,8 @@ pub struct Detector {
     floor_learning: bool,
     /// The spots fitted in the last frames, each LED's next fit's start.
     spot_memory: SpotMemory,
+    /// The edges' falls read in the last frames, each LED's by place (the cascade's).
+    edge_memory: EdgeMemory,
     /// The static bright pixels learned by the automatic threshold.
     statics: StaticMap,
     /// Around the blob analysed in the last frame (the LED): not learned as static.
@@ -197,6 +201,7 @@ impl Detector {
             floor: (config.streak_model != StreakModel::Ramps).then(|| FloorBackground::new(size)),
             floor_learning: config.streak_model == StreakModel::Fit,
             spot_memory: SpotMemory::new(None),
+            edge_memory: EdgeMemory::new(None),
             statics: StaticMap::new(size.width(), size.height()),
             keep_out: heapless::Vec::new(),
             last_blobs: LastBlobs::new(),
@@ -241,6 +246,7 @@ impl Detector {
         self.frames_segmented += 1;
         self.t_us = t_us;
         self.spot_memory.next_frame(t_us);
+        self.edge_memory.next_frame(t_us);
         self.moved_large.clear();
         self.streak.reset();
         let mut learning = false;
@@ -486,7 +492,7 @@ impl Detector {
             self.config.streak_model,
             self.floor.as_ref(),
             self.optics.as_deref(),
-            &mut self.spot_memory,
+            (&mut self.spot_memory, &mut self.edge_memory),
             &mut self.streak,
         );
         // The cascade fitted a streak: the camera shows spots the ramps cannot read, and the
@@ -498,9 +504,11 @@ impl Detector {
 
     /// The camera's exposure time (set once, at start-up; `None`, the default, when unknown):
     /// how far an LED can move between frames for its last fitted spot to start its next fit
-    /// ([`SpotMemory`]). Forgets the spots fitted so far.
+    /// ([`SpotMemory`]) and its last edges to be pooled with its next ([`EdgeMemory`]).
+    /// Forgets both.
     pub fn set_exposure_us(&mut self, exposure_us: Option<u32>) {
         self.spot_memory = SpotMemory::new(exposure_us);
+        self.edge_memory = EdgeMemory::new(exposure_us);
     }
 
     /// Places streak tips for the spot shape `optics` makes of a round spot (set once, at

@@ -27,6 +27,14 @@ impl SpotMemory {
         self.places.next_frame(t_us);
     }
 
+    /// Whether a spot fitted in a recent frame is remembered for the streak whose rough middle
+    /// is `mid_px`, so that [`SpotMemory::fit_at`] would start from it: the LED was fitted
+    /// there, and its fit held.
+    pub fn remembers(&self, mid_px: (f32, f32)) -> bool {
+        let recalled = self.places.recall(mid_px);
+        self.places.value(&recalled).is_some()
+    }
+
     /// Runs `fit` for the streak whose rough middle is `mid_px`, given the spot remembered
     /// there (if any), and remembers what it fitted in that spot's place (or the oldest).
     pub fn fit_at<E>(

@@ -24,6 +24,7 @@ use heapless::Deque;
 use super::bitimage::{BitImage, Window, NEIGHBOURS_8};
 use super::blobs::{Blob, BoundingBox, Labeler};
 use super::cascade;
+use super::edge_memory::EdgeMemory;
 use super::fit::{self, NoFit, PathFit, Rough, FWHM_PER_SIGMA};
 use super::floor_bg::FloorBackground;
 use super::light_centre;
@@ -228,7 +229,7 @@ pub fn analyze(
     model: StreakModel,
     background: Option<&FloorBackground>,
     optics: Option<&dyn SpotOptics>,
-    spots: &mut SpotMemory,
+    (spots, edges): (&mut SpotMemory, &mut EdgeMemory),
     scratch: &mut StreakScratch,
 ) -> Streak {
     let threshold_luma = levels.threshold_luma.unwrap_or(levels.top_luma);
@@ -316,6 +317,9 @@ pub fn analyze(
             optics,
         )
     };
+    // Whether the fit read this LED in its last frames, and its fit held: asked before this
+    // frame's fit takes the spot's place.
+    let fitted_before = model == StreakModel::Auto && spots.remembers(mid_px);
     let mut fitted = || {
         let moments = Moments::of_runs(labeler.runs_of(index).map(|r| (r.y, r.x0, r.x1)));
         fitted_path(
@@ -339,9 +343,17 @@ pub fn analyze(
             // bent streak is fitted too: the ramps' middle is read for a straight one (a blob
             // whose ends do not span its middle has no axis to be bent along).
             let straight = !(spans && bent(bend_px(ends_px, mid_px), thickness_px));
-            let tips = (straight
-                && cascade::edge_is_sharp(frame, mid_px, ends_px, levels.top_luma, spans))
-            .then(|| ramps(scratch));
+            // The edge is the LED's, not the frame's (see `cascade`): judged by the median of
+            // its falls over the LED's last frames, and once that has read resolved, the LED is
+            // fitted while its fit holds.
+            let sharp = straight && {
+                let fall_px = cascade::edge_fall_px(frame, mid_px, ends_px, levels.top_luma, spans);
+                let verdict = edges.judge(mid_px, dist(ends_px[0], ends_px[1]), fall_px);
+                verdict.is_some_and(|v| {
+                    cascade::is_sharp(v.pooled_fall_px) && !(v.resolved_before && fitted_before)
+                })
+            };
+            let tips = sharp.then(|| ramps(scratch));
             // The ramps' reading stands: read now, unless it was above.
             let ramps_stand = || {
                 (
