@@ -66,8 +66,9 @@ const FALL_LEVELS: [f32; 2] = [0.8, 0.2];
 
 /// How far the edge of the streak whose middle is `mid_px` and skeleton ends `ends_px` takes
 /// to fall across its middle (the mean of its two sides), so that the ramps can read it when
-/// that is within [`SHARP_EDGE_PX`] ([`is_sharp`]); `None` when it cannot be read. `spans` says the ends make an axis (else
-/// the light is read along the rows). `clip_luma` is the blob's top level.
+/// that is within [`SHARP_EDGE_PX`] ([`is_sharp`]); `None` when it cannot be read. `spans`
+/// says the ends make an axis (else the light is read along the rows). `clip_luma` is the
+/// blob's top level.
 pub fn edge_fall_px(
     frame: &Frame<'_>,
     mid_px: (f32, f32),

@@ -31,7 +31,7 @@ struct Falls {
 }
 
 /// What an LED's falls say of its edge ([`EdgeMemory::judge`]).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug)]
 pub struct EdgeVerdict {
     /// The median of this frame's fall and the LED's last ones (px).
     pub pooled_fall_px: f32,

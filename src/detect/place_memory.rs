@@ -41,6 +41,7 @@ pub struct Place<T> {
     pub mid_px: (f32, f32),
     /// The streak's path length: how far the LED moved in one exposure.
     pub path_length_px: f32,
+    /// What was read there.
     pub value: T,
 }
 
