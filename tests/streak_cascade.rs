@@ -20,9 +20,8 @@ struct Read {
     /// The head's error (px), in frames after the first found (which has no previous
     /// position).
     head_px: Option<f64>,
-    /// Whether its velocity was read from its own streak.
-    from_streak: bool,
-    /// That speed's error relative to the true speed.
+    /// Where its velocity was read from its own streak, that speed's error relative to the
+    /// true speed.
     speed_error: Option<f64>,
 }
 
@@ -45,18 +44,17 @@ fn run(scene: &Scene, frames: usize) -> Vec<Read> {
         let (x, y) = (truth.x_px.unwrap(), truth.y_px.unwrap());
         let head_px = (!out.is_empty())
             .then(|| (f64::from(e.position_px.0) - x).hypot(f64::from(e.position_px.1) - y));
-        let (speed_error, from_streak) = match e.velocity_px_s {
+        let speed_error = match e.velocity_px_s {
             Some(((vx, vy), VelocityMethod::Streak)) => {
                 let true_speed = truth.vx_px_s.unwrap().hypot(truth.vy_px_s.unwrap());
                 let speed = f64::from(vx).hypot(f64::from(vy));
-                (Some((speed - true_speed).abs() / true_speed), true)
+                Some((speed - true_speed).abs() / true_speed)
             }
-            _ => (None, false),
+            _ => None,
         };
         out.push(Read {
             fitted: streak.fitted(),
             head_px,
-            from_streak,
             speed_error,
         });
     }
@@ -180,7 +178,7 @@ fn short_disk_streaks_the_ramps_call_still_keep_their_speed() {
     for (seed, index) in [(11, 37), (11, 161), (12, 97)] {
         let (point, frames) = run_round_point(seed, index, 4);
         let without: Vec<usize> = (1..frames.len())
-            .filter(|&i| !frames[i].from_streak)
+            .filter(|&i| frames[i].speed_error.is_none())
             .collect();
         assert!(
             without.is_empty(),
