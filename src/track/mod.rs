@@ -792,9 +792,24 @@ impl Tracker {
                 (Some(s), Some(l)) if l.0.hypot(l.1) < s.0.hypot(s.1) => l,
                 (steady, last) => steady.or(last)?,
             };
+            // Both velocities are the middles' over whole frame intervals, but this frame's
+            // own path, where the fit read it still, says how far the LED can have gone
+            // during this exposure: its length and its stated deviation (at the quantile the
+            // motion's checks use). An LED arriving where it stops moved its last frames'
+            // distance between the middles and only its short path in this exposure, and
+            // carried by their velocity its head landed that far past where it stopped.
+            let travel_px = 0.5 * exposure_s * vx.hypot(vy);
+            let read_fit_px = streak.path.and_then(|p| p.fit_px);
+            let most_px = length_px
+                .zip(read_fit_px)
+                .filter(|_| moving.is_none())
+                .map(|(l, f)| l + (CHI2_1DOF_99 * 2.0 * f * f).sqrt());
+            let scale = most_px
+                .filter(|&most| 0.5 * most < travel_px)
+                .map_or(1.0, |most| 0.5 * most / travel_px);
             Some((
-                mid_px.0 + 0.5 * exposure_s * vx,
-                mid_px.1 + 0.5 * exposure_s * vy,
+                mid_px.0 + 0.5 * exposure_s * vx * scale,
+                mid_px.1 + 0.5 * exposure_s * vy * scale,
             ))
         };
         let (position_px, position_method) = match head.or_else(extrapolated) {
@@ -1609,6 +1624,49 @@ mod tests {
             }
         }
         assert_eq!(pulled, 10);
+    }
+
+    /// A robot arriving where it stops: 12 px paths (1200 px/s at 10 ms) for five frames,
+    /// then one whose exposure ends as it stops, its last 3 px read as a still path (the
+    /// spot is wider). The middles moved about 40 px a frame until then, and carried by
+    /// their velocity the head landed 3.7 px past where the LED stood (sweep seeds 11–13:
+    /// the frame an LED moving into place stops in, its head a median 4.9 px off); that
+    /// frame's own path bounds how far the LED went in its exposure.
+    #[test]
+    fn an_led_that_stops_has_its_head_where_it_stopped() {
+        let exposure_us = 10_000;
+        let speed_px_s = 1200.0f32;
+        let path_px = speed_px_s * exposure_us as f32 * 1e-6;
+        let mut t = Tracker::new(TrackerConfig {
+            exposure_us: Some(exposure_us),
+        });
+        let fitted = |mid: (f32, f32), ends: [(f32, f32); 2], length_px: f32| {
+            let mut s = streak(mid, Some(ends));
+            if let Some(p) = s.path.as_mut() {
+                p.path_length_px = length_px;
+                p.fit_px = Some(0.3);
+                p.length_noise_px = Some(0.3);
+            }
+            s
+        };
+        let head_x = |i: u64| 100.0 + speed_px_s * (i * FRAME_US) as f32 * 1e-6;
+        for i in 0..5u64 {
+            let ends = [(head_x(i) - path_px, 200.0), (head_x(i), 200.0)];
+            let s = fitted((head_x(i) - 0.5 * path_px, 200.0), ends, path_px);
+            t.update(i * FRAME_US, Some(&s));
+        }
+        // It slows to a stop 30 px on, the last 3 px of it during the exposure.
+        let stop_x = head_x(4) + 30.0;
+        let (last_px, mid) = (3.0, (stop_x - 1.5, 200.0));
+        let e = t
+            .update(5 * FRAME_US, Some(&fitted(mid, [mid; 2], last_px)))
+            .expect("found");
+        let off_px = dist(e.position_px, (stop_x, 200.0));
+        assert!(
+            off_px < 1.5,
+            "head {:?}, {off_px:.2} px from where it stopped",
+            e.position_px
+        );
     }
 
     /// A bloom clipped far into its glow: the fit's spot is the glow, wider than the 13 px
