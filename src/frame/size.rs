@@ -23,7 +23,7 @@ pub enum SizeError {
     Syntax(String),
     /// A zero side.
     Zero,
-    /// YUYV carries pixels in pairs.
+    /// YUYV and UYVY carry pixels in pairs (and every format is held to it).
     OddWidth(u32),
     /// Larger than `MAX_SIDE_PX`.
     TooLarge,
@@ -35,7 +35,13 @@ impl fmt::Display for SizeError {
             SizeError::Syntax(s) => write!(f, "size {s:?} is not WIDTHxHEIGHT, e.g. 640x480"),
             SizeError::Zero => write!(f, "width and height must be greater than zero"),
             SizeError::OddWidth(w) => {
-                write!(f, "width {w} is odd, but YUYV stores pixels in pairs")
+                // Said of every format: the size is read before the format is known, and a
+                // GREY frame's width is held to the packed formats' pairs too.
+                write!(
+                    f,
+                    "width {w} is odd: glint takes even widths only (YUYV and UYVY carry \
+                     pixels in pairs)"
+                )
             }
             SizeError::TooLarge => write!(f, "sides above {MAX_SIDE_PX} pixels are not supported"),
         }
