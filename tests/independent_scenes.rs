@@ -327,6 +327,55 @@ fn independent_scenes_hold_the_bounds() {
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 
+/// A fitted path that wanders off its light is not reported. Independent scenes seed 4,
+/// scene 5, as a 1280×720 camera sees it: an LED speeding up from 48 to 112 px a frame, a
+/// Moffat core in a wide halo clipped at 56 full wells (its saturated blob some 60 px thick).
+/// In the last frame the fit, started from the frame before, ended with its middle 30.5 px
+/// from the light's on a 95 px path, and that frame was reported 31 px off in its middle and
+/// 38 px off in its head. Every reported middle must stay within [`WILD_MID_PX`] of the
+/// truth. NOT YET HELD on this scene, so not asserted: the accuracy bounds (the
+/// middles are 1.0–1.4 px off, the heads 2.5–6.2 px).
+#[test]
+fn a_fit_that_leaves_its_light_is_not_reported() {
+    /// Far beyond any reading of the middle this scene's frames get, and far within the
+    /// 31 px of the wandering fit.
+    const WILD_MID_PX: f64 = 3.0;
+    const SEED: u64 = 4;
+    const SCENE: u64 = 5;
+    let temp = tempfile::tempdir().expect("temp dir");
+    let scenes = render(temp.path(), SEED, SCENE as usize + 1, &["--size", HD_SIZE]);
+    let params = scenes
+        .iter()
+        .find(|p| p["scene"] == SCENE)
+        .expect("the scene was rendered");
+    assert_eq!(
+        params["motion"], "accelerate",
+        "the scene drawn is not this test's"
+    );
+    assert_eq!(
+        params["spot"]["kind"], "halo",
+        "the scene drawn is not this test's"
+    );
+    let (reports, truths) = replay_scene(temp.path(), params, None);
+    let mut measured = 0;
+    for (r, t) in reports.iter().zip(&truths) {
+        if r["found"] != true {
+            continue;
+        }
+        measured += 1;
+        let mid = |axis: &str| r[format!("mid_{axis}")].as_f64().unwrap();
+        let off_px =
+            (mid("x") - t.path_mid_x_px.unwrap()).hypot(mid("y") - t.path_mid_y_px.unwrap());
+        eprintln!("frame {}: middle {off_px:.2} px off", t.frame);
+        assert!(
+            off_px <= WILD_MID_PX,
+            "frame {}: middle {off_px:.2} px off (at most {WILD_MID_PX} px)",
+            t.frame
+        );
+    }
+    assert!(measured >= 3, "only {measured} frames reported");
+}
+
 /// A spot outside the fit's family (a Moffat core in a power-law halo, a defocused pillbox)
 /// puts the fitted ends a steady distance off, so that every frame of one LED reads its speed
 /// a few per cent fast or slow (see `src/track/length_offset.rs`). Over a long run the

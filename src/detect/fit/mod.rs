@@ -352,6 +352,9 @@ pub enum NoFit {
     /// The fitted model calls the pixel at an end of its path clipped where the frame shows it
     /// well below the clip: it contradicts the pixels it was meant to explain.
     EndOffTheClip,
+    /// The fitted path's middle lies farther from the streak's light than the light of an LED
+    /// on that path can be (the caller's rule).
+    OffItsLight,
 }
 
 /// Fits the streak model around `rough` on `frame`, whose clipped pixels read `clip_luma`,
