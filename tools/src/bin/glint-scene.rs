@@ -77,6 +77,10 @@ pub(crate) struct Args {
     /// Output range: full (white 255) or studio (white 235).
     #[arg(long, value_parser = ["full", "studio"])]
     range: Option<String>,
+    /// A rolling shutter's time from one row's exposure to the next, µs (0, the default, is a
+    /// global shutter); scenes without a camera view or companion LEDs.
+    #[arg(long, value_name = "MICROSECONDS")]
+    row_time_us: Option<f64>,
     /// Directory for NAME.yuv and NAME.truth.csv (created if missing).
     #[arg(long, required_unless_present = "list")]
     out_dir: Option<PathBuf>,
@@ -385,6 +389,9 @@ fn override_optics(args: &Args, config: &mut SceneConfig) {
     }
     if let Some(peak) = args.peak {
         led.peak = peak;
+    }
+    if let Some(row_time_us) = args.row_time_us {
+        config.row_time_us = row_time_us;
     }
     if let Some(gamma) = args.gamma {
         config.camera.gamma = gamma;

@@ -284,6 +284,7 @@ impl Arena {
                 height_px: c.height_px,
                 fps: c.fps,
                 exposure_us: c.exposure_us,
+                row_time_us: 0.0,
                 frame_count: c.frame_count,
                 seed: c.seed.wrapping_mul(2).wrapping_add(index as u64),
                 trajectory: Trajectory::Line {

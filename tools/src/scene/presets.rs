@@ -113,6 +113,7 @@ pub(crate) fn base(
         height_px: VGA_HEIGHT_PX,
         fps: FPS,
         exposure_us,
+        row_time_us: 0.0,
         frame_count,
         seed: DEFAULT_SEED,
         trajectory,

@@ -342,7 +342,17 @@ fn invalid_configurations_are_rejected() {
         height: 10,
         radiance: 0.0,
     });
+    // 480 rows of 100 µs take 48 ms, longer than the 33 ms frame period.
+    let mut slow_readout = base.clone();
+    slow_readout.row_time_us = 100.0;
+    let mut backwards_readout = base.clone();
+    backwards_readout.row_time_us = -1.0;
+    let mut rolling_lens = presets::config("lens-mild").unwrap();
+    rolling_lens.row_time_us = 30.0;
     for (config, field) in [
+        (slow_readout, "row_time_us"),
+        (backwards_readout, "row_time_us"),
+        (rolling_lens, "row_time_us"),
         (odd, "width_px"),
         (long_exposure, "exposure_us"),
         (no_led, "led.radius_px"),
@@ -471,4 +481,65 @@ fn the_path_middle_is_halfway_along_the_streak() {
         (0.3..0.6).contains(&widest_px),
         "the time middle is {widest_px:.3} px from the path's at most"
     );
+}
+
+/// A rolling shutter exposes each row over its own window, `row_time_us` later than the row
+/// above: an LED moving down stays lit longer (the rows below it open later), one moving up
+/// less. The rendered light is the truth's streak, as long as the exposure plus the readout
+/// between its ends, `v T / (1 − v_y τ)`, centred on its middle in time. Each row sees the
+/// global shutter's picture stretched down the picture by `1 / (1 − v_y τ)`, the spot too.
+#[test]
+fn a_rolling_shutter_draws_the_streak_its_rows_saw() {
+    const ROW_TIME_US: f64 = 62.5;
+    const SPEED_PX_S: f64 = 1000.0;
+    const EXPOSURE_US: u32 = 10_000;
+    let radius_px = 3.5;
+    for down in [1.0, -1.0] {
+        let mut config = static_scene(Point::default(), 4.0, Range::Full)
+            .config()
+            .clone();
+        (config.width_px, config.height_px) = (160, 480);
+        config.exposure_us = EXPOSURE_US;
+        config.row_time_us = ROW_TIME_US;
+        config.trajectory = Trajectory::Line {
+            start_px: Point::new(80.0, if down > 0.0 { 100.0 } else { 380.0 }),
+            velocity_px_s: Point::new(0.0, down * SPEED_PX_S),
+        };
+        let scene = Scene::new(config).unwrap();
+        let vy_tau = down * SPEED_PX_S * ROW_TIME_US * 1e-6;
+        let expected_px = SPEED_PX_S * f64::from(EXPOSURE_US) * 1e-6 / (1.0 - vy_tau);
+        for frame in [2, 5] {
+            let truth = scene.truth(frame);
+            let streak_px = truth.streak_px.unwrap();
+            assert!(
+                (streak_px / expected_px - 1.0).abs() < 1e-6,
+                "down {down}, frame {frame}: truth {streak_px} px, physics {expected_px} px"
+            );
+            let patch = scene.led_radiance(frame);
+            let (sum, cx, cy) = patch_moments(&patch);
+            let (mx, my) = (truth.mid_x_px.unwrap(), truth.mid_y_px.unwrap());
+            assert!(
+                (cx - mx).abs() < 0.02 && (cy - my).abs() < 0.02,
+                "down {down}, frame {frame}: light at ({cx}, {cy}), truth's middle ({mx}, {my})"
+            );
+            // A segment of length L swept by a disk of radius r: variance L²/12 + r²/4, the
+            // disk stretched as the path is.
+            let variance_px2 = patch
+                .values
+                .iter()
+                .enumerate()
+                .map(|(i, &v)| f64::from(v) * ((i / patch.width + patch.top) as f64 - cy).powi(2))
+                .sum::<f64>()
+                / sum;
+            let stretched_px = radius_px / (1.0 - vy_tau);
+            let drawn_px = (12.0 * (variance_px2 - stretched_px * stretched_px / 4.0)).sqrt();
+            assert!(
+                (drawn_px / streak_px - 1.0).abs() < 0.01,
+                "down {down}, frame {frame}: drawn {drawn_px} px, truth {streak_px} px"
+            );
+            // The head is the end of the path the truth's middle is the middle of.
+            let (x, y) = (truth.x_px.unwrap(), truth.y_px.unwrap());
+            assert!(((x - mx).hypot(y - my) - 0.5 * streak_px).abs() < 1e-6);
+        }
+    }
 }
