@@ -20,6 +20,7 @@ use crate::identify::{Identifier, IdentifyConfig, IdentifyError, TrackSeen};
 use crate::report::{Estimate, FrameReport, IdSource, TrackReport, Tracks, MAX_ROBOTS};
 use crate::sink::Sink;
 use crate::source::{FrameMeta, FrameSource};
+use crate::track::shutter::RollingShutter;
 use crate::track::{Choice, MarkerTracker, MultiTracker, TrackState, Tracker, TrackerConfig};
 
 /// Settings of the whole per-frame path.
@@ -58,6 +59,9 @@ pub struct Pipeline {
     recheck: Option<MarkerRecheck>,
     /// With several robots and a link to them: which track is which robot.
     identify: Option<Identifier<MAX_ROBOTS>>,
+    /// A camera that reads its rows one after another: the velocities its picture shows are
+    /// skewed by the LED's own motion.
+    shutter: Option<RollingShutter>,
 }
 
 impl Pipeline {
@@ -71,6 +75,7 @@ impl Pipeline {
             floor: None,
             recheck: None,
             identify: None,
+            shutter: None,
         })
     }
 
@@ -89,6 +94,7 @@ impl Pipeline {
             floor: None,
             recheck: None,
             identify: None,
+            shutter: None,
         })
     }
 
@@ -99,6 +105,7 @@ impl Pipeline {
             floor: None,
             recheck: None,
             identify: None,
+            shutter: None,
         }
     }
 
@@ -133,6 +140,14 @@ impl Pipeline {
         }
     }
 
+    /// Reads the velocities of a camera with a rolling shutter (see [`RollingShutter`]): every
+    /// track's, the marker's and the floor's. The trackers work on the picture as it is, whose
+    /// streaks and steps agree with one another; only the velocity they report is undone.
+    pub fn with_rolling_shutter(mut self, shutter: RollingShutter) -> Self {
+        self.shutter = Some(shutter);
+        self
+    }
+
     /// Adds the re-check of the calibration's markers (with a floor stage that has a camera
     /// model): a knocked camera's pose is refitted, and reports say which calibration they use.
     pub fn with_recheck(mut self, recheck: MarkerRecheck) -> Self {
@@ -156,9 +171,18 @@ impl Pipeline {
     /// the candidates to the tracks, analyse each track's blob, update each track; marker:
     /// detect and pick the id), then map each track to the floor.
     pub fn process(&mut self, frame: &Frame<'_>, meta: FrameMeta) -> FrameReport {
+        let shutter = self.shutter;
         let (detection, ambiguous, marker, markers_capped, mut tracks) = match &mut self.front {
             Front::Led { detector, tracker } => {
                 let mut detection = detector.segment_at(frame, meta.timestamp_us);
+                // The spot as the rolling shutter skews it, for the velocity last measured.
+                if let Some(shutter) = shutter {
+                    let last = tracker
+                        .history()
+                        .last()
+                        .and_then(|s| s.estimate.velocity_px_s);
+                    detector.set_row_skew(last.and_then(|(v, _)| shutter.unskew(v)));
+                }
                 let choice = tracker.choose(detector.candidates(), meta.index, meta.timestamp_us);
                 detection.best = match choice {
                     Choice::Blob(index) => {
@@ -215,6 +239,13 @@ impl Pipeline {
                 (no_detection(), found.ambiguous, found.pose, capped, track)
             }
         };
+        if let Some(shutter) = &self.shutter {
+            for estimate in tracks.iter_mut().filter_map(|t| t.estimate.as_mut()) {
+                estimate.velocity_px_s = estimate
+                    .velocity_px_s
+                    .and_then(|(v, method)| Some((shutter.velocity_px_s(v)?, method)));
+            }
+        }
         let calib = match (&mut self.recheck, &mut self.floor) {
             (Some(recheck), Some(stage)) => {
                 Some(recheck.check(frame, meta.index, meta.timestamp_us, stage))

@@ -317,6 +317,9 @@ pub fn open(settings: &TrackSettings, plan: &MemoryPlan) -> Result<Opened> {
         settings.robots,
         settings.pipeline_config(),
     )?;
+    if let Some(shutter) = settings.input.rolling_shutter() {
+        pipeline = pipeline.with_rolling_shutter(shutter);
+    }
     if let Some(path) = &settings.background {
         if settings.detector != DetectorArg::Bgdiff {
             bail!("--background goes with --detector bgdiff");

@@ -42,7 +42,7 @@ use floor_bg::FloorBackground;
 use morph::Kernel;
 use skeleton::SkeletonMethod;
 use spot_memory::SpotMemory;
-use spot_shape::SpotOptics;
+use spot_shape::{Skewed, SpotOptics};
 use streak::{Streak, StreakModel, StreakScratch};
 use threshold::large_blob::{LastBlobs, MovedLarge};
 use threshold::static_map::StaticMap;
@@ -179,6 +179,8 @@ pub struct Detector {
     t_us: u64,
     /// The lens, when it squeezes a round spot: streak tips are placed for the spot's shape.
     optics: Option<Box<dyn SpotOptics>>,
+    /// A rolling shutter's skew of the next analysed LED's spot (see [`Detector::set_row_skew`]).
+    row_skew: Option<[[f32; 2]; 2]>,
 }
 
 impl Detector {
@@ -210,6 +212,7 @@ impl Detector {
             frames_segmented: 0,
             t_us: 0,
             optics: None,
+            row_skew: None,
         })
     }
 
@@ -482,6 +485,14 @@ impl Detector {
         // no saturation level at all: the blob's brightest pixel stands in for it, so rim
         // weights and tip ramps work as on a saturated blob.
         let levels = self.levels_of(frame, index, levels);
+        let skewed = self.row_skew.map(|unskew| Skewed {
+            lens: self.optics.as_deref(),
+            unskew,
+        });
+        let optics = match &skewed {
+            Some(skewed) => Some(skewed as &dyn SpotOptics),
+            None => self.optics.as_deref(),
+        };
         let streak = streak::analyze(
             frame,
             &self.labeler,
@@ -491,7 +502,7 @@ impl Detector {
             self.config.skeleton,
             self.config.streak_model,
             self.floor.as_ref(),
-            self.optics.as_deref(),
+            optics,
             (&mut self.spot_memory, &mut self.edge_memory),
             &mut self.streak,
         );
@@ -515,6 +526,15 @@ impl Detector {
     /// start-up, from the calibration's lens; without it a spot is taken to be round).
     pub fn set_optics(&mut self, optics: Box<dyn SpotOptics>) {
         self.optics = Some(optics);
+    }
+
+    /// How a rolling shutter skews the spot of the LED analysed next (its picture moving as
+    /// the tracker last measured it): the map from the skewed picture back to a global
+    /// shutter's, which makes its spot round again (see
+    /// [`RollingShutter::unskew`](crate::track::shutter::RollingShutter::unskew)); `None`
+    /// for a global shutter or an LED whose velocity is not known yet. Set each frame.
+    pub fn set_row_skew(&mut self, unskew: Option<[[f32; 2]; 2]>) {
+        self.row_skew = unskew;
     }
 
     /// The saturation mask of the last frame.

@@ -89,6 +89,17 @@ impl SpotShape {
         ((e * d.0 - b * d.1) / det, (a * d.1 - c * d.0) / det)
     }
 
+    /// This shape seen through a further linear map `first` of the image, applied before it
+    /// (image pixels to the pixels this shape takes): `A · first`. `None` unless one-to-one.
+    pub fn after(self, first: [[f32; 2]; 2]) -> Option<SpotShape> {
+        let [[a, b], [c, e]] = self.image_to_ideal;
+        let [[p, q], [r, t]] = first;
+        SpotShape::new([
+            [a * p + b * r, a * q + b * t],
+            [c * p + e * r, c * q + e * t],
+        ])
+    }
+
     /// A round spot's extent along the unit image direction `d` over its extent across it,
     /// both in image pixels: `|det A| / |A d|²`.
     pub fn along_over_across(&self, d: (f32, f32)) -> f32 {
@@ -102,6 +113,26 @@ pub trait SpotOptics: Send + Sync {
     /// The lens's local map at image pixel `px`; `None` where it cannot be had (beyond where
     /// the lens folds over).
     fn spot_shape_at(&self, px: (f32, f32)) -> Option<SpotShape>;
+}
+
+/// The lens's spot (a round one without a lens) seen through a rolling shutter that skews the
+/// picture of a moving LED: `unskew` maps the skewed picture back to the one a global shutter
+/// would have taken (see [`RollingShutter::unskew`](crate::track::shutter::RollingShutter)).
+pub struct Skewed<'a> {
+    /// The lens, when one is known.
+    pub lens: Option<&'a dyn SpotOptics>,
+    /// Skewed picture pixels to a global shutter's picture pixels.
+    pub unskew: [[f32; 2]; 2],
+}
+
+impl SpotOptics for Skewed<'_> {
+    fn spot_shape_at(&self, px: (f32, f32)) -> Option<SpotShape> {
+        let lens = match self.lens {
+            Some(lens) => lens.spot_shape_at(px)?,
+            None => SpotShape::identity(),
+        };
+        lens.after(self.unskew)
+    }
 }
 
 /// `tips`, measured as for a round spot, placed again for the spot `shape` the lens makes of a

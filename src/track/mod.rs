@@ -53,6 +53,7 @@ pub mod length_offset;
 pub mod marker;
 pub mod motion;
 pub mod multi;
+pub mod shutter;
 pub mod state;
 pub mod statics;
 
