@@ -81,8 +81,9 @@ fn replay_allocates_nothing_per_frame() {
 }
 
 /// The CSV sink, the seed's morphological skeleton and the fitted streak model (with the floor
-/// it learns without the light, frame by frame) keep the promise too. (A test of its own, so
-/// that the costly fit runs beside the other replays.)
+/// it learns without the light, frame by frame, and a rolling shutter's skew of the spot and the
+/// velocity) keep the promise too. (A test of its own, so that the costly fit runs beside the
+/// other replays.)
 #[test]
 fn the_fitted_streak_model_allocates_nothing_per_frame() {
     let &(size, ref bytes, _) = frames();
@@ -98,7 +99,10 @@ fn the_fitted_streak_model_allocates_nothing_per_frame() {
         },
     };
     let mut source = DumpSource::new(Cursor::new(&bytes), size, 30.0);
-    let mut pipeline = Pipeline::new(size, config).unwrap();
+    let shutter = glint::track::shutter::RollingShutter::new(40.0).unwrap();
+    let mut pipeline = Pipeline::new(size, config)
+        .unwrap()
+        .with_rolling_shutter(shutter);
     // With `--predict arrival`, so the predicted columns are counted too.
     let mut sink =
         CsvSink::new(BufWriter::with_capacity(64 * 1024, io::sink()), false).predicting();

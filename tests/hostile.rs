@@ -375,6 +375,13 @@ fn numbers_out_of_range_name_their_option() {
         (&["--baud", "0"], "'--baud <BAUD>'"),
         (&["--summary-every", "-1"], "'--summary-every <SECONDS>'"),
         (&["--max-memory-mb", "0"], "'--max-memory-mb <MB>'"),
+        (
+            &["--row-time-us", "0"],
+            "'--row-time-us <MICROSECONDS>': not a row time above 0 and up to 1000 µs",
+        ),
+        (&["--row-time-us", "-30"], "'--row-time-us <MICROSECONDS>'"),
+        (&["--row-time-us", "1001"], "'--row-time-us <MICROSECONDS>'"),
+        (&["--row-time-us", "NaN"], "'--row-time-us <MICROSECONDS>'"),
     ];
     for (extra, want) in cases {
         let mut args = vec!["track", "--size", SIZE, "--input", dump];
@@ -404,6 +411,7 @@ fn help_shows_the_bounds() {
         "0.1 to 1000",
         "50 to 4000000 baud",
         "up to 86400",
+        "its rows), up to 1000",
         "sides 1 to 16384",
         "16 to 65536",
         "A regular file of at most 1 MB",
