@@ -175,13 +175,8 @@ impl Pipeline {
         let (detection, ambiguous, marker, markers_capped, mut tracks) = match &mut self.front {
             Front::Led { detector, tracker } => {
                 let mut detection = detector.segment_at(frame, meta.timestamp_us);
-                // The spot as the rolling shutter skews it, for the velocity last measured.
                 if let Some(shutter) = shutter {
-                    let last = tracker
-                        .history()
-                        .last()
-                        .and_then(|s| s.estimate.velocity_px_s);
-                    detector.set_row_skew(last.and_then(|(v, _)| shutter.unskew(v)));
+                    detector.set_row_skew(row_skew(shutter, tracker));
                 }
                 let choice = tracker.choose(detector.candidates(), meta.index, meta.timestamp_us);
                 detection.best = match choice {
@@ -207,6 +202,9 @@ impl Pipeline {
                 let mut reports = Tracks::new();
                 for slot in 0..tracks.robots() {
                     let choice = tracks.choice(slot);
+                    if let Some((shutter, tracker)) = shutter.zip(tracks.tracker(slot)) {
+                        detector.set_row_skew(row_skew(shutter, tracker));
+                    }
                     let best = choice
                         .blob
                         .and_then(|index| detector.analyze(frame, index, detection.levels));
@@ -338,6 +336,13 @@ fn detector(size: FrameSize, config: &PipelineConfig) -> Result<Detector, Backgr
     let mut detector = Detector::new(size, config.detector)?;
     detector.set_exposure_us(config.tracker.exposure_us);
     Ok(detector)
+}
+
+/// How `shutter` skews the spot of the LED `tracker` follows, for the velocity it last
+/// measured (none before one is known: the spot is then taken to be round).
+fn row_skew(shutter: RollingShutter, tracker: &Tracker) -> Option<[[f32; 2]; 2]> {
+    let last = tracker.history().last()?.estimate.velocity_px_s?;
+    shutter.unskew(last.0)
 }
 
 /// The report of a run's one robot, whose id is certain.
