@@ -38,12 +38,13 @@ use std::ffi::OsString;
 use clap::{CommandFactory, Parser};
 
 /// Example values for the README's placeholders.
-const PLACEHOLDERS: [(&str, &str); 11] = [
+const PLACEHOLDERS: [(&str, &str); 12] = [
     ("PATH", "run.yuv"),
     ("WxH", "640x480"),
     ("F", "30"),
     ("N", "1"),
     ("US", "2000"),
+    ("ROW_US", "40"),
     ("PORT", "/dev/ttyUSB0"),
     ("SECONDS", "10"),
     ("NAME=VALUE", "sharpness=0"),
