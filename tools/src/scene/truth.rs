@@ -39,7 +39,9 @@ impl Visibility {
     }
 }
 
-/// Ground truth of one frame.
+/// Ground truth of one frame. With a rolling shutter (`SceneConfig::row_time_us`) "the
+/// exposure" is the one the LED was seen in: from the start of the exposure of the row it was
+/// in then to the end of the exposure of the row it was in then; `t_s` stays the frame's.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Truth {
     /// 0-based frame index.
