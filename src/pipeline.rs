@@ -237,7 +237,7 @@ impl Pipeline {
                 (no_detection(), found.ambiguous, found.pose, capped, track)
             }
         };
-        if let Some(shutter) = &self.shutter {
+        if let Some(shutter) = shutter {
             for estimate in tracks.iter_mut().filter_map(|t| t.estimate.as_mut()) {
                 estimate.velocity_px_s = estimate
                     .velocity_px_s

@@ -730,7 +730,6 @@ impl Tracker {
             (None, _) => (m.moved && (m.turning || m.accelerating) && !streak.path_failed)
                 .then_some((m, true)),
         });
-        let fit_px = fit_px.unwrap_or(0.0);
         if let Some((m, disagrees)) = from_motion {
             // The single frame's length is still its speed when the motion's path agrees
             // with it: only its place or direction was wrong (a reversed short streak).
@@ -743,7 +742,8 @@ impl Tracker {
                 // a misfit as it showed in this track's frames before: a fit's deviation comes
                 // from its residual, and on a spot outside its family (a pillbox) that is
                 // mostly a steady misfit, so that it stated 0.06 px for ends 0.2–0.4 px off.
-                let read_px2 = (2.0 * fit_px * fit_px).max(length_spread_px2.unwrap_or(0.0));
+                let fit_px2 = fit_px.map_or(0.0, |f| f * f);
+                let read_px2 = (2.0 * fit_px2).max(length_spread_px2.unwrap_or(0.0));
                 let allowed =
                     CHI2_1DOF_99 * read_px2 + m.beyond(1) * m.path_sigma_px * m.path_sigma_px;
                 ((!disagrees || miss * miss <= allowed) && speed > 0.0)
@@ -800,9 +800,8 @@ impl Tracker {
             // distance between the middles and only its short path in this exposure, and
             // carried by their velocity its head landed that far past where it stopped.
             let travel_px = 0.5 * exposure_s * vx.hypot(vy);
-            let read_fit_px = streak.path.and_then(|p| p.fit_px);
             let most_px = length_px
-                .zip(read_fit_px)
+                .zip(fit_px)
                 .filter(|_| moving.is_none())
                 .map(|(l, f)| l + (CHI2_1DOF_99 * 2.0 * f * f).sqrt());
             let scale = most_px
