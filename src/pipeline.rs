@@ -176,7 +176,7 @@ impl Pipeline {
             Front::Led { detector, tracker } => {
                 let mut detection = detector.segment_at(frame, meta.timestamp_us);
                 if let Some(shutter) = shutter {
-                    detector.set_row_skew(row_skew(shutter, tracker));
+                    detector.set_row_skew(row_skew(shutter, tracker, meta.timestamp_us));
                 }
                 let choice = tracker.choose(detector.candidates(), meta.index, meta.timestamp_us);
                 detection.best = match choice {
@@ -203,7 +203,7 @@ impl Pipeline {
                 for slot in 0..tracks.robots() {
                     let choice = tracks.choice(slot);
                     if let Some((shutter, tracker)) = shutter.zip(tracks.tracker(slot)) {
-                        detector.set_row_skew(row_skew(shutter, tracker));
+                        detector.set_row_skew(row_skew(shutter, tracker, meta.timestamp_us));
                     }
                     let best = choice
                         .blob
@@ -338,11 +338,11 @@ fn detector(size: FrameSize, config: &PipelineConfig) -> Result<Detector, Backgr
     Ok(detector)
 }
 
-/// How `shutter` skews the spot of the LED `tracker` follows, for the velocity it last
-/// measured (none before one is known: the spot is then taken to be round).
-fn row_skew(shutter: RollingShutter, tracker: &Tracker) -> Option<[[f32; 2]; 2]> {
-    let last = tracker.history().last()?.estimate.velocity_px_s?;
-    shutter.unskew(last.0)
+/// How `shutter` skews the spot of the LED `tracker` follows in the frame at `t_us`, for the
+/// velocity it is expected to have then (none before one is known: the spot is then taken to
+/// be round).
+fn row_skew(shutter: RollingShutter, tracker: &Tracker, t_us: u64) -> Option<[[f32; 2]; 2]> {
+    shutter.unskew(tracker.expected_velocity_px_s(t_us)?)
 }
 
 /// The report of a run's one robot, whose id is certain.

@@ -163,9 +163,9 @@ fn quantiles(v: &[f64]) -> (f64, f64) {
     (quantile(v, 0.5), quantile(v, 0.95))
 }
 
-/// Replays rendered scene `params["scene"]` of `dir` with `glint track` (with `model`, else
-/// the default model): its JSON lines and its truth.
-fn replay_scene(dir: &Path, params: &Value, model: Option<&str>) -> (Vec<Value>, Vec<Truth>) {
+/// Replays rendered scene `params["scene"]` of `dir` with `glint track` (with `extra`
+/// options): its JSON lines and its truth.
+fn replay_scene(dir: &Path, params: &Value, extra: &[&str]) -> (Vec<Value>, Vec<Truth>) {
     let k = params["scene"].as_u64().unwrap();
     let exposure = params["exposure_us"].as_u64().unwrap().to_string();
     let size = params["size"].as_str().unwrap();
@@ -173,10 +173,8 @@ fn replay_scene(dir: &Path, params: &Value, model: Option<&str>) -> (Vec<Value>,
     cmd.args(["track", "--input"])
         .arg(dir.join(format!("scene_{k}.grey")))
         .args(["--size", size, "--format-in", "grey", "--fps", "30"])
-        .args(["--exposure-us", &exposure]);
-    if let Some(model) = model {
-        cmd.args(["--streak-model", model]);
-    }
+        .args(["--exposure-us", &exposure])
+        .args(extra);
     let out = cmd.output().expect("run glint");
     assert!(
         out.status.success(),
@@ -206,6 +204,7 @@ fn replay_scenes(size: &str, count: usize) -> Outcome {
     let seed = env_or("GLINT_INDEPENDENT_SEED", DEFAULT_SEED);
     let count = env_or("GLINT_INDEPENDENT_SCENES", count);
     let model = std::env::var("GLINT_STREAK_MODEL").ok();
+    let model_args: Vec<&str> = model.iter().flat_map(|m| ["--streak-model", m]).collect();
     let temp = tempfile::tempdir().expect("temp dir");
     let dir = std::env::var_os("GLINT_INDEPENDENT_KEEP")
         .map(std::path::PathBuf::from)
@@ -222,7 +221,7 @@ fn replay_scenes(size: &str, count: usize) -> Outcome {
     };
     for params in &scenes {
         let k = params["scene"].as_u64().unwrap();
-        let (reports, truths) = replay_scene(&dir, params, model.as_deref());
+        let (reports, truths) = replay_scene(&dir, params, &model_args);
         let settled = params["settled_frame"].as_u64().unwrap_or(0) as usize;
         let exposure_s = params["exposure_us"].as_f64().unwrap() * 1e-6;
         let s = score(&reports, &truths, settled, exposure_s);
@@ -356,7 +355,7 @@ fn a_fit_that_leaves_its_light_is_not_reported() {
         params["spot"]["kind"], "halo",
         "the scene drawn is not this test's"
     );
-    let (reports, truths) = replay_scene(temp.path(), params, None);
+    let (reports, truths) = replay_scene(temp.path(), params, &[]);
     let mut measured = 0;
     for (r, t) in reports.iter().zip(&truths) {
         if r["found"] != true {
@@ -396,7 +395,7 @@ fn a_long_run_on_a_spot_the_fit_does_not_describe_reads_its_speed() {
         let args = ["--motion", "arc", "--spot", spot, "--frames", FRAMES];
         for params in &render(temp.path(), 7, 8, &args) {
             let k = params["scene"].as_u64().unwrap();
-            let (reports, truths) = replay_scene(temp.path(), params, None);
+            let (reports, truths) = replay_scene(temp.path(), params, &[]);
             let exposure_s = params["exposure_us"].as_f64().unwrap() * 1e-6;
             let (mut speed, mut without, mut scored) = (Vec::new(), 0, 0);
             for (r, t) in reports.iter().zip(&truths) {
@@ -442,4 +441,179 @@ fn a_long_run_on_a_spot_the_fit_does_not_describe_reads_its_speed() {
         out.push(format!("pooled p95 {:.2} %", 100.0 * p95));
     }
     assert!(out.is_empty(), "{}", out.join("\n"));
+}
+
+/// One frame's readings of a scene under a rolling shutter, against its truth.
+struct RowFrame {
+    frame: usize,
+    head_px: f64,
+    /// (read − true) / true, on streaks of at least [`SPEED_MIN_STREAK_PX`].
+    speed: Option<f64>,
+    /// How much the rows' skew alone changes the speed the picture shows: `1 / (1 − v_y τ) − 1`.
+    skew: f64,
+}
+
+/// The frames of a replay after its first report, scored as [`score`] scores them, with the
+/// speed's sign kept: the truth's speed is its velocity's (these scenes' LEDs keep theirs).
+fn row_frames(reports: &[Value], truths: &[Truth], row_time_us: f64) -> Vec<RowFrame> {
+    let mut frames = Vec::new();
+    let mut acquired = false;
+    for (r, t) in reports.iter().zip(truths) {
+        if t.visible != Visibility::Visible || r["found"] != true {
+            continue;
+        }
+        if !std::mem::replace(&mut acquired, true) {
+            continue;
+        }
+        let at = |k: &str| r[k].as_f64().unwrap();
+        let (vx, vy) = (t.vx_px_s.unwrap(), t.vy_px_s.unwrap());
+        let truth = vx.hypot(vy);
+        let speed = (t.streak_px.unwrap() >= SPEED_MIN_STREAK_PX && r["v_method"] == "streak")
+            .then(|| (at("vx").hypot(at("vy")) - truth) / truth);
+        frames.push(RowFrame {
+            frame: t.frame,
+            head_px: (at("x") - t.x_px.unwrap()).hypot(at("y") - t.y_px.unwrap()),
+            speed,
+            skew: 1.0 / (1.0 - vy * row_time_us * 1e-6) - 1.0,
+        });
+    }
+    frames
+}
+
+/// The slope and the mean of `y` against `x`, by least squares.
+fn slope_and_mean(x: &[f64], y: &[f64]) -> (f64, f64) {
+    let n = x.len() as f64;
+    let (mx, my) = (x.iter().sum::<f64>() / n, y.iter().sum::<f64>() / n);
+    let sxx: f64 = x.iter().map(|a| (a - mx).powi(2)).sum();
+    let sxy: f64 = x.iter().zip(y).map(|(a, b)| (a - mx) * (b - my)).sum();
+    (sxy / sxx, my)
+}
+
+/// A rolling shutter drawn by other physics than glint's: the independent renderer lights
+/// each row only with the samples of the LED's path its own exposure holds (glint-scene draws
+/// each row's window). Straight runs and circles (seed 7), each drawn twice from the same
+/// draws, with 40 µs rows (a 19 ms readout) and with a global shutter, and replayed with
+/// `--row-time-us 40`, without it, and the global twin as it is. Frame by frame against the
+/// twin's reading, the speed read without the option keeps the whole skew (the renderer's
+/// rows are skewed as the physics says), and read with it at most [`SKEW_LEFT_MAX`] of it,
+/// [`ROW_BIAS_MAX`] from the twin on average; pooled, the speed and the head hold the
+/// issue's bounds. Measured over 116 frames: of a skew of 6.3 % (rms), 1.04 kept without the
+/// option and −0.03 left with it, +0.22 % from the global twin; speed 0.90 / 4.74 %, head
+/// 0.09 / 0.53 px. Before the spot's skew was read from the velocity expected in the frame
+/// (the last one turned on as the LED turns), the circles alone read heads of 3.5 px and
+/// speeds of 12.5 % (p95): a circle turning 150° a frame had its spot read through the skew
+/// of a velocity pointing nearly the other way. NOT YET HELD, so not asserted: the same
+/// circles at 60 µs rows (a 29 ms readout of a 33 ms frame), where that circle's heads read
+/// 2.4–3.6 px off with or without the option.
+#[test]
+fn a_rolling_shutter_drawn_independently_reads_the_leds_speed() {
+    /// Four standard errors of the slope over some 110 frames whose speed scatters by 2 %
+    /// against a skew of 5 % (rms).
+    const SKEW_LEFT_MAX: f64 = 0.2;
+    const ROW_BIAS_MAX: f64 = 0.01;
+    /// The skew a reading without the option must keep: the whole of it, less the slope's
+    /// scatter.
+    const SKEW_KEPT_MIN: f64 = 0.8;
+    const ROW_TIME_US: f64 = 40.0;
+    const SEED: u64 = 7;
+    let row_time = ROW_TIME_US.to_string();
+    let (mut skews, mut corrected, mut uncorrected) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut speed, mut head) = (Vec::new(), Vec::new());
+    for (motion, count) in [("line", 8), ("arc", 6)] {
+        let rolling_dir = tempfile::tempdir().expect("temp dir");
+        let global_dir = tempfile::tempdir().expect("temp dir");
+        let args =
+            |row_time: &str| ["--motion", motion, "--row-time-us", row_time].map(String::from);
+        let a = args(&row_time);
+        let g = args("0");
+        let rolling = render(
+            rolling_dir.path(),
+            SEED,
+            count,
+            &a.each_ref().map(String::as_str),
+        );
+        let global = render(
+            global_dir.path(),
+            SEED,
+            count,
+            &g.each_ref().map(String::as_str),
+        );
+        for (params, twin) in rolling.iter().zip(&global) {
+            let k = params["scene"].as_u64().unwrap();
+            for key in ["exposure_us", "streak_px", "spot", "camera", "frames"] {
+                assert_eq!(params[key], twin[key], "scene {k}: the twins' {key} differ");
+            }
+            let read = |dir: &Path, params: &Value, extra: &[&str]| {
+                let (reports, truths) = replay_scene(dir, params, extra);
+                row_frames(&reports, &truths, ROW_TIME_US)
+            };
+            let with = read(rolling_dir.path(), params, &["--row-time-us", &row_time]);
+            let without = read(rolling_dir.path(), params, &[]);
+            let twin = read(global_dir.path(), twin, &[]);
+            for f in &with {
+                let at = |frames: &[RowFrame]| {
+                    frames
+                        .iter()
+                        .find(|g| g.frame == f.frame)
+                        .and_then(|g| g.speed)
+                };
+                if let (Some(s), Some(u), Some(g)) = (f.speed, at(&without), at(&twin)) {
+                    skews.push(f.skew);
+                    corrected.push(s - g);
+                    uncorrected.push(u - g);
+                }
+            }
+            let scene_speed: Vec<f64> = with.iter().filter_map(|f| f.speed).map(f64::abs).collect();
+            let scene_head: Vec<f64> = with.iter().map(|f| f.head_px).collect();
+            let (s, h) = (quantiles(&scene_speed), quantiles(&scene_head));
+            eprintln!(
+                "{motion} scene {k}: speed {:.2} / {:.2} % over {} frames, head {:.2} / {:.2} px",
+                100.0 * s.0,
+                100.0 * s.1,
+                scene_speed.len(),
+                h.0,
+                h.1,
+            );
+            speed.extend(scene_speed);
+            head.extend(scene_head);
+        }
+    }
+    let (kept, _) = slope_and_mean(&skews, &uncorrected);
+    let (left, bias) = slope_and_mean(&skews, &corrected);
+    let skew_rms = (skews.iter().map(|s| s * s).sum::<f64>() / skews.len() as f64).sqrt();
+    let (speed_q, head_q) = (quantiles(&speed), quantiles(&head));
+    eprintln!(
+        "{} frames, skew {:.1} % (rms): {kept:+.3} of it kept without the option, {left:+.3} \
+         with it, {:+.2} % from the global twin; speed {:.2} / {:.2} %, head {:.3} / {:.3} px",
+        skews.len(),
+        100.0 * skew_rms,
+        100.0 * bias,
+        100.0 * speed_q.0,
+        100.0 * speed_q.1,
+        head_q.0,
+        head_q.1,
+    );
+    assert!(skews.len() >= 60, "{} frames compared", skews.len());
+    assert!(
+        kept >= SKEW_KEPT_MIN,
+        "{kept:+.3} of the skew kept without the option"
+    );
+    assert!(left.abs() <= SKEW_LEFT_MAX, "{left:+.3} of the skew left");
+    assert!(
+        bias.abs() <= ROW_BIAS_MAX,
+        "{:+.2} % from the twin",
+        100.0 * bias
+    );
+    assert!(
+        speed_q.0 <= SPEED_MEDIAN_MAX && speed_q.1 <= SPEED_P95_MAX,
+        "speed {:.2} / {:.2} %",
+        100.0 * speed_q.0,
+        100.0 * speed_q.1
+    );
+    assert!(
+        head_q.0 <= HEAD_MEDIAN_MAX_PX && head_q.1 <= HEAD_P95_MAX_PX,
+        "head {:.3} / {:.3} px",
+        head_q.0,
+        head_q.1
+    );
 }

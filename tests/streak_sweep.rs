@@ -1094,8 +1094,8 @@ fn slope_and_mean(x: &[f64], y: &[f64]) -> (f64, f64) {
 /// the speed keeps at most [`SKEW_LEFT_MAX`] of the skew and reads within
 /// [`ROLLING_BIAS_MAX`] of it on average; pooled, the speed and the head hold the issue's
 /// bounds; and no frame the global shutter's track kept is lost. Measured on 24 / 40 / 120
-/// points: 0.02 / 0.03 / 0.00 of the skew left (1.10 without `--row-time-us`), +0.55 / +0.5 /
-/// +0.3 % from the global shutter. At these row times the spot's own skew is a tenth of a
+/// points: +0.01 / +0.01 / −0.02 of the skew left (1.10 without `--row-time-us`), +0.63 /
+/// +0.49 / +0.31 % from the global shutter. At these row times the spot's own skew is a tenth of a
 /// pixel or two; that the spot is read through it is held in `tests/rolling_shutter.rs`, at
 /// 62.5 µs rows (here, read round, 0.10 of the skew is left and the head's median is 0.03 px
 /// worse).

@@ -92,6 +92,10 @@ pub const GATE_TRAVEL_FACTOR: f32 = 2.5;
 /// After this many frames without the LED the track is dropped and acquisition starts over.
 pub const MAX_MISSED_FRAMES: u32 = 15;
 
+/// The most an LED's velocity is taken to turn steadily between two frames: beyond a right
+/// angle a frame its streaks no longer show which way it went round.
+const MAX_TURN_RAD: f32 = std::f32::consts::FRAC_PI_2;
+
 /// Frames a tentative track may stand still before it is withdrawn. Two, not one: a streak
 /// that reverses between two frames covers the same pixels in both.
 pub const TENTATIVE_STILL_FRAMES: u64 = 2;
@@ -279,6 +283,37 @@ impl Tracker {
             (f.led_px.0 + vx * dt_s, f.led_px.1 + vy * dt_s)
         });
         Some((predicted_px, gate_px))
+    }
+
+    /// The velocity (px/s) the LED is expected to have at `t_us`: its last one, turned on at
+    /// the rate it turned between the last two frames (an LED on a circle turns by its arc
+    /// over the radius each frame, 70° a frame on a tight one). Where the frame before has no
+    /// velocity (a track's first), the turn is read from the step between the two frames'
+    /// middles, which a steady turn leaves halfway between their directions. `None` before
+    /// that, and after a turn of more than [`MAX_TURN_RAD`] a frame: that is no steady turn (a
+    /// reversal, or a circle so fast that its streaks no longer show which way it went round),
+    /// and the last velocity says nothing of the next.
+    pub fn expected_velocity_px_s(&self, t_us: u64) -> Option<(f32, f32)> {
+        let mut recent = self.history.oldest_ordered().rev();
+        let last = recent.next()?;
+        let (v1, _) = last.estimate.velocity_px_s?;
+        let before = recent.next()?;
+        let angle =
+            |a: (f32, f32), b: (f32, f32)| (a.0 * b.1 - a.1 * b.0).atan2(a.0 * b.0 + a.1 * b.1);
+        let turn_rad = match before.estimate.velocity_px_s {
+            Some((v0, _)) => angle(v0, v1),
+            None => {
+                let (m0, m1) = (before.estimate.mid_px, last.estimate.mid_px);
+                2.0 * angle((m1.0 - m0.0, m1.1 - m0.1), v1)
+            }
+        };
+        let step_us = last.t_us.saturating_sub(before.t_us);
+        if turn_rad.abs() > MAX_TURN_RAD || step_us == 0 {
+            return None;
+        }
+        let on = turn_rad * t_us.saturating_sub(last.t_us) as f32 / step_us as f32;
+        let (sin, cos) = on.clamp(-MAX_TURN_RAD, MAX_TURN_RAD).sin_cos();
+        Some((v1.0 * cos - v1.1 * sin, v1.0 * sin + v1.1 * cos))
     }
 
     /// [`Tracker::prediction`] without the body's correction.
@@ -1975,5 +2010,80 @@ mod tests {
             PositionMethod::Mid,
             "no direction after re-acquisition"
         );
+    }
+
+    /// An LED on a circle of `radius_px` around (320, 240), turning `turn_rad` a frame, seen
+    /// with a 10 ms exposure: frame `n`'s streak (its middle halfway along the arc) and the
+    /// direction of its chord, the LED's mean direction over the exposure.
+    fn on_circle(n: u64, radius_px: f32, turn_rad: f32) -> (Streak, f32) {
+        let rate_rad_s = turn_rad / (FRAME_US as f32 * 1e-6);
+        let at = |t_s: f32| {
+            let a = rate_rad_s * t_s;
+            (320.0 + radius_px * a.cos(), 240.0 + radius_px * a.sin())
+        };
+        let end_s = n as f32 * FRAME_US as f32 * 1e-6;
+        let (a, b) = (at(end_s - 0.010), at(end_s));
+        let mid = at(end_s - 0.005);
+        let chord_rad = (b.1 - a.1).atan2(b.0 - a.0);
+        (streak(mid, Some([a, b])), chord_rad)
+    }
+
+    /// The angle between two directions, in (−π, π].
+    fn between(a_rad: f32, b_rad: f32) -> f32 {
+        (b_rad - a_rad).sin().atan2((b_rad - a_rad).cos())
+    }
+
+    /// A rolling shutter skews an LED's spot by its velocity during the frame, which on a
+    /// circle is not its last: at 40° a frame the last velocity is 37° off the next frame's
+    /// chord, and the expected one, turned on at the rate the last two turned, 3° off (9° from
+    /// the first velocity, whose turn is read from the middles' step). A circle at 150° a
+    /// frame shows no steady turn: no velocity is expected.
+    #[test]
+    fn the_expected_velocity_turns_as_the_led_does() {
+        let config = TrackerConfig {
+            exposure_us: Some(10_000),
+        };
+        let mut t = Tracker::new(config);
+        let turn_rad = 40f32.to_radians();
+        for n in 0..6u64 {
+            let (s, _) = on_circle(n, 100.0, turn_rad);
+            let estimate = t.update(n * FRAME_US, Some(&s));
+            let next_t_us = (n + 1) * FRAME_US;
+            let expected = t.expected_velocity_px_s(next_t_us);
+            if n == 0 {
+                assert_eq!(expected, None, "no velocity is known in the first frame");
+                continue;
+            }
+            let (v, _) = estimate.unwrap().velocity_px_s.expect("a velocity");
+            let (_, next_rad) = on_circle(n + 1, 100.0, turn_rad);
+            let last_off = between(v.1.atan2(v.0), next_rad);
+            let (ex, ey) = expected.expect("a steady turn");
+            let expected_off = between(ey.atan2(ex), next_rad);
+            eprintln!(
+                "frame {n}: last {:.2}°, expected {:.2}° off",
+                last_off.to_degrees(),
+                expected_off.to_degrees()
+            );
+            assert!(
+                last_off.abs() > 0.75 * turn_rad,
+                "frame {n}: the last velocity is {:.1}° off",
+                last_off.to_degrees()
+            );
+            assert!(
+                expected_off.abs() < 0.25 * turn_rad,
+                "frame {n}: expected {:.1}° off",
+                expected_off.to_degrees()
+            );
+        }
+        let mut fast = Tracker::new(config);
+        for n in 0..4u64 {
+            let (s, _) = on_circle(n, 30.0, 150f32.to_radians());
+            fast.update(n * FRAME_US, Some(&s));
+            assert_eq!(
+                fast.expected_velocity_px_s((n + 1) * FRAME_US),
+                None,
+                "frame {n}"
+            );
+        }
     }
 }

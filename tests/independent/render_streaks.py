@@ -13,11 +13,16 @@ Everything that glint-scene models one way is modelled another way here:
   electrons, clipping at the full well, then an sRGB-like tone curve (a linear toe and a power)
   or a filmic S-curve, an optional unsharp mask as webcams apply, 8-bit rounding, full or
   studio range; glint-scene adds noise in luma after a pure power law;
-- the floor is smoothed random texture under a vignette.
+- the floor is smoothed random texture under a vignette;
+- with `--row-time-us`, a rolling shutter: each sample of the LED's path lights only the rows
+  whose own exposure holds its moment, row y's exposure ending y × the row time after row 0's;
+  glint-scene draws each row's patch over that row's exposure window.
 
 Ground truth is written in glint-scene's truth CSV (frame, t, visible, x, y, mid_x, mid_y, vx,
 vy, streak_px, path_mid_x, path_mid_y): x, y is the LED at the end of the exposure, mid at its
 middle in time, path_mid halfway along its path, v the velocity at the end of the exposure.
+Under a rolling shutter the exposure is the LED's own row's: from the moment the row it is in
+starts its exposure to the moment the row it is in then ends it.
 Pixel (0, 0)'s centre is the coordinate (0, 0), as in OpenCV.
 
     render_streaks.py --seed S --count N --out DIR
@@ -25,6 +30,9 @@ Pixel (0, 0)'s centre is the coordinate (0, 0), as in OpenCV.
 writes DIR/scene_K.grey (8-bit luma frames, 640×480 unless `--size` says otherwise) and
 DIR/scene_K.csv for K < N, and DIR/scenes.json: one object per scene with its parameters (the
 exposure in µs and the picture's size among them).
+`--row-time-us US` reads the rows out one after another, US apart; each frame's noise then has
+a random stream of its own, so that the same seed with `--row-time-us 0` gives the same scenes
+under a global shutter (without the option, the scenes of earlier versions).
 `--motion KIND`, `--spot KIND` and `--frames N` make every scene of that motion, spot or
 length (the rest drawn as without them). `--size WxH` draws its scenes from the same
 distributions as a camera of that size sees them: every length in pixels (the spot, the
@@ -180,18 +188,23 @@ def tone(v, camera):
     return x * (1 + s) / (x + s)
 
 
-def streak_light(motion, kernel, t_start, t_end):
-    """The light of the LED swept from `t_start` to `t_end`, per pixel of a window around the
-    path (a still spot's peak is 1): the window's top-left pixel, the light, the sampled path
-    and its length."""
-    reach = kernel.shape[0] // 2
-    # The path, sampled finely enough that no fine cell is skipped.
+def sampled_path(motion, t_start, t_end):
+    """The LED's path from `t_start` to `t_end`, sampled finely enough that no fine cell is
+    skipped: the sample times (the middles of equal steps), the positions and the length."""
     probe = motion.at(np.linspace(t_start, t_end, 65))
     length = float(np.sum(np.linalg.norm(np.diff(probe, axis=0), axis=1)))
     steps = max(64, int(length * SUPER * 4))
     times = np.linspace(t_start, t_end, steps + 1)
     times = 0.5 * (times[1:] + times[:-1])
-    path = motion.at(times)
+    return times, motion.at(times), length
+
+
+def streak_light(motion, kernel, t_start, t_end):
+    """The light of the LED swept from `t_start` to `t_end`, per pixel of a window around the
+    path (a still spot's peak is 1): the window's top-left pixel, the light, the sampled path
+    and its length."""
+    reach = kernel.shape[0] // 2
+    times, path, length = sampled_path(motion, t_start, t_end)
     lo = np.floor(path.min(axis=0) - reach / SUPER - 2).astype(int)
     hi = np.ceil(path.max(axis=0) + reach / SUPER + 2).astype(int)
     w, h = hi[0] - lo[0] + 1, hi[1] - lo[1] + 1
@@ -215,6 +228,88 @@ def streak_light(motion, kernel, t_start, t_end):
     # The kernel's centre is its cell (reach, reach): a deposit at cell c lands at c + reach.
     light = light[reach : reach + h * SUPER, reach : reach + w * SUPER]
     return lo, light.reshape(h, SUPER, w, SUPER).mean(axis=(1, 3)), path, length
+
+
+def pixel_kernels(kernel):
+    """The spot's light on the picture's pixels for a point at each of the fine grid's SUPER ×
+    SUPER phases within a pixel: `out[b][a]` is the 4×4 block mean of `kernel` centred on fine
+    cell (b, a) of a pixel, with the centre pixel at index `m` of each axis. A point deposited
+    at that phase and then convolved and block-averaged (as `streak_light` does) gives exactly
+    this."""
+    n = kernel.shape[0] // 2
+    m = -(-n // SUPER) + 1
+    size = SUPER * (2 * m + 1)
+    out = []
+    for b in range(SUPER):
+        row = []
+        for a in range(SUPER):
+            grid = np.zeros((size, size))
+            y0, x0 = SUPER * m + b - n, SUPER * m + a - n
+            grid[y0 : y0 + 2 * n + 1, x0 : x0 + 2 * n + 1] = kernel
+            row.append(grid.reshape(2 * m + 1, SUPER, 2 * m + 1, SUPER).mean(axis=(1, 3)))
+        out.append(row)
+    return out, m
+
+
+def seen_in_its_row(motion, t_row0, row_time_s):
+    """The moment `t` at which the LED is in the row whose exposure is at `t_row0`'s point of
+    row 0's: `t = t_row0 + y(t) × row time`, by fixed-point steps (each shrinks the error by
+    the rows the LED crosses in a row time, a small fraction)."""
+    t = t_row0
+    for _ in range(20):
+        t = t_row0 + max(float(motion.at(t)[1]), 0.0) * row_time_s
+    return t
+
+
+def rolling_light(motion, pixel, m, t_start, t_end, row_time_s):
+    """The light of the LED seen by a rolling shutter, as `streak_light` gives it for a global
+    one: row y sees it from `t_start + y τ` to `t_end + y τ`. Each sample of the path lights its
+    four fine cells' pixel kernels (`pixel_kernels`), on the rows whose exposure holds it."""
+    exposure_s = t_end - t_start
+    # The rows the light can reach: around the LED's own rows while any row can see it.
+    t_first = seen_in_its_row(motion, t_start, row_time_s)
+    t_last = seen_in_its_row(motion, t_end, row_time_s)
+    probe = motion.at(np.linspace(t_first, t_last, 65))
+    row_lo = max(int(math.floor(probe[:, 1].min())) - m - 1, 0)
+    row_hi = min(int(math.ceil(probe[:, 1].max())) + m + 1, HEIGHT - 1)
+    # Every moment some row of those sees, sampled as densely as a global exposure is.
+    length = float(np.sum(np.linalg.norm(np.diff(probe, axis=0), axis=1)))
+    dt = exposure_s / max(64, int(length * SUPER * 4))
+    t0, t1 = t_start + row_lo * row_time_s, t_end + row_hi * row_time_s
+    steps = int(math.ceil((t1 - t0) / dt))
+    times = t0 + (np.arange(steps) + 0.5) * (t1 - t0) / steps
+    weight = (t1 - t0) / steps / exposure_s
+    path = motion.at(times)
+    lo = np.floor(path.min(axis=0)).astype(int) - m - 1
+    hi = np.ceil(path.max(axis=0)).astype(int) + m + 2
+    lo[1], hi[1] = row_lo, row_hi + 1
+    light = np.zeros((hi[1] - lo[1], hi[0] - lo[0]))
+    # Rows whose exposure holds each moment: t_start + y τ <= t <= t_end + y τ.
+    first_row = np.ceil((times - t_end) / row_time_s).astype(int)
+    last_row = np.floor((times - t_start) / row_time_s).astype(int)
+    fx = (path[:, 0] + 0.5) * SUPER - 0.5
+    fy = (path[:, 1] + 0.5) * SUPER - 0.5
+    ix, iy = np.floor(fx).astype(int), np.floor(fy).astype(int)
+    ax, ay = fx - ix, fy - iy
+    for k in range(steps):
+        for dx, dy, share in (
+            (0, 0, (1 - ax[k]) * (1 - ay[k])),
+            (1, 0, ax[k] * (1 - ay[k])),
+            (0, 1, (1 - ax[k]) * ay[k]),
+            (1, 1, ax[k] * ay[k]),
+        ):
+            cx, cy = ix[k] + dx, iy[k] + dy
+            px, py = cx // SUPER, cy // SUPER
+            kern = pixel[cy % SUPER][cx % SUPER]
+            # The kernel's rows y in [py - m, py + m], cut to the rows that see this moment.
+            y0 = max(py - m, first_row[k], lo[1])
+            y1 = min(py + m, last_row[k], hi[1] - 1)
+            if y1 < y0:
+                continue
+            light[y0 - lo[1] : y1 + 1 - lo[1], px - m - lo[0] : px + m + 1 - lo[0]] += (
+                share * weight * kern[y0 - py + m : y1 + 1 - py + m]
+            )
+    return lo, light
 
 
 def render_scene(rng, index, force):
@@ -268,11 +363,22 @@ def render_scene(rng, index, force):
     dimmest = min(streak_light(motion, short, *t)[1].max() for t in times)
     peak_full_wells = streak_peak_full_wells / dimmest
     kernel = spot_kernel(spot, kernel_reach_px(spot, peak_full_wells))
+    row_time_s = (force.row_time_us or 0.0) * 1e-6
+    if row_time_s > 0:
+        pixel, m = pixel_kernels(kernel)
 
     out = bytearray()
     truths = []
-    for n, (t_start, t_end) in enumerate(times):
-        lo, light, path, length = streak_light(motion, kernel, t_start, t_end)
+    for n, (frame_start, frame_end) in enumerate(times):
+        if row_time_s > 0:
+            lo, light = rolling_light(motion, pixel, m, frame_start, frame_end, row_time_s)
+            # The LED's own exposure: from its row's start to its row's end.
+            t_start = seen_in_its_row(motion, frame_start, row_time_s)
+            t_end = seen_in_its_row(motion, frame_end, row_time_s)
+            _, path, length = sampled_path(motion, t_start, t_end)
+        else:
+            t_start, t_end = frame_start, frame_end
+            lo, light, path, length = streak_light(motion, kernel, t_start, t_end)
         h, w = light.shape
         # A still spot's peak is 1 before scaling (the kernel's peak, the path's weight 1);
         # what falls outside the picture is dropped.
@@ -282,8 +388,12 @@ def render_scene(rng, index, force):
         irradiance[y0:y1, x0:x1] += peak_full_wells * np.clip(
             light[y0 - lo[1] : y1 - lo[1], x0 - lo[0] : x1 - lo[0]], 0, None
         )
-        electrons = rng.poisson(irradiance * camera["full_well_e"]).astype(float)
-        electrons += rng.normal(0.0, camera["read_noise_e"], electrons.shape)
+        # How many numbers the shot noise draws depends on the light, so under a rolling
+        # shutter each frame's noise has a stream of its own: the scenes' other draws then stay
+        # those of the same seed's global shutter (`--row-time-us 0`).
+        noise = rng if force.row_time_us is None else np.random.default_rng([force.seed, index, n])
+        electrons = noise.poisson(irradiance * camera["full_well_e"]).astype(float)
+        electrons += noise.normal(0.0, camera["read_noise_e"], electrons.shape)
         v = tone(electrons / camera["full_well_e"], camera)
         if camera["sharpen"] > 0:
             blur = (np.roll(v, 1, 0) + np.roll(v, -1, 0) + np.roll(v, 1, 1) + np.roll(v, -1, 1) + 4 * v) / 8
@@ -309,7 +419,7 @@ def render_scene(rng, index, force):
         )
         visible = 1 if inside.all() else (-1 if inside.any() else 0)
         truths.append(
-            f"{n},{t_end:.6f},{visible},{head[0]:.4f},{head[1]:.4f},{mid[0]:.4f},{mid[1]:.4f},"
+            f"{n},{frame_end:.6f},{visible},{head[0]:.4f},{head[1]:.4f},{mid[0]:.4f},{mid[1]:.4f},"
             f"{vel[0]:.3f},{vel[1]:.3f},{length:.4f},{path_mid[0]:.4f},{path_mid[1]:.4f}"
         )
     params = {
@@ -326,6 +436,7 @@ def render_scene(rng, index, force):
         "motion": motion.kind,
         # The first frame whose exposure starts after an LED moving into place stopped.
         "settled_frame": math.ceil(motion.move_s * FPS) if motion.kind == "settle" else 0,
+        "row_time_us": force.row_time_us or 0.0,
     }
     return bytes(out), truths, params
 
@@ -340,10 +451,15 @@ def main():
     parser.add_argument("--spot", choices=["moffat", "halo", "pillbox"])
     parser.add_argument("--frames", type=int, help="frames of an arc or a settling LED")
     parser.add_argument("--size", default="640x480", help="the picture's WxH")
+    parser.add_argument(
+        "--row-time-us", type=float, help="a rolling shutter's row time, µs (0: a global shutter)"
+    )
     args = parser.parse_args()
     global WIDTH, HEIGHT, SCALE
     WIDTH, HEIGHT = (int(v) for v in args.size.split("x"))
     SCALE = WIDTH / 640.0
+    if args.row_time_us is not None and not 0.0 <= args.row_time_us * HEIGHT <= 1e6 / FPS:
+        parser.error("--row-time-us must be at least 0 and read the rows out within a frame")
     rng = np.random.default_rng(args.seed)
     scenes = []
     for k in range(args.count):
