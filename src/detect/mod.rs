@@ -529,10 +529,10 @@ impl Detector {
     }
 
     /// How a rolling shutter skews the spot of the LED analysed next (its picture moving as
-    /// the tracker last measured it): the map from the skewed picture back to a global
-    /// shutter's, which makes its spot round again (see
+    /// the tracker expects it to in this frame): the map from the skewed picture back to a
+    /// global shutter's, which makes its spot round again (see
     /// [`RollingShutter::unskew`](crate::track::shutter::RollingShutter::unskew)); `None`
-    /// for a global shutter or an LED whose velocity is not known yet. Set each frame.
+    /// for a global shutter or an LED whose velocity is not expected yet. Set each frame.
     pub fn set_row_skew(&mut self, unskew: Option<[[f32; 2]; 2]>) {
         self.row_skew = unskew;
     }

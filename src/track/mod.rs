@@ -308,7 +308,8 @@ impl Tracker {
             }
         };
         let step_us = last.t_us.saturating_sub(before.t_us);
-        if turn_rad.abs() > MAX_TURN_RAD || step_us == 0 {
+        // A turn that is no number (from a degenerate velocity) is no steady turn either.
+        if !turn_rad.is_finite() || turn_rad.abs() > MAX_TURN_RAD || step_us == 0 {
             return None;
         }
         let on = turn_rad * t_us.saturating_sub(last.t_us) as f32 / step_us as f32;
