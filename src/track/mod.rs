@@ -290,7 +290,7 @@ impl Tracker {
     /// over the radius each frame, 70° a frame on a tight one). Where the frame before has no
     /// velocity (a track's first), the turn is read from the step between the two frames'
     /// middles, which a steady turn leaves halfway between their directions. `None` before
-    /// that, and after a turn of more than [`MAX_TURN_RAD`] a frame: that is no steady turn (a
+    /// that, and after a turn of more than a right angle a frame: that is no steady turn (a
     /// reversal, or a circle so fast that its streaks no longer show which way it went round),
     /// and the last velocity says nothing of the next.
     pub fn expected_velocity_px_s(&self, t_us: u64) -> Option<(f32, f32)> {
