@@ -339,7 +339,7 @@ fn detector(size: FrameSize, config: &PipelineConfig) -> Result<Detector, Backgr
 }
 
 /// How `shutter` skews the spot of the LED `tracker` follows in the frame at `t_us`, for the
-/// velocity it is expected to have then (none before one is known: the spot is then taken to
+/// velocity it is expected to have then (none before one is expected: the spot is then taken to
 /// be round).
 fn row_skew(shutter: RollingShutter, tracker: &Tracker, t_us: u64) -> Option<[[f32; 2]; 2]> {
     shutter.unskew(tracker.expected_velocity_px_s(t_us)?)
