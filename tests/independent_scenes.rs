@@ -26,7 +26,7 @@ use std::path::Path;
 use std::process::Command;
 
 use common::peers::python;
-use common::{glint, parse_jsonl, quantile};
+use common::{glint, parse_jsonl, quantile, slope_and_mean};
 use glint_tools::scene::{read_truth_csv, Truth, Visibility};
 use serde_json::Value;
 
@@ -478,15 +478,6 @@ fn row_frames(reports: &[Value], truths: &[Truth], row_time_us: f64) -> Vec<RowF
         });
     }
     frames
-}
-
-/// The slope and the mean of `y` against `x`, by least squares.
-fn slope_and_mean(x: &[f64], y: &[f64]) -> (f64, f64) {
-    let n = x.len() as f64;
-    let (mx, my) = (x.iter().sum::<f64>() / n, y.iter().sum::<f64>() / n);
-    let sxx: f64 = x.iter().map(|a| (a - mx).powi(2)).sum();
-    let sxy: f64 = x.iter().zip(y).map(|(a, b)| (a - mx) * (b - my)).sum();
-    (sxy / sxx, my)
 }
 
 /// A rolling shutter drawn by other physics than glint's: the independent renderer lights

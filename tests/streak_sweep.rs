@@ -26,7 +26,7 @@
 
 mod common;
 
-use common::in_process;
+use common::{in_process, slope_and_mean};
 use glint::detect::spot_shape::{SpotOptics, SpotShape};
 use glint::detect::streak::{FitFloor, StreakModel};
 use glint::detect::{Detector, DetectorConfig};
@@ -1075,15 +1075,6 @@ const ROLLING_BIAS_MAX: f64 = 0.01;
 /// at `vy_px_s` down the picture: it reads `1 / (1 − v_y τ)` times the true speed.
 fn shutter_skew(vy_px_s: f64, row_time_us: f64) -> f64 {
     1.0 / (1.0 - vy_px_s * row_time_us * 1e-6) - 1.0
-}
-
-/// The slope and the mean of `y` against `x`, by least squares.
-fn slope_and_mean(x: &[f64], y: &[f64]) -> (f64, f64) {
-    let n = x.len() as f64;
-    let (mx, my) = (x.iter().sum::<f64>() / n, y.iter().sum::<f64>() / n);
-    let sxx: f64 = x.iter().map(|a| (a - mx).powi(2)).sum();
-    let sxy: f64 = x.iter().zip(y).map(|(a, b)| (a - mx) * (b - my)).sum();
-    (sxy / sxx, my)
 }
 
 /// The sweep seen through a rolling shutter: moving points of the sweep (every spot, width,

@@ -112,6 +112,16 @@ pub fn quantile(values: &[f64], q: f64) -> f64 {
     sorted[rank - 1]
 }
 
+/// The least-squares slope of `y` against `x`, and the mean of `y`: how much of a quantity
+/// `x` (a rolling shutter's skew) is left in an error `y`, and the error's bias.
+pub fn slope_and_mean(x: &[f64], y: &[f64]) -> (f64, f64) {
+    let n = x.len() as f64;
+    let (mx, my) = (x.iter().sum::<f64>() / n, y.iter().sum::<f64>() / n);
+    let sxx: f64 = x.iter().map(|a| (a - mx).powi(2)).sum();
+    let sxy: f64 = x.iter().zip(y).map(|(a, b)| (a - mx) * (b - my)).sum();
+    (sxy / sxx, my)
+}
+
 /// Per-scene comparison of reports with the truth.
 #[derive(Debug, Default)]
 pub struct Score {
