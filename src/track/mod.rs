@@ -298,13 +298,11 @@ impl Tracker {
         let last = recent.next()?;
         let (v1, _) = last.estimate.velocity_px_s?;
         let before = recent.next()?;
-        let angle =
-            |a: (f32, f32), b: (f32, f32)| (a.0 * b.1 - a.1 * b.0).atan2(a.0 * b.0 + a.1 * b.1);
         let turn_rad = match before.estimate.velocity_px_s {
-            Some((v0, _)) => angle(v0, v1),
+            Some((v0, _)) => motion::signed_angle(v0, v1),
             None => {
                 let (m0, m1) = (before.estimate.mid_px, last.estimate.mid_px);
-                2.0 * angle((m1.0 - m0.0, m1.1 - m0.1), v1)
+                2.0 * motion::signed_angle((m1.0 - m0.0, m1.1 - m0.1), v1)
             }
         };
         let step_us = last.t_us.saturating_sub(before.t_us);
@@ -313,8 +311,7 @@ impl Tracker {
             return None;
         }
         let on = turn_rad * t_us.saturating_sub(last.t_us) as f32 / step_us as f32;
-        let (sin, cos) = on.clamp(-MAX_TURN_RAD, MAX_TURN_RAD).sin_cos();
-        Some((v1.0 * cos - v1.1 * sin, v1.0 * sin + v1.1 * cos))
+        Some(motion::rotate(v1, on.clamp(-MAX_TURN_RAD, MAX_TURN_RAD)))
     }
 
     /// [`Tracker::prediction`] without the body's correction.

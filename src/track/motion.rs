@@ -122,11 +122,8 @@ pub fn motion_head(middles: &[Middle], exposure_us: u32) -> Option<MotionHead> {
         v[j] = ((b.0 - a.0) / dt_s[j], (b.1 - a.1) / dt_s[j]);
     }
     // The turn rate at middle j (from displacement j to j + 1), per second.
-    let turn_rate = |j: usize| -> f32 {
-        let (a, b) = (v[j], v[j + 1]);
-        let angle = (a.0 * b.1 - a.1 * b.0).atan2(a.0 * b.0 + a.1 * b.1);
-        angle / (0.5 * (dt_s[j] + dt_s[j + 1]))
-    };
+    let turn_rate =
+        |j: usize| -> f32 { signed_angle(v[j], v[j + 1]) / (0.5 * (dt_s[j] + dt_s[j + 1])) };
     // The acceleration over middle j (from displacement j to j + 1).
     let acceleration = |j: usize| -> (f32, f32) {
         let dt = 0.5 * (dt_s[j] + dt_s[j + 1]);
@@ -333,7 +330,7 @@ fn early_steps(middles: &[Middle]) -> Option<EarlySteps> {
         Some((((b.0 - a.0) / dt_s, (b.1 - a.1) / dt_s), dt_s))
     };
     let ((v0, dt0), (v1, dt1)) = (step(n - 2)?, step(n - 1)?);
-    let angle = (v0.0 * v1.1 - v0.1 * v1.0).atan2(v0.0 * v1.0 + v0.1 * v1.1);
+    let angle = signed_angle(v0, v1);
     Some(EarlySteps {
         v0,
         dt0,
@@ -384,8 +381,14 @@ fn chord_per_arc(angle: f32) -> f32 {
     }
 }
 
+/// The angle (rad, in (−π, π]) that turns the direction of `a` onto that of `b`,
+/// positive where it turns from the x axis toward the y axis.
+pub(crate) fn signed_angle(a: (f32, f32), b: (f32, f32)) -> f32 {
+    (a.0 * b.1 - a.1 * b.0).atan2(a.0 * b.0 + a.1 * b.1)
+}
+
 /// `(x, y)` turned by `angle` (rad).
-fn rotate((x, y): (f32, f32), angle: f32) -> (f32, f32) {
+pub(crate) fn rotate((x, y): (f32, f32), angle: f32) -> (f32, f32) {
     let (c, s) = (angle.cos(), angle.sin());
     (c * x - s * y, s * x + c * y)
 }
