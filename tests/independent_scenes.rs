@@ -26,7 +26,7 @@ use std::path::Path;
 use std::process::Command;
 
 use common::peers::python;
-use common::{glint, parse_jsonl, quantile, slope_and_mean};
+use common::{glint, parse_jsonl, quantile, shutter_skew, slope_and_mean};
 use glint_tools::scene::{read_truth_csv, Truth, Visibility};
 use serde_json::Value;
 
@@ -474,7 +474,7 @@ fn row_frames(reports: &[Value], truths: &[Truth], row_time_us: f64) -> Vec<RowF
             frame: t.frame,
             head_px: (at("x") - t.x_px.unwrap()).hypot(at("y") - t.y_px.unwrap()),
             speed,
-            skew: 1.0 / (1.0 - vy * row_time_us * 1e-6) - 1.0,
+            skew: shutter_skew(vy, row_time_us),
         });
     }
     frames

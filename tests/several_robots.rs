@@ -9,6 +9,9 @@
 //! but at a robot: the glare is never a track. The crossing is repeated over a small sweep of
 //! LED sizes and brightnesses, exposures, noise and tone curves.
 
+mod common;
+
+use common::shutter_skew;
 use glint::frame::{Frame, FrameSize};
 use glint::pipeline::{Pipeline, PipelineConfig};
 use glint::report::FrameReport;
@@ -486,7 +489,7 @@ fn each_robot_s_speed_is_its_own_through_a_rolling_shutter() {
     // The vertical robots' pictures are skewed by `1 / (1 ∓ v τ) − 1`: read without the row
     // time, each keeps more than half of it.
     for (k, vy) in [(0, SPEED_PX_S), (1, -SPEED_PX_S)] {
-        let skew = 1.0 / (1.0 - vy * ROW_TIME_US * 1e-6) - 1.0;
+        let skew = shutter_skew(vy, ROW_TIME_US);
         let kept = (untold[k] - global[k]) / skew;
         assert!(kept > 0.5, "robot {k}: {kept:.2} of the skew kept untold");
     }

@@ -26,7 +26,7 @@
 
 mod common;
 
-use common::{in_process, slope_and_mean};
+use common::{in_process, shutter_skew, slope_and_mean};
 use glint::detect::spot_shape::{SpotOptics, SpotShape};
 use glint::detect::streak::{FitFloor, StreakModel};
 use glint::detect::{Detector, DetectorConfig};
@@ -1070,12 +1070,6 @@ const ROLLING_POINTS: usize = 24;
 const SKEW_LEFT_MAX: f64 = 0.2;
 /// The mean difference from the global shutter's speed on the same frames.
 const ROLLING_BIAS_MAX: f64 = 0.01;
-
-/// The skew a rolling shutter of `row_time_us` gives the single frame's speed of an LED moving
-/// at `vy_px_s` down the picture: it reads `1 / (1 − v_y τ)` times the true speed.
-fn shutter_skew(vy_px_s: f64, row_time_us: f64) -> f64 {
-    1.0 / (1.0 - vy_px_s * row_time_us * 1e-6) - 1.0
-}
 
 /// The sweep seen through a rolling shutter: moving points of the sweep (every spot, width,
 /// brightness, gamma, noise, range, lens and path kind it draws), each rendered once with a

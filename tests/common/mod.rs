@@ -112,6 +112,12 @@ pub fn quantile(values: &[f64], q: f64) -> f64 {
     sorted[rank - 1]
 }
 
+/// The skew a rolling shutter of `row_time_us` gives the single frame's speed of an LED moving
+/// at `vy_px_s` down the picture: the picture reads `1 / (1 − v_y τ)` times the true speed.
+pub fn shutter_skew(vy_px_s: f64, row_time_us: f64) -> f64 {
+    1.0 / (1.0 - vy_px_s * row_time_us * 1e-6) - 1.0
+}
+
 /// The least-squares slope of `y` against `x`, and the mean of `y`: how much of a quantity
 /// `x` (a rolling shutter's skew) is left in an error `y`, and the error's bias.
 pub fn slope_and_mean(x: &[f64], y: &[f64]) -> (f64, f64) {
