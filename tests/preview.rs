@@ -18,6 +18,9 @@ use serde_json::Value;
 const PATIENCE: Duration = Duration::from_secs(60);
 /// BMP file + info header bytes.
 const BMP_HEADER_BYTES: usize = 54;
+/// Points of track the page is opened with: at the slow line's 2 px a frame, a track some
+/// 100 px long.
+const TRACK_SHOWN_POINTS: usize = 50;
 /// The screenshot's rows above the colour key under a 640×480 frame.
 const LEGEND_TOP_PX: usize = 505;
 
@@ -30,7 +33,11 @@ struct Live {
 
 impl Live {
     fn start(r: &Rendered) -> Live {
-        let frames = std::fs::read(&r.dump).unwrap();
+        Live::feeding(r, std::fs::read(&r.dump).unwrap())
+    }
+
+    /// A live run fed `frames` (whole frames of `r`'s scene) over and over.
+    fn feeding(r: &Rendered, frames: Vec<u8>) -> Live {
         let size = format!("{}x{}", r.scene.width_px(), r.scene.height_px());
         let mut child = Command::new(env!("CARGO_BIN_EXE_glint"))
             .args(["run", "--input", "-", "--size", &size, "--fps", "30"])
@@ -40,7 +47,7 @@ impl Live {
             .stderr(Stdio::piped())
             .spawn()
             .unwrap();
-        let frame_bytes = frames.len() / r.truths.len();
+        let frame_bytes = r.scene.frame_len_bytes();
         let feeder = feed_endlessly(child.stdin.take().unwrap(), frames, frame_bytes);
         let (lines, _reader) = lines_of(child.stderr.take().unwrap());
         let addr = loop {
@@ -167,7 +174,27 @@ fn headless_chromium_renders_the_page() {
     }
     let browser = chromium().expect("chromium is installed (tools/setup-system.sh installs it)");
     let r = render("slow-line");
-    let live = Live::start(&r);
+    // The scene forward and then back, over and over: fed forward only, the LED jumps back to
+    // its start at every loop (0.75 s), and its track is lost and begins again.
+    let forward = std::fs::read(&r.dump).unwrap();
+    let frame_bytes = r.scene.frame_len_bytes();
+    let back_and_forth: Vec<u8> = forward
+        .chunks(frame_bytes)
+        .chain(forward.chunks(frame_bytes).rev())
+        .flatten()
+        .copied()
+        .collect();
+    let live = Live::feeding(&r, back_and_forth);
+    // And the page is opened once the track is long: opened as the run starts, the page's
+    // first state held the few points tracked by then.
+    let start = Instant::now();
+    while state(live.addr)["track_px"]
+        .as_array()
+        .is_none_or(|t| t.len() < TRACK_SHOWN_POINTS)
+    {
+        assert!(start.elapsed() < PATIENCE, "the track never grew");
+        thread::sleep(Duration::from_millis(100));
+    }
     let dir = tempfile::tempdir().unwrap();
     let shot = std::env::var_os("GLINT_PREVIEW_SCREENSHOT")
         .map(std::path::PathBuf::from)
