@@ -232,6 +232,19 @@ pub struct Tracker {
     /// How far the streak models read this LED's path long or short (see [`length_offset`]),
     /// each [`LengthReading`] apart, as they err differently and a frame may be read by any.
     length_offsets: [LengthOffset; LengthReading::COUNT],
+    /// The last frame's single-frame path length, for the change of speed the next frame's
+    /// first path is read with (see [`Tracker::motion_path`]).
+    last_length: Option<FrameLength>,
+}
+
+/// One frame's single-frame path length (px), as `reading` read it, and its stated variance
+/// (px²).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct FrameLength {
+    t_us: u64,
+    reading: LengthReading,
+    length_px: f32,
+    variance_px2: f32,
 }
 
 /// Where a lost LED's body put it (see [`Tracker::follow_body`]).
@@ -346,6 +359,7 @@ impl Tracker {
             self.held_since_frame = frame_index;
             self.body.clear();
             self.length_offsets = Default::default();
+            self.last_length = None;
         }
         self.seen_a_frame = true;
         let chosen = candidates
@@ -423,6 +437,7 @@ impl Tracker {
         self.history.clear();
         self.body.clear();
         self.length_offsets = Default::default();
+        self.last_length = None;
         self.followed = None;
         self.tentative = false;
         self.previous_found = false;
@@ -700,7 +715,17 @@ impl Tracker {
         // The single frame's length less the offset learned on the frames before; then this
         // frame's difference is learned from.
         let reading = LengthReading::of(fit_px.is_some(), moving.is_some());
-        let motion_path = self.motion_path(motion, middles, reading);
+        let this_length = streak
+            .path
+            .filter(|_| !streak.path_failed)
+            .map(|p| FrameLength {
+                t_us,
+                reading,
+                length_px: p.path_length_px,
+                variance_px2: p.length_noise_px.map_or(0.0, |l| l * l),
+            });
+        let motion_path = self.motion_path(motion, middles, this_length);
+        self.last_length = this_length;
         let length_offset = &mut self.length_offsets[reading as usize];
         let offset_px = length_offset.offset_px(reading);
         let length_px = streak.path.map(|p| (p.path_length_px - offset_px).max(0.0));
@@ -909,33 +934,58 @@ impl Tracker {
     }
 
     /// The path over the exposure that the middles say the LED drew, with its variance, where
-    /// they say it moved: the motion's (see [`motion`]), or in a run's first frames, before
-    /// the motion has prediction errors to measure its noise by, the path its first two,
-    /// three or four middles give ([`motion::first_path_px`]), its variance not known. Most
-    /// tracks of the independent scenes run 4–14 frames; the motion's path comes from the
-    /// fifth, and a length offset learned from it alone came too late for half of such a
-    /// track. Learned from the third frame, an offset was taken off from the fifth; from the
-    /// second, it is from the fourth.
+    /// they say it moved and the frame has a single-frame path `this` to compare it with: the
+    /// motion's (see [`motion`]), or in a run's first frames, before the motion has
+    /// prediction errors to measure its noise by, the path its first two, three or four
+    /// middles give ([`motion::first_path_px`]), its variance not known (but for the growth
+    /// below). Most tracks of the independent scenes run 4–14 frames; the motion's path comes
+    /// from the fifth, and a length offset learned from it alone came too late for half of
+    /// such a track. Learned from the third frame, an offset was taken off from the fifth;
+    /// from the second, it is from the fourth.
     ///
-    /// The early path only for a `reading` that states its length's deviation (the fit's),
+    /// The early path only for a reading that states its length's deviation (the fit's),
     /// which then weighs these observations: the ramps state none, and their offsets learned
     /// from the early paths of sharp disks on the sweep were noise that put two points out
     /// (seed 11, points 37 and 191: speed medians 3.1 and 4.1 %).
+    ///
+    /// From two middles, the displacement is the LED's mean speed between the two exposures'
+    /// middles: an LED that speeds up by `a` was slower there than during this exposure by
+    /// half an interval's gain, and its path over the exposure is longer than the scaled
+    /// displacement by half of what its path grew since the frame before (`ΔL = a dt e`,
+    /// `D e / dt = L − ΔL / 2`). That growth is read from the two frames' single-frame
+    /// lengths (`this`, and the last frame's), whose steady offset cancels in it, where it is
+    /// beyond twice its deviation; then its variance is the observation's. Read from the
+    /// displacement alone, an LED speeding up by a third over its track (independent scenes
+    /// seed 5, scene 26) gave its second frame's path as 11.1 px for the true 12.2 px, learned
+    /// as part of the fit's offset; now 11.9 px.
     fn motion_path(
         &self,
         motion: Option<motion::MotionHead>,
         middles: &[Middle],
-        reading: LengthReading,
+        this: Option<FrameLength>,
     ) -> Option<(f32, f32)> {
+        let this = this?;
         match motion {
             Some(m) => m.moved.then_some((m.path_px, m.path_sigma_px.powi(2))),
-            None if reading.states_its_deviation() => {
+            None if this.reading.states_its_deviation() => {
                 let [.., before, last] = middles else {
                     return None;
                 };
                 let moved_px = dist(last.px, before.px);
                 let path_px = motion::first_path_px(middles, self.config.exposure_us?)?;
-                (moved_px > statics::DRIFT_PX).then_some((path_px, 0.0))
+                let growth = match (middles, self.last_length) {
+                    ([before, _], Some(last))
+                        if last.t_us == before.t_us && last.reading == this.reading =>
+                    {
+                        let grew_px = this.length_px - last.length_px;
+                        let variance_px2 = this.variance_px2 + last.variance_px2;
+                        (grew_px * grew_px > 4.0 * variance_px2)
+                            .then_some((0.5 * grew_px, 0.25 * variance_px2))
+                    }
+                    _ => None,
+                };
+                let (half_growth_px, variance_px2) = growth.unwrap_or((0.0, 0.0));
+                (moved_px > statics::DRIFT_PX).then_some((path_px + half_growth_px, variance_px2))
             }
             None => None,
         }
@@ -1835,6 +1885,55 @@ mod tests {
             assert_eq!(method, VelocityMethod::Streak, "frame {i}");
             assert!(error.abs() < bound, "frame {i}: {:+.1} %", 100.0 * error);
         }
+    }
+
+    /// An LED that speeds up from 300 to about 890 px/s over a short track of 12 frames, whose
+    /// fit reads each path a steady 0.7–1.1 px short, each length stated uncertain by 0.3 px.
+    /// The second frame's two middles are a displacement at the mean speed between the two
+    /// exposures, half a frame's gain slower than this exposure's: read as the exposure's
+    /// path, it lags by half the path's growth (0.6 px here), which the offset then learned as
+    /// part of the fit's shortfall (frame 4 read 6.9 % slow, frame 5 2.8 %). With the growth
+    /// of the fitted lengths, whose shortfall cancels in it, the offset is the fit's alone, and
+    /// from the fourth frame, when it is taken off, every speed is within 2 % of the
+    /// exposure's mean speed (the lengths scatter by ±0.2 px about their shortfall, 1.5 % of
+    /// frame 4's 13 px).
+    #[test]
+    fn a_shortfall_is_learned_apart_from_a_speed_that_grows() {
+        let exposure_us = 25_000u32;
+        let exposure_s = exposure_us as f32 * 1e-6;
+        let (v0_px_s, accel_px_s2) = (300.0f32, 1500.0f32);
+        let at = |t_s: f32| 100.0 + v0_px_s * t_s + 0.5 * accel_px_s2 * t_s * t_s;
+        let short_px = [1.1, 0.8, 1.0, 0.7, 0.9];
+        let mut t = Tracker::new(TrackerConfig {
+            exposure_us: Some(exposure_us),
+        });
+        let mut checked = 0;
+        for i in 0..12u64 {
+            let end_s = (i * FRAME_US) as f32 * 1e-6 + exposure_s;
+            let (tail_x, head_x) = (at(end_s - exposure_s), at(end_s));
+            let true_px = head_x - tail_x;
+            let read_px = true_px - short_px[i as usize % short_px.len()];
+            let mid_x = 0.5 * (tail_x + head_x);
+            let ends = [
+                (mid_x - 0.5 * read_px, 100.0),
+                (mid_x + 0.5 * read_px, 100.0),
+            ];
+            let mut s = streak((mid_x, 100.0), Some(ends));
+            if let Some(p) = s.path.as_mut() {
+                p.path_length_px = read_px;
+                p.fit_px = Some(0.2);
+                p.length_noise_px = Some(0.3);
+            }
+            let e = t.update(i * FRAME_US, Some(&s)).unwrap();
+            if i >= 4 {
+                let (v, method) = e.velocity_px_s.unwrap();
+                assert_eq!(method, VelocityMethod::Streak, "frame {i}");
+                let error = v.0.hypot(v.1) * exposure_s / true_px - 1.0;
+                assert!(error.abs() < 0.02, "frame {i}: {:+.1} %", 100.0 * error);
+                checked += 1;
+            }
+        }
+        assert_eq!(checked, 8);
     }
 
     /// A defocused disk's streak, as the fit reads it: a steady 0.6–1.2 px short on a
