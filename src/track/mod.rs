@@ -683,13 +683,28 @@ impl Tracker {
         // direction to choose; like a streak whose ends could not be measured, its head is
         // carried from the middle by the frames' velocity below.
         let moving = streak.path.filter(|p| p.ends_px[0] != p.ends_px[1]);
+        // The head is the end farther from where the LED was: but on a circle turning more
+        // than a right angle a frame, the end the turn that the streak's length and the
+        // exposure measure says.
+        let by_turn = moving.zip(previous).and_then(|(path, previous)| {
+            let exposure_s = self.config.exposure_us? as f32 * 1e-6;
+            let dt_s = t_us.checked_sub(previous.t_us)? as f32 * 1e-6;
+            let streak_of = (mid_px, path.path_length_px, streak.thickness_px);
+            let before = (previous.estimate.mid_px, dt_s, exposure_s);
+            motion::head_by_turn(path.ends_px, streak_of, before)
+                .map(|(end, turn_rad)| (path.ends_px[end], turn_rad))
+        });
+        let turned_head = by_turn.map(|(head, _)| head);
+        // Beyond a half turn a frame the middles alias (they turn the other way, less than a
+        // half turn): their motion's head and path are not the LED's.
+        let aliased = by_turn.is_some_and(|(_, turn_rad)| turn_rad > core::f32::consts::PI);
         let head = moving.and_then(|path| {
             let before = previous?.estimate.position_px;
             let [a, b] = path.ends_px;
-            Some(if dist(a, before) >= dist(b, before) {
-                a
-            } else {
-                b
+            Some(match turned_head {
+                Some(head) => head,
+                None if dist(a, before) >= dist(b, before) => a,
+                None => b,
             })
         });
         // One frame cannot always tell a still LED from a moving one; the middles' motion
@@ -711,7 +726,8 @@ impl Tracker {
         let motion = self
             .config
             .exposure_us
-            .and_then(|exposure_us| motion::motion_head(middles, exposure_us));
+            .and_then(|exposure_us| motion::motion_head(middles, exposure_us))
+            .filter(|_| !aliased);
         // The single frame's length less the offset learned on the frames before; then this
         // frame's difference is learned from.
         let reading = LengthReading::of(fit_px.is_some(), moving.is_some());
@@ -724,7 +740,9 @@ impl Tracker {
                 length_px: p.path_length_px,
                 variance_px2: p.length_noise_px.map_or(0.0, |l| l * l),
             });
-        let motion_path = self.motion_path(motion, middles, this_length);
+        let motion_path = self
+            .motion_path(motion, middles, this_length)
+            .filter(|_| !aliased);
         self.last_length = this_length;
         let length_offset = &mut self.length_offsets[reading as usize];
         let offset_px = length_offset.offset_px(reading);
@@ -1934,6 +1952,54 @@ mod tests {
             }
         }
         assert_eq!(checked, 8);
+    }
+
+    /// An LED going round a circle of 80 px half a turn and a little more a frame (181.5°,
+    /// 178.5° and 185°, either way round), its arc streaks' ends in the skeleton's order
+    /// alternating: every head from the track's second frame on is the LED's, within 0.5 px.
+    /// Taken as the end farther from the last head, the heads went to the tails wherever the
+    /// first choice (a toss on a half turn) was wrong.
+    #[test]
+    fn a_wagon_wheel_s_heads_follow_its_turn() {
+        let exposure_us = 16_000u32;
+        let (dt_s, exposure_s, radius_px) = (FRAME_US as f32 * 1e-6, 0.016f32, 80.0f32);
+        let at = |angle: f32| {
+            let (c, s) = (angle.cos(), angle.sin());
+            (300.0 + radius_px * c, 240.0 + radius_px * s)
+        };
+        for turn_deg in [181.5f32, 178.5, 185.0] {
+            for sense in [1.0f32, -1.0] {
+                let omega = sense * turn_deg.to_radians() / dt_s;
+                let mut t = Tracker::new(TrackerConfig {
+                    exposure_us: Some(exposure_us),
+                });
+                for i in 0..14u64 {
+                    let end_s = i as f32 * dt_s;
+                    let angle = |t_s: f32| 0.7 + omega * t_s;
+                    let (head, tail) = (at(angle(end_s)), at(angle(end_s - exposure_s)));
+                    let mid = at(angle(end_s - 0.5 * exposure_s));
+                    let ends = if i % 2 == 0 {
+                        [tail, head]
+                    } else {
+                        [head, tail]
+                    };
+                    let mut s = streak(mid, Some(ends));
+                    if let Some(p) = s.path.as_mut() {
+                        p.path_length_px = radius_px * omega.abs() * exposure_s;
+                        p.fit_px = Some(0.1);
+                        p.length_noise_px = Some(0.1);
+                    }
+                    let e = t.update(i * FRAME_US, Some(&s)).unwrap();
+                    if i >= 1 {
+                        let off_px = dist(e.position_px, head);
+                        assert!(
+                            off_px < 0.5,
+                            "{turn_deg}° × {sense}, frame {i}: {off_px} px"
+                        );
+                    }
+                }
+            }
+        }
     }
 
     /// A defocused disk's streak, as the fit reads it: a steady 0.6–1.2 px short on a
