@@ -1167,6 +1167,23 @@ mod tests {
         }
     }
 
+    /// A streak whose fitted path has `ends` and is `length_px` long, its ends stated uncertain
+    /// by `fit_px` and its length by `length_noise_px`.
+    fn fitted_streak(
+        mid: (f32, f32),
+        ends: [(f32, f32); 2],
+        length_px: f32,
+        (fit_px, length_noise_px): (f32, f32),
+    ) -> Streak {
+        let mut s = streak(mid, Some(ends));
+        if let Some(p) = s.path.as_mut() {
+            p.path_length_px = length_px;
+            p.fit_px = Some(fit_px);
+            p.length_noise_px = Some(length_noise_px);
+        }
+        s
+    }
+
     const FRAME_US: u64 = 33_333;
 
     #[test]
@@ -1742,13 +1759,7 @@ mod tests {
             exposure_us: Some(exposure_us),
         });
         let fitted = |mid: (f32, f32), ends: [(f32, f32); 2], length_px: f32| {
-            let mut s = streak(mid, Some(ends));
-            if let Some(p) = s.path.as_mut() {
-                p.path_length_px = length_px;
-                p.fit_px = Some(0.3);
-                p.length_noise_px = Some(0.3);
-            }
-            s
+            fitted_streak(mid, ends, length_px, (0.3, 0.3))
         };
         let head_x = |i: u64| 100.0 + speed_px_s * (i * FRAME_US) as f32 * 1e-6;
         for i in 0..5u64 {
@@ -1835,12 +1846,7 @@ mod tests {
             let jitter_px = [0.2, -0.1, 0.0, 0.15, -0.2][i as usize % 5];
             let x = 100.0 + speed_px_s * (i * FRAME_US) as f32 * 1e-6 + jitter_px;
             let read_px = [1.09, 1.07, 1.08][i as usize % 3] * speed_px_s * exposure_s;
-            let mut s = streak((x, 100.0), Some([(x, 100.0); 2]));
-            if let Some(p) = s.path.as_mut() {
-                p.path_length_px = read_px;
-                p.fit_px = Some(1.0);
-                p.length_noise_px = Some(1.5);
-            }
+            let s = fitted_streak((x, 100.0), [(x, 100.0); 2], read_px, (1.0, 1.5));
             let e = t.update(i * FRAME_US, Some(&s)).unwrap();
             if i >= 20 {
                 let (v, method) = e.velocity_px_s.unwrap();
@@ -1878,12 +1884,7 @@ mod tests {
                     (mid_x - 0.5 * read_px, 100.0),
                     (mid_x + 0.5 * read_px, 100.0),
                 ];
-                let mut s = streak((mid_x, 100.0), Some(ends));
-                if let Some(p) = s.path.as_mut() {
-                    p.path_length_px = read_px;
-                    p.fit_px = Some(fit_px);
-                    p.length_noise_px = Some(length_noise_px);
-                }
+                let s = fitted_streak((mid_x, 100.0), ends, read_px, (fit_px, length_noise_px));
                 let e = t.update(i * FRAME_US, Some(&s)).unwrap();
                 let (v, method) = e.velocity_px_s?;
                 Some((v.0.hypot(v.1) / speed_px_s - 1.0, method))
@@ -1936,12 +1937,7 @@ mod tests {
                 (mid_x - 0.5 * read_px, 100.0),
                 (mid_x + 0.5 * read_px, 100.0),
             ];
-            let mut s = streak((mid_x, 100.0), Some(ends));
-            if let Some(p) = s.path.as_mut() {
-                p.path_length_px = read_px;
-                p.fit_px = Some(0.2);
-                p.length_noise_px = Some(0.3);
-            }
+            let s = fitted_streak((mid_x, 100.0), ends, read_px, (0.2, 0.3));
             let e = t.update(i * FRAME_US, Some(&s)).unwrap();
             if i >= 4 {
                 let (v, method) = e.velocity_px_s.unwrap();
@@ -1983,12 +1979,8 @@ mod tests {
                     } else {
                         [head, tail]
                     };
-                    let mut s = streak(mid, Some(ends));
-                    if let Some(p) = s.path.as_mut() {
-                        p.path_length_px = radius_px * omega.abs() * exposure_s;
-                        p.fit_px = Some(0.1);
-                        p.length_noise_px = Some(0.1);
-                    }
+                    let s =
+                        fitted_streak(mid, ends, radius_px * omega.abs() * exposure_s, (0.1, 0.1));
                     let e = t.update(i * FRAME_US, Some(&s)).unwrap();
                     if i >= 1 {
                         let off_px = dist(e.position_px, head);
