@@ -683,9 +683,9 @@ impl Tracker {
         // direction to choose; like a streak whose ends could not be measured, its head is
         // carried from the middle by the frames' velocity below.
         let moving = streak.path.filter(|p| p.ends_px[0] != p.ends_px[1]);
-        // The head is the end farther from where the LED was: but on a circle turning more
-        // than a right angle a frame, the end the turn that the streak's length and the
-        // exposure measure says.
+        // The head is the end farther from where the LED was; but on a circle turning more
+        // than a right angle a frame, the end that the turn says, measured from the middles
+        // and the streak's length over the exposure.
         let by_turn = moving.zip(previous).and_then(|(path, previous)| {
             let exposure_s = self.config.exposure_us? as f32 * 1e-6;
             let dt_s = t_us.checked_sub(previous.t_us)? as f32 * 1e-6;
