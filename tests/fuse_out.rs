@@ -153,6 +153,23 @@ fn fuse(inputs: &[PathBuf; 2], extra: &[&str]) -> (Vec<Value>, String) {
     (parse_jsonl(&run.stdout), log)
 }
 
+/// The steps `glint fuse -v` says it queued and dropped for publishing (its `publish:` line).
+fn publish_counts(log: &str) -> (usize, usize) {
+    let line = log
+        .lines()
+        .find(|l| l.contains("publish: queued="))
+        .unwrap_or_else(|| panic!("no publish line in\n{log}"));
+    let count = |name: &str| -> usize {
+        let at = line.find(&format!("{name}=")).unwrap() + name.len() + 1;
+        let digits: String = line[at..]
+            .chars()
+            .take_while(char::is_ascii_digit)
+            .collect();
+        digits.parse().unwrap()
+    };
+    (count("queued"), count("dropped"))
+}
+
 fn num(v: &Value, key: &str) -> f64 {
     v[key].as_f64().unwrap_or_else(|| panic!("no {key} in {v}"))
 }
@@ -543,7 +560,7 @@ fn paced(inputs: &[PathBuf; 2], dir: &Path) -> ([PathBuf; 2], thread::JoinHandle
 }
 
 #[test]
-fn an_independent_peer_receives_every_fused_step_in_both_forms() {
+fn an_independent_peer_receives_every_fused_step_sent_in_both_forms() {
     let rec = recordings();
     let dir = tempfile::tempdir().unwrap();
     let port = free_port();
@@ -571,17 +588,29 @@ fn an_independent_peer_receives_every_fused_step_in_both_forms() {
     assert!(bad.is_empty(), "{bad:?}");
     let json: Vec<&Value> = samples.iter().filter(|s| s["form"] == "json").collect();
     let binary: Vec<&Value> = samples.iter().filter(|s| s["form"] == "bin").collect();
-    // Every step arrives once, in order, as glint printed it.
-    assert_eq!(json.len(), steps.len(), "{log}");
-    for (sample, step) in json.iter().zip(&steps) {
+    // What glint says it queued and dropped: the queue sheds steps only when Zenoh's puts
+    // block (a loaded machine: 3 of 90 once, with the test's five cases at once on two
+    // cores), so a few may go, never most, and every step is one or the other.
+    let (queued, dropped) = publish_counts(&log);
+    assert_eq!(queued + dropped, steps.len(), "{log}");
+    assert!(dropped * 10 <= steps.len(), "{log}");
+    let summary = format!("publish: queued={queued} dropped={dropped} sent={queued} failed=0");
+    assert!(log.contains(&summary), "{summary} not in\n{log}");
+    // Every step sent arrives once, in order, as glint printed it.
+    assert_eq!(json.len(), queued, "{log}");
+    let mut printed = steps.iter();
+    let mut sent = Vec::new();
+    for sample in &json {
         assert_eq!(sample["key"], format!("{KEY}/fused"));
         assert_eq!(sample["encoding"], "application/json");
-        assert_eq!(&sample["step"], step);
+        let step = printed.find(|&step| step == &sample["step"]);
+        sent.push(step.unwrap_or_else(|| panic!("not a printed step, or out of order: {sample}")));
     }
-    // The binary form says the same, decoded from the module's table.
-    assert_eq!(binary.len(), steps.len());
+    // The binary form says the same of the same steps (both forms are queued as one),
+    // decoded from the module's table.
+    assert_eq!(binary.len(), queued);
     let close = |a: &Value, b: &Value| (number(a) - number(b)).abs() <= BINARY_TOLERANCE;
-    for (sample, step) in binary.iter().zip(&steps) {
+    for (sample, step) in binary.iter().zip(sent) {
         assert_eq!(sample["key"], format!("{KEY}/fused/bin"));
         assert_eq!(sample["encoding"], "application/octet-stream;glint.fused.1");
         let b = &sample["step"];
@@ -613,11 +642,6 @@ fn an_independent_peer_receives_every_fused_step_in_both_forms() {
             }
         }
     }
-    let summary = format!(
-        "publish: queued={0} dropped=0 sent={0} failed=0",
-        steps.len()
-    );
-    assert!(log.contains(&summary), "{summary} not in\n{log}");
 }
 
 #[test]
