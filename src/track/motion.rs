@@ -385,6 +385,12 @@ fn chord_per_arc(angle: f32) -> f32 {
 /// not taken as its head without the turn's own measure ([`head_by_turn`]).
 const MAX_HEAD_TURN_RAD: f32 = core::f32::consts::FRAC_PI_2;
 
+/// The most the turns read from the streak's bend and from the middles' chord may differ
+/// (rad): the bend is read from the arc's chord against its length, and on a 120 px arc
+/// turning 181.5° a frame (86° over a 16 ms exposure) a pixel of either is about 8° of turn a
+/// frame, so this is about five pixels' worth, where the ends are read to tenths.
+const MAX_TURN_DISAGREEMENT_RAD: f32 = core::f32::consts::FRAC_PI_4;
+
 /// Which of a streak's `ends_px` is its head, from how far the LED turned since the last
 /// frame, where that turn is more than a right angle; with the turn (rad). `None` (the end
 /// farther from where the LED last was is then the head) where it turned less, where the
@@ -416,9 +422,16 @@ pub fn head_by_turn(
     // The streak's own bend says the same of the exposure: an arc of `θ` over it is
     // `sin(θ/2) / (θ/2)` of its length across. A straight streak whose middles moved less than
     // its speed says is an LED that slowed down, not one that went round.
-    let bend_rad = 2.0 * inverse_sinc(dist(a, b) / length_px);
+    let bend_turn_rad = 2.0 * inverse_sinc(dist(a, b) / length_px) * dt_s / exposure_s;
     let turn_rad = 2.0 * inverse_sinc(chord_px / arc_px);
-    if bend_rad * dt_s / exposure_s <= MAX_HEAD_TURN_RAD || turn_rad <= MAX_HEAD_TURN_RAD {
+    if bend_turn_rad <= MAX_HEAD_TURN_RAD || turn_rad <= MAX_HEAD_TURN_RAD {
+        return None;
+    }
+    // The two must tell of one turn: an exposure given wrong scales the bend's turn with it
+    // and the chord's another way (given half the true one, a circle turning 60° a frame
+    // bends as if turning 120° and its chord reads 229°), and the head is then left to the
+    // end farther from the last one, which needs no exposure.
+    if (bend_turn_rad - turn_rad).abs() > MAX_TURN_DISAGREEMENT_RAD {
         return None;
     }
     let along = (b.0 - a.0, b.1 - a.1);
@@ -668,18 +681,40 @@ mod tests {
         }
     }
 
-    /// Middles that moved no farther than the streak is wide measure no turn (a half circle
-    /// of 2 px radius, whose middles moved 4.2 px, within its 6 px width); nor does a straight
-    /// streak whose middles moved less than its speed says (an LED slowing down: 10 px in
-    /// 10 ms, then 20 px in a 33 ms frame).
+    /// Middles that moved no farther than the streak is wide measure no turn (a circle of 80 px
+    /// turning 181.5° a frame, its middles 160 px apart, read as 170 px wide); nor does a
+    /// circle whose exposure was given wrong (turning 60° a frame, its 16 ms given as 8 ms: its
+    /// bend tells of 120°, its chord of 229°), nor a straight streak whose middles moved less
+    /// than its speed says (an LED slowing down: 10 px in 10 ms, then 20 px in a 33 ms frame).
     #[test]
     fn a_turn_is_read_only_where_the_middles_and_the_streak_show_one() {
-        let ends = [(100.0, 100.0), (104.0, 100.0)];
-        let (mid, length_px) = ((102.0, 102.0), 2.0 * core::f32::consts::PI);
-        let within = head_by_turn(ends, (mid, length_px, 6.0), ((99.0, 105.0), 0.033, 0.016));
-        assert_eq!(within, None);
-        let wider = head_by_turn(ends, (mid, length_px, 4.0), ((99.0, 105.0), 0.033, 0.016));
-        assert!(wider.is_some(), "past the width the turn is read");
+        let (dt_s, exposure_s) = (1.0 / 30.0, 0.016f32);
+        let at = |deg: f32| {
+            let (x, y) = rotate((80.0, 0.0), deg.to_radians());
+            (200.0 + x, 200.0 + y)
+        };
+        // The streak's ends, middle and length, and the last middle, of a turn a frame.
+        let circle = |turn_deg: f32| {
+            let deg_per_s = turn_deg / dt_s;
+            let ends = [at(deg_per_s * (dt_s - exposure_s)), at(deg_per_s * dt_s)];
+            let mid = at(deg_per_s * (dt_s - 0.5 * exposure_s));
+            let length_px = 80.0 * (deg_per_s * exposure_s).to_radians();
+            (ends, mid, length_px, at(-deg_per_s * 0.5 * exposure_s))
+        };
+        let (ends, mid, length_px, before) = circle(181.5);
+        let read = |width_px: f32, exposure_s: f32| {
+            head_by_turn(ends, (mid, length_px, width_px), (before, dt_s, exposure_s))
+        };
+        assert!(
+            read(6.0, exposure_s).is_some(),
+            "a wagon wheel's turn is read"
+        );
+        assert_eq!(read(170.0, exposure_s), None, "middles within the width");
+        let (ends, mid, length_px, before) = circle(60.0);
+        let read =
+            |exposure_s: f32| head_by_turn(ends, (mid, length_px, 6.0), (before, dt_s, exposure_s));
+        assert_eq!(read(exposure_s), None, "60° a frame is the old rule's");
+        assert_eq!(read(0.5 * exposure_s), None, "an exposure given wrong");
         let straight = [(115.0, 100.0), (125.0, 100.0)];
         let slowing = head_by_turn(
             straight,
