@@ -991,17 +991,16 @@ impl Tracker {
                 };
                 let moved_px = dist(last.px, before.px);
                 let path_px = motion::first_path_px(middles, self.config.exposure_us?)?;
-                let growth = match (middles, self.last_length) {
-                    ([before, _], Some(last))
-                        if last.t_us == before.t_us && last.reading == this.reading =>
-                    {
+                let growth = self
+                    .last_length
+                    .filter(|l| middles.len() == 2 && l.t_us == before.t_us)
+                    .filter(|l| l.reading == this.reading)
+                    .and_then(|last| {
                         let grew_px = this.length_px - last.length_px;
                         let variance_px2 = this.variance_px2 + last.variance_px2;
                         (grew_px * grew_px > 4.0 * variance_px2)
                             .then_some((0.5 * grew_px, 0.25 * variance_px2))
-                    }
-                    _ => None,
-                };
+                    });
                 let (half_growth_px, variance_px2) = growth.unwrap_or((0.0, 0.0));
                 (moved_px > statics::DRIFT_PX).then_some((path_px + half_growth_px, variance_px2))
             }

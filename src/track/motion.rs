@@ -26,6 +26,8 @@
 //! model makes its own prediction errors large, so its motion head is trusted less at once,
 //! in the very frame it changes course.
 
+use super::dist;
+
 /// Middles the motion is measured over, the current one included: up to five prediction
 /// errors, and for a settling LED only the frames since it stopped after a few frames at rest.
 pub const MOTION_MIDDLES: usize = 8;
@@ -419,12 +421,16 @@ pub fn head_by_turn(
     if !(arc_px.is_finite() && arc_px > 0.0 && chord_px > width_px) {
         return None;
     }
+    // Most LEDs turn less than a right angle a frame: told by one sine, not a bisection.
+    if chord_px / arc_px >= chord_per_arc(0.5 * MAX_HEAD_TURN_RAD) {
+        return None;
+    }
     let [a, b] = ends_px;
     // The streak's own bend says the same of the exposure: an arc of `θ` over it is
     // `sin(θ/2) / (θ/2)` of its length across. A straight streak whose middles moved less than
     // its speed says is an LED that slowed down, not one that went round.
-    let bend_turn_rad = 2.0 * inverse_sinc(dist(a, b) / length_px) * dt_s / exposure_s;
-    let turn_rad = 2.0 * inverse_sinc(chord_px / arc_px);
+    let bend_turn_rad = turn_of_chord_per_arc(dist(a, b) / length_px) * dt_s / exposure_s;
+    let turn_rad = turn_of_chord_per_arc(chord_px / arc_px);
     if bend_turn_rad <= MAX_HEAD_TURN_RAD || turn_rad <= MAX_HEAD_TURN_RAD {
         return None;
     }
@@ -442,29 +448,26 @@ pub fn head_by_turn(
     Some((usize::from(head_is_1), turn_rad))
 }
 
-/// The `x` in `[0, π]` where `sin(x) / x` is `q`: 0 for `q` of 1 or more, π for `q` of 0 or
-/// less (bisection: `sin(x) / x` falls monotonically there).
-fn inverse_sinc(q: f32) -> f32 {
+/// The turn (rad, from none to a whole turn) of a circular arc whose chord is `q` of its
+/// length: the inverse of [`chord_per_arc`] of half the turn, which falls monotonically over
+/// it (by bisection). None for `q` of 1 or more, a whole turn for `q` of 0 or less.
+fn turn_of_chord_per_arc(q: f32) -> f32 {
     if q >= 1.0 {
         return 0.0;
     }
     if q.is_nan() || q <= 0.0 {
-        return core::f32::consts::PI;
+        return 2.0 * core::f32::consts::PI;
     }
     let (mut lo, mut hi) = (0.0f32, core::f32::consts::PI);
     for _ in 0..24 {
-        let x = 0.5 * (lo + hi);
-        if x.sin() / x > q {
-            lo = x;
+        let half_turn = 0.5 * (lo + hi);
+        if chord_per_arc(half_turn) > q {
+            lo = half_turn;
         } else {
-            hi = x;
+            hi = half_turn;
         }
     }
-    0.5 * (lo + hi)
-}
-
-fn dist(a: (f32, f32), b: (f32, f32)) -> f32 {
-    (a.0 - b.0).hypot(a.1 - b.1)
+    lo + hi
 }
 
 /// The angle (rad, in (−π, π]) that turns the direction of `a` onto that of `b`,
