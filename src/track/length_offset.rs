@@ -9,8 +9,9 @@
 //! fixed number of pixels however long the exposure averages. The streak's middle carries no
 //! such offset (its ends err alike on both sides), and the middles' motion gives the path's
 //! length over the exposure without reading an end ([`MotionHead::path_px`], noisy in one
-//! frame). Their difference, averaged over the track's recent frames, is the offset; the
-//! single frame's length less the offset is what the frame says about the speed.
+//! frame). Their difference, averaged over the track's recent frames (the frame's own among
+//! them: in a track's first frames each is much of what is known), is the offset; the single
+//! frame's length less the offset is what the frame says about the speed.
 //!
 //! Only an offset beyond its own scatter is taken off: an unbiased model's mean difference is
 //! noise, and taking it off would add that noise to every frame.

@@ -728,8 +728,8 @@ impl Tracker {
             .exposure_us
             .and_then(|exposure_us| motion::motion_head(middles, exposure_us))
             .filter(|_| !aliased);
-        // The single frame's length less the offset learned on the frames before; then this
-        // frame's difference is learned from.
+        // The single frame's length less the offset learned on the track's frames so far,
+        // this one's difference from its motion's path included.
         let reading = LengthReading::of(fit_px.is_some(), moving.is_some());
         let this_length = streak
             .path
@@ -745,16 +745,12 @@ impl Tracker {
             .filter(|_| !aliased);
         self.last_length = this_length;
         let length_offset = &mut self.length_offsets[reading as usize];
-        let offset_px = length_offset.offset_px(reading);
-        let length_px = streak.path.map(|p| (p.path_length_px - offset_px).max(0.0));
-        // The single frame's head, in by half that offset: a spot's profile or a tone curve
-        // the model does not describe reads both ends of a path alike, so a path read long by
-        // the offset has each end out by half of it, and so has the head where it is the
-        // fitted end.
-        let head = head.map(|h| pulled_in(h, mid_px, 0.5 * offset_px));
-        // How far this track's lengths, less that offset, read from the motion's path in the
-        // frames before.
-        let length_spread_px2 = length_offset.mean_square_about_px2(offset_px);
+        let before = *length_offset;
+        // This frame's difference is learned from before its offset is taken: in a track's
+        // first frames each observation is much of what is known (taken from the frames
+        // before only, the first offset came a frame later, and a track of four frames had it
+        // in none), and a frame whose length reads farther off than the frames before is
+        // drawn toward its motion's path by the weight of its own difference.
         // A spot's ends can be read off by about its half width each, no more: a larger
         // difference is a path that is not the motion's (a still LED read as a streak).
         if let (Some((path_px, path_var_px2)), Some(p)) =
@@ -765,6 +761,16 @@ impl Tracker {
                 length_offset.observe(p.path_length_px, path_px, variance_px2);
             }
         }
+        let offset_px = length_offset.offset_px(reading);
+        let length_px = streak.path.map(|p| (p.path_length_px - offset_px).max(0.0));
+        // The single frame's head, in by half that offset: a spot's profile or a tone curve
+        // the model does not describe reads both ends of a path alike, so a path read long by
+        // the offset has each end out by half of it, and so has the head where it is the
+        // fitted end.
+        let head = head.map(|h| pulled_in(h, mid_px, 0.5 * offset_px));
+        // How far this track's lengths, less that offset, read from the motion's path in the
+        // frames before (this frame's miss is judged against them, not with them).
+        let length_spread_px2 = before.mean_square_about_px2(offset_px);
         // A path the fit read as still (no longer than its spot is wide) that the middles say
         // moved by as much: its length is the speed.
         let still_velocity = length_px
@@ -1691,9 +1697,10 @@ mod tests {
     /// A spot the streak model does not describe reads each end of every path half a pixel
     /// short (a defocused disk's sharp rim): 7 px of a true 8 px, 12.5 % slow. The middles
     /// are right (to ±0.05 px), so their motion measures the path, and once it has done so
-    /// for three frames (from the second, whose two middles give the path) the single
-    /// frame's speed is the true one within 1 %; the first four frames keep the streak's own
-    /// length.
+    /// for three frames (from the second, whose two middles give the path; the third
+    /// frame's own included) the single frame's speed is the true one within 1 %; the first
+    /// three frames keep the streak's own length (four, when a frame's own difference was
+    /// learned only after its offset was taken).
     #[test]
     fn a_path_every_frame_reads_short_is_corrected_by_the_middles_motion() {
         let jitter_px = [0.05, -0.03, 0.0, 0.04, -0.05];
@@ -1706,14 +1713,14 @@ mod tests {
                 continue;
             };
             let error = (vx.hypot(vy) - STEADY_SPEED_PX_S) / STEADY_SPEED_PX_S;
-            if i < 4 {
+            if i < 3 {
                 assert!((error + 0.125).abs() < 0.01, "frame {i}: {error}");
             } else {
                 assert!(error.abs() < 0.01, "frame {i}: {error}");
                 corrected += 1;
             }
         }
-        assert_eq!(corrected, 12);
+        assert_eq!(corrected, 13);
     }
 
     /// A spot read half a pixel long at each end of every path (a spot's wings or a tone
@@ -1996,17 +2003,19 @@ mod tests {
     /// A defocused disk's streak, as the fit reads it: a steady 0.6–1.2 px short on a
     /// 10.5 px path (−9 %, as a pillbox's on independent seed 1, scene 41), each length
     /// stated uncertain by 0.55 px. Tracks there run 4–14 frames. The offset is learned from
-    /// the second frame, where two middles give the path, and taken off from the fourth: from
-    /// there every speed is within 4 % of the truth (the lengths scatter by ±3 % about their
-    /// offset). Learned from the third frame, where three middles give the path's turn and
-    /// change of speed, frame 4 was still 10.5 % slow; learned only once the motion had its
-    /// prediction errors, frame 5 was still 8.6 % slow.
+    /// the second frame, where two middles give the path, and taken off from the third, its
+    /// own difference with the two before: from there every speed is within 4 % of the truth
+    /// (the lengths scatter by ±3 % about their offset). With a frame's own difference
+    /// learned only after its offset was taken, frame 3 was still 5.7 % slow; learned from the
+    /// third frame, where three middles give the path's turn and change of speed, frame 4
+    /// was still 10.5 % slow; learned only once the motion had its prediction errors, frame 5
+    /// was still 8.6 % slow.
     #[test]
     fn a_steady_shortfall_is_taken_off_within_a_short_track() {
         let jitter_px = [0.05, -0.07, 0.0, 0.06, -0.04];
         let short_px = [1.2, 0.8, 1.0, 0.6, 1.1, 0.9];
         let read = read_short(25_000, 420.0, (&jitter_px, &short_px), (0.3, 0.55), 14);
-        assert_streak_speeds_within(&read, 4, 0.04);
+        assert_streak_speeds_within(&read, 3, 0.04);
     }
 
     /// A pillbox's long streak, as the fit reads it: each end 0.03–0.23 px short, alike at both
