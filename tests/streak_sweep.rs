@@ -170,7 +170,7 @@ fn diagnosed(mut config: SceneConfig) -> SceneConfig {
 
 /// Diagnostics (`GLINT_SWEEP_FLOOR_SEEN=N`): shows `pipeline` N frames of `point`'s scene with
 /// its LED hidden (its floor, noise and static lights as they are), frames `period_us` apart
-/// from 0 on; returns N, the frames the scene's own frames come after.
+/// from 0 on; returns N, the frames (and frame intervals) the scene's own frames come after.
 fn floor_seen_first(
     point: &SweepPoint,
     pipeline: &mut glint::pipeline::Pipeline,
@@ -241,8 +241,8 @@ fn run_point_through(
         let truth = scene.render(index, &mut bytes).unwrap();
         let frame = Frame::new_checked(&bytes, size, size.row_bytes()).unwrap();
         let meta = FrameMeta {
-            index: index as u64,
-            sequence: index as u64,
+            index: floor_seen_frames + index as u64,
+            sequence: floor_seen_frames + index as u64,
             dropped: 0,
             timestamp_us: (floor_seen_frames + index as u64) * period_us,
             monotonic_us: (floor_seen_frames + index as u64) * period_us,
