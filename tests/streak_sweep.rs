@@ -177,10 +177,7 @@ fn floor_seen_first(
     bytes: &mut [u8],
     period_us: u64,
 ) -> u64 {
-    let frames = std::env::var("GLINT_SWEEP_FLOOR_SEEN")
-        .ok()
-        .and_then(|v| v.parse::<u64>().ok())
-        .unwrap_or(0);
+    let frames: u64 = env_or("GLINT_SWEEP_FLOOR_SEEN", 0);
     if frames == 0 {
         return 0;
     }

@@ -745,7 +745,7 @@ impl Tracker {
             .filter(|_| !aliased);
         self.last_length = this_length;
         let length_offset = &mut self.length_offsets[reading as usize];
-        let before = *length_offset;
+        let offsets_before = *length_offset;
         // This frame's difference is learned from before its offset is taken: in a track's
         // first frames each observation is much of what is known (taken from the frames
         // before only, the first offset came a frame later, and a track of four frames had it
@@ -770,7 +770,7 @@ impl Tracker {
         let head = head.map(|h| pulled_in(h, mid_px, 0.5 * offset_px));
         // How far this track's lengths, less that offset, read from the motion's path in the
         // frames before (this frame's miss is judged against them, not with them).
-        let length_spread_px2 = before.mean_square_about_px2(offset_px);
+        let length_spread_px2 = offsets_before.mean_square_about_px2(offset_px);
         // A path the fit read as still (no longer than its spot is wide) that the middles say
         // moved by as much: its length is the speed.
         let still_velocity = length_px

@@ -450,7 +450,7 @@ pub fn head_by_turn(
 
 /// The turn (rad, from none to a whole turn) of a circular arc whose chord is `q` of its
 /// length: the inverse of [`chord_per_arc`] of half the turn, which falls monotonically over
-/// it (by bisection). None for `q` of 1 or more, a whole turn for `q` of 0 or less.
+/// it (by bisection). No turn for `q` of 1 or more, a whole turn for `q` of 0 or less.
 fn turn_of_chord_per_arc(q: f32) -> f32 {
     if q >= 1.0 {
         return 0.0;
