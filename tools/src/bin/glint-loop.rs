@@ -187,6 +187,13 @@ fn print_latency(r: &LoopReport) {
         ),
         _ => println!("loop: truth: no LED request went out"),
     }
+    if r.led_switches_late > 0 {
+        println!(
+            "loop: {} LED switches arrived after their frames were drawn: those frames show the \
+             LED as it had been",
+            r.led_switches_late
+        );
+    }
 }
 
 fn print_details(r: &LoopReport) {

@@ -65,6 +65,13 @@ const REAL_TIME_AGE_MS: f64 = 100.0;
 pub const DEFAULT_CAMERA_DELAY_MS: u32 = 70;
 /// Frames rendered and waiting for their delivery, at most (a delay of up to 8 periods).
 const FRAMES_IN_FLIGHT: usize = 8;
+/// How long the camera waits after an exposure's end before drawing its frame, at most, µs
+/// (never more than half the camera's delay, so that the frame is still handed over on time).
+/// The firmware's LED lines come through qemu and the pty some milliseconds after the moment
+/// they carry; a frame drawn before its line arrived would show the LED as it had been, and
+/// the frames would disagree with the rig's own truth. A CI run on a busy machine drew a frame
+/// lit after the LED's switch and `glint latency` measured 3.4 ms too much.
+const LED_SETTLE_US: u64 = 30_000;
 /// How long glint may take to finish after its input ends.
 const GLINT_EXIT_WAIT: Duration = Duration::from_secs(10);
 
@@ -146,6 +153,10 @@ pub struct LoopReport {
     /// to the simulator's LED going dark (the line time, the firmware's reaction, the way back
     /// to the simulator), truth, ms.
     pub led_dark_after_request_ms: Vec<f64>,
+    /// LED switches whose line arrived after the camera had drawn a frame that should have
+    /// shown them (the firmware's line later than [`LED_SETTLE_US`]): while there are any, the
+    /// frames disagree with `led_dark_after_request_ms`.
+    pub led_switches_late: usize,
     /// What `glint latency` printed.
     pub glint_stdout: String,
 }
@@ -185,6 +196,10 @@ struct World {
     led_requests_us: Vec<u64>,
     /// When the simulator's LED went dark.
     led_dark_us: Vec<u64>,
+    /// The middle of the last exposure whose LED the camera drew, monotonic µs.
+    led_drawn_until_us: u64,
+    /// LED switches that arrived after a frame that should have shown them was drawn.
+    led_switches_late: usize,
     /// The firmware's clock on the monotonic clock so far (see [`firmware_clock_offset_us`]).
     clock_offset_us: Option<i64>,
     /// Per position update, by its frame time: how much later than glint's age said the wire
@@ -460,6 +475,9 @@ fn read_replies(mut port: TTYPort, world: Arc<Mutex<World>>, stop: Arc<AtomicBoo
                         .clock_offset_us
                         .map_or(line_at, |o| (i64::from(clock_us) + o).max(0) as u64)
                         .min(line_at);
+                    if at <= w.led_drawn_until_us {
+                        w.led_switches_late += 1;
+                    }
                     w.switch_led(at, on);
                     if !on {
                         w.led_dark_us.push(at);
@@ -566,6 +584,8 @@ pub fn run_loop(config: &LoopConfig) -> Result<LoopReport> {
         garbled: 0,
         led_requests_us: Vec::new(),
         led_dark_us: Vec::new(),
+        led_drawn_until_us: 0,
+        led_switches_late: 0,
         clock_offset_us: None,
         wire_late_us: HashMap::new(),
     }));
@@ -604,17 +624,20 @@ pub fn run_loop(config: &LoopConfig) -> Result<LoopReport> {
     };
     let stamped_len = STAMP_BYTES + camera.frame_len_bytes();
     let exposure_us = u64::from(EXPOSURE_US);
+    let settle_us = LED_SETTLE_US.min(config.camera_delay_us / 2);
     let outcome = (|| -> Result<()> {
         for i in 0..frames {
             let end_us = origin_us + ((FIRST_EXPOSURE_S + i as f64 / FPS) * US_PER_S) as u64;
-            // Wait for the physics to pass the exposure's end.
+            // Wait for the physics to pass the exposure's end, and the LED's lines to settle.
             let (start, end, lit) = loop {
                 {
-                    let w = lock(&world);
-                    if w.now_us >= end_us {
+                    let mut w = lock(&world);
+                    if w.now_us >= end_us + settle_us {
                         let start = w.position_at(end_us - exposure_us);
                         let end = w.position_at(end_us);
-                        let lit = w.led_at(end_us - exposure_us / 2);
+                        let middle_us = end_us - exposure_us / 2;
+                        let lit = w.led_at(middle_us);
+                        w.led_drawn_until_us = middle_us;
                         break (start.unwrap_or(start_m), end.unwrap_or(start_m), lit);
                     }
                 }
@@ -781,6 +804,7 @@ fn report(w: &World, handed: &[Handed], camera_delay_us: u64) -> Result<LoopRepo
         garbled: w.garbled,
         driven_m: w.driven_m.clone(),
         led_dark_after_request_ms: led_dark_after_request_ms(w),
+        led_switches_late: w.led_switches_late,
         glint_stdout: String::new(),
     })
 }
