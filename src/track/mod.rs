@@ -851,6 +851,13 @@ impl Tracker {
         // A streak too short for its ends to be measured still moved: with the exposure
         // known, the head is half an exposure's travel ahead of the middle.
         // A streak whose model failed to fit gives its middle and nothing more.
+        // This frame's own path, where the fit read it still, says how far the LED can have
+        // gone during this exposure: its length and its stated deviation (at the quantile the
+        // motion's checks use).
+        let still_most_px = length_px
+            .zip(fit_px)
+            .filter(|_| moving.is_none() && !streak.path_failed)
+            .map(|(l, f)| l + (CHI2_1DOF_99 * 2.0 * f * f).sqrt());
         let extrapolated = || {
             if streak.path_failed {
                 return None;
@@ -876,17 +883,12 @@ impl Tracker {
                 (steady, last) => steady.or(last)?,
             };
             // Both velocities are the middles' over whole frame intervals, but this frame's
-            // own path, where the fit read it still, says how far the LED can have gone
-            // during this exposure: its length and its stated deviation (at the quantile the
-            // motion's checks use). An LED arriving where it stops moved its last frames'
-            // distance between the middles and only its short path in this exposure, and
-            // carried by their velocity its head landed that far past where it stopped.
+            // own still path bounds the LED's travel during this exposure. An LED arriving
+            // where it stops moved its last frames' distance between the middles and only its
+            // short path in this exposure, and carried by their velocity its head landed that
+            // far past where it stopped.
             let travel_px = 0.5 * exposure_s * vx.hypot(vy);
-            let most_px = length_px
-                .zip(fit_px)
-                .filter(|_| moving.is_none())
-                .map(|(l, f)| l + (CHI2_1DOF_99 * 2.0 * f * f).sqrt());
-            let scale = most_px
+            let scale = still_most_px
                 .filter(|&most| 0.5 * most < travel_px)
                 .map_or(1.0, |most| 0.5 * most / travel_px);
             Some((
@@ -907,6 +909,7 @@ impl Tracker {
             mid_px,
             velocity_px_s: still_velocity
                 .map(|v| (v, VelocityMethod::Streak))
+                .or_else(|| self.slowed_velocity(velocity_px_s?, length_px?, still_most_px?))
                 .or(velocity_px_s),
         };
         Some(self.record(t_us, estimate))
@@ -1064,6 +1067,34 @@ impl Tracker {
         let norm = direction.0.hypot(direction.1);
         let speed = length_px / exposure_s;
         (agrees && norm > 0.0).then(|| (speed * direction.0 / norm, speed * direction.1 / norm))
+    }
+
+    /// The velocity of an LED that slowed within the frame interval: the middles' `velocity`
+    /// carried it farther in an exposure than `most_px`, the most this frame's still path
+    /// (of `length_px`) can be at its own stated deviation, so the path is the speed, along
+    /// the middles' direction. `None` where the middles' velocity fits within that, or
+    /// without the exposure time.
+    ///
+    /// The middles' velocity is a mean over the last frame interval, so an LED braking to a
+    /// stop carried its earlier speed into the frame where it stopped: an independent
+    /// scene's LED braking within a frame read +76 % on its last 10 px path (−3.5 % from its
+    /// path). A still LED's middles do not move beyond that bound, and a glow the fit
+    /// misreads as a still path comes with a deviation of several pixels, which widens it.
+    fn slowed_velocity(
+        &self,
+        (velocity_px_s, method): ((f32, f32), VelocityMethod),
+        length_px: f32,
+        most_px: f32,
+    ) -> Option<((f32, f32), VelocityMethod)> {
+        let exposure_s = self.config.exposure_us? as f32 * 1e-6;
+        let speed_px_s = velocity_px_s.0.hypot(velocity_px_s.1);
+        (method == VelocityMethod::Frames && speed_px_s * exposure_s > most_px).then(|| {
+            let scale = length_px / exposure_s / speed_px_s;
+            (
+                (velocity_px_s.0 * scale, velocity_px_s.1 * scale),
+                VelocityMethod::Streak,
+            )
+        })
     }
 
     /// The middle's mean velocity since the [`STEADY_FRAMES`]-th last found frame (`None`
@@ -1755,7 +1786,9 @@ mod tests {
     /// spot is wider). The middles moved about 40 px a frame until then, and carried by
     /// their velocity the head landed 3.7 px past where the LED stood (sweep seeds 11–13:
     /// the frame an LED moving into place stops in, its head a median 4.9 px off); that
-    /// frame's own path bounds how far the LED went in its exposure.
+    /// frame's own path bounds how far the LED went in its exposure. So it bounds its speed:
+    /// the middles' velocity, a mean over the last interval, said about 1000 px/s where the
+    /// path says 300; the path's length over the exposure is the speed.
     #[test]
     fn an_led_that_stops_has_its_head_where_it_stopped() {
         let exposure_us = 10_000;
@@ -1785,6 +1818,11 @@ mod tests {
             "head {:?}, {off_px:.2} px from where it stopped",
             e.position_px
         );
+        let (v, method) = e.velocity_px_s.expect("a velocity");
+        assert_eq!(method, VelocityMethod::Streak);
+        let path_read_px = v.0.hypot(v.1) * exposure_us as f32 * 1e-6;
+        assert!((path_read_px - last_px).abs() < 1e-3, "velocity {v:?}");
+        assert!(v.0 > 0.0, "velocity {v:?} against the motion");
     }
 
     /// A bloom clipped far into its glow: the fit's spot is the glow, wider than the 13 px
