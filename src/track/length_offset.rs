@@ -81,6 +81,17 @@ impl LengthReading {
         self != LengthReading::Ramps
     }
 
+    /// The fit's other reading (moving for still, still for moving); `None` for the ramps. A
+    /// path about as long as its spot is wide turns from one to the other between frames, and
+    /// the offset learned in one stands for the other until it has its own.
+    pub fn other_fit(self) -> Option<LengthReading> {
+        match self {
+            LengthReading::Ramps => None,
+            LengthReading::FitMoving => Some(LengthReading::FitStill),
+            LengthReading::FitStill => Some(LengthReading::FitMoving),
+        }
+    }
+
     /// The reading of a path fitted or not, read as moving or not.
     pub fn of(fitted: bool, moving: bool) -> LengthReading {
         match (fitted, moving) {
@@ -152,6 +163,11 @@ impl LengthOffset {
         } else {
             0.0
         }
+    }
+
+    /// Whether as many differences were observed as an offset needs (three).
+    pub fn has_enough(&self) -> bool {
+        self.differences.observations() >= MIN_OBSERVATIONS
     }
 
     /// The mean squared difference of the frames seen from `offset_px` (px²): how far this
