@@ -67,10 +67,12 @@ pub const DEFAULT_CAMERA_DELAY_MS: u32 = 70;
 const FRAMES_IN_FLIGHT: usize = 8;
 /// How long the camera waits after an exposure's end before drawing its frame, at most, µs
 /// (never more than half the camera's delay, so that the frame is still handed over on time).
-/// The firmware's LED lines come through qemu and the pty some milliseconds after the moment
-/// they carry; a frame drawn before its line arrived would show the LED as it had been, and
-/// the frames would disagree with the rig's own truth. A CI run on a busy machine drew a frame
-/// lit after the LED's switch and `glint latency` measured 3.4 ms too much.
+/// The firmware's LED lines come through qemu and the pty after the moment they carry (a line
+/// alone takes 1–2 ms at 115200 baud, and a frame is drawn 2 ms after its exposure's middle);
+/// a frame drawn before its line arrived would show the LED as it had been, and the frames
+/// would disagree with the rig's own truth. The wait costs nothing: a frame is handed over
+/// only after the camera's delay. Late switches are counted all the same
+/// ([`LoopReport::led_switches_late`]).
 const LED_SETTLE_US: u64 = 30_000;
 /// How long glint may take to finish after its input ends.
 const GLINT_EXIT_WAIT: Duration = Duration::from_secs(10);
