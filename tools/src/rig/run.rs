@@ -156,8 +156,8 @@ pub struct LoopReport {
     /// to the simulator), truth, ms.
     pub led_dark_after_request_ms: Vec<f64>,
     /// LED switches whose line arrived after the camera had drawn a frame that should have
-    /// shown them (the firmware's line later than [`LED_SETTLE_US`]): while there are any, the
-    /// frames disagree with `led_dark_after_request_ms`.
+    /// shown them (the firmware's line later than the rig's settling time): while there are
+    /// any, the frames disagree with `led_dark_after_request_ms`.
     pub led_switches_late: usize,
     /// What `glint latency` printed.
     pub glint_stdout: String,

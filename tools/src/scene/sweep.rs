@@ -83,7 +83,7 @@ pub enum SweepPath {
         /// Direction of travel.
         angle_rad: f64,
     },
-    /// Moves into place over [`APPROACH_FRAMES`] frames (a robot arriving where it rests),
+    /// Moves into place over `APPROACH_FRAMES` frames (a robot arriving where it rests),
     /// then on along `angle_rad` at `length_px` per exposure (0: standing still).
     Settle {
         /// Streak length once in place.
