@@ -1104,8 +1104,9 @@ impl Tracker {
     /// The middles' velocity is a mean over the last frame interval, so an LED braking to a
     /// stop carried its earlier speed into the frame where it stopped: in a local render of
     /// the independent scenes at 1280×720, an LED braking within a frame read +76 % on its
-    /// last 10 px path (−3.5 % from its path). A still LED's middles do not move beyond that bound, and a glow the fit
-    /// misreads as a still path comes with a deviation of several pixels, which widens it.
+    /// last 10 px path (−3.5 % from its path). A still LED's middles do not move beyond that
+    /// bound, and a glow the fit misreads as a still path comes with a deviation of several
+    /// pixels, which widens it.
     fn slowed_velocity(
         &self,
         (velocity_px_s, method): ((f32, f32), VelocityMethod),
