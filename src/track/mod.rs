@@ -869,7 +869,7 @@ impl Tracker {
             .map(|(l, f)| l + (CHI2_1DOF_99 * 2.0 * f * f).sqrt());
         // Whether this frame's path is shorter than the frame before's beyond both their
         // stated deviations: the LED's own streaks show it slowing.
-        let shrank = match (previous_length, this_length, previous) {
+        let shrank = || match (previous_length, this_length, previous) {
             (Some(before), Some(now), Some(sample)) if before.t_us == sample.t_us => {
                 let shrank_px = before.length_px - now.length_px;
                 shrank_px > 0.0
@@ -930,7 +930,7 @@ impl Tracker {
             velocity_px_s: still_velocity
                 .map(|v| (v, VelocityMethod::Streak))
                 .or_else(|| {
-                    let most_px = still_most_px.filter(|_| shrank)?;
+                    let most_px = still_most_px.filter(|_| shrank())?;
                     self.slowed_velocity(velocity_px_s?, length_px?, most_px)
                 })
                 .or(velocity_px_s),
@@ -1860,26 +1860,22 @@ mod tests {
     /// 24 % slow, as a halo's frame did on independent seed 2 at 1280×720).
     #[test]
     fn a_steady_bloom_read_still_and_short_keeps_the_middles_speed() {
-        let exposure_us = 10_000u32;
-        let speed_px_s = 1300.0f32;
-        let true_px = speed_px_s * exposure_us as f32 * 1e-6;
-        let mut t = Tracker::new(TrackerConfig {
-            exposure_us: Some(exposure_us),
-        });
-        for i in 0..10u64 {
-            let k = i as usize;
-            let head_x = 100.0 + speed_px_s * (i * FRAME_US) as f32 * 1e-6;
-            let mid_x = head_x - 0.5 * true_px + [0.05, -0.07, 0.0, 0.06, -0.04][k % 5];
-            let read_px = true_px - 3.0 + [0.1, -0.1, 0.0][k % 3];
-            let s = fitted_streak((mid_x, 100.0), [(mid_x, 100.0); 2], read_px, (0.3, 0.3));
-            let e = t.update(i * FRAME_US, Some(&s)).unwrap();
-            if i >= 1 {
-                let (v, _) = e.velocity_px_s.expect("a velocity");
-                let error = v.0.hypot(v.1) / speed_px_s - 1.0;
-                assert!(error.abs() < 0.05, "frame {i}: {:+.1} %", 100.0 * error);
-            }
+        let (jitter_px, short_px) = (STEADY_JITTER_PX, [2.9, 3.1, 3.0]);
+        let read = read_short_still_first(
+            10_000,
+            1300.0,
+            (&jitter_px, &short_px),
+            (0.3, 0.3),
+            (10, 10),
+        );
+        for (i, &read) in read.iter().enumerate().skip(1) {
+            let (error, _) = read.unwrap_or_else(|| panic!("frame {i}: no velocity"));
+            assert!(error.abs() < 0.05, "frame {i}: {:+.1} %", 100.0 * error);
         }
     }
+
+    /// Middles that jitter by up to 0.07 px, in turn.
+    const STEADY_JITTER_PX: [f32; 5] = [0.05, -0.07, 0.0, 0.06, -0.04];
 
     /// A bloom clipped far into its glow: the fit's spot is the glow, wider than the 13 px
     /// path, so every path reads still, though the fit reads its length within a few
@@ -1966,9 +1962,21 @@ mod tests {
     fn read_short(
         exposure_us: u32,
         speed_px_s: f32,
+        shortfall: (&[f32], &[f32]),
+        deviations: (f32, f32),
+        frames: u64,
+    ) -> Vec<Option<(f32, VelocityMethod)>> {
+        read_short_still_first(exposure_us, speed_px_s, shortfall, deviations, (0, frames))
+    }
+
+    /// [`read_short`] with the first `still_frames` of the `frames` read as still paths (both
+    /// ends at the middle, the length as read): a bloom whose fitted spot is its glow.
+    fn read_short_still_first(
+        exposure_us: u32,
+        speed_px_s: f32,
         (jitter_px, short_px): (&[f32], &[f32]),
         (fit_px, length_noise_px): (f32, f32),
-        frames: u64,
+        (still_frames, frames): (u64, u64),
     ) -> Vec<Option<(f32, VelocityMethod)>> {
         let true_px = speed_px_s * exposure_us as f32 * 1e-6;
         let mut t = Tracker::new(TrackerConfig {
@@ -1980,10 +1988,14 @@ mod tests {
                 let head_x = 100.0 + speed_px_s * (i * FRAME_US) as f32 * 1e-6;
                 let mid_x = head_x - 0.5 * true_px + jitter_px[k % jitter_px.len()];
                 let read_px = true_px - short_px[k % short_px.len()];
-                let ends = [
-                    (mid_x - 0.5 * read_px, 100.0),
-                    (mid_x + 0.5 * read_px, 100.0),
-                ];
+                let ends = if i < still_frames {
+                    [(mid_x, 100.0); 2]
+                } else {
+                    [
+                        (mid_x - 0.5 * read_px, 100.0),
+                        (mid_x + 0.5 * read_px, 100.0),
+                    ]
+                };
                 let s = fitted_streak((mid_x, 100.0), ends, read_px, (fit_px, length_noise_px));
                 let e = t.update(i * FRAME_US, Some(&s)).unwrap();
                 let (v, method) = e.velocity_px_s?;
@@ -2122,35 +2134,16 @@ mod tests {
     /// they were the lengths, 13 % and 11 % slow).
     #[test]
     fn a_path_read_still_then_moving_keeps_the_offset_learned() {
-        let exposure_us = 10_000u32;
-        let speed_px_s = 1300.0f32;
-        let true_px = speed_px_s * exposure_us as f32 * 1e-6;
-        let mut t = Tracker::new(TrackerConfig {
-            exposure_us: Some(exposure_us),
-        });
+        let (jitter_px, short_px) = (STEADY_JITTER_PX, [1.9, 2.1, 2.0]);
         let first_moving = 7;
-        for i in 0..12u64 {
-            let k = i as usize;
-            let head_x = 100.0 + speed_px_s * (i * FRAME_US) as f32 * 1e-6;
-            let mid_x = head_x - 0.5 * true_px + [0.05, -0.07, 0.0, 0.06, -0.04][k % 5];
-            let read_px = true_px - 2.0 + [0.1, -0.1, 0.0][k % 3];
-            let ends = if i < first_moving {
-                [(mid_x, 100.0); 2]
-            } else {
-                [
-                    (mid_x - 0.5 * read_px, 100.0),
-                    (mid_x + 0.5 * read_px, 100.0),
-                ]
-            };
-            let s = fitted_streak((mid_x, 100.0), ends, read_px, (0.3, 0.3));
-            let e = t.update(i * FRAME_US, Some(&s)).unwrap();
-            if i >= first_moving {
-                let (v, method) = e.velocity_px_s.expect("a velocity");
-                assert_eq!(method, VelocityMethod::Streak, "frame {i}");
-                let error = v.0.hypot(v.1) / speed_px_s - 1.0;
-                assert!(error.abs() < 0.03, "frame {i}: {:+.1} %", 100.0 * error);
-            }
-        }
+        let read = read_short_still_first(
+            10_000,
+            1300.0,
+            (&jitter_px, &short_px),
+            (0.3, 0.3),
+            (first_moving, 12),
+        );
+        assert_streak_speeds_within(&read, first_moving as usize, 0.03);
     }
 
     /// A pillbox's long streak, as the fit reads it: each end 0.03–0.23 px short, alike at both
