@@ -59,15 +59,15 @@ const STATED_DEGREES: f32 = 2.0;
 const MIN_VARIANCE_PX2: f32 = 0.01;
 
 /// A track's single-frame length before its offset is learned, weighed with the middles' path
-/// over the same exposure: each by the inverse of its variance (each at least
-/// [`MIN_VARIANCE_PX2`]).
+/// over the same exposure: each by the inverse of its variance (each deviation taken as at
+/// least a tenth of a pixel, as an observation of the offset's is).
 ///
 /// The offset needs three observations and their scatter, so in a track's first frames the
 /// single frame's length keeps the fit's steady misreading of a spot outside its family,
 /// while the middles' path, from the third middle on, already measures that length without
-/// reading an end. On the independent scenes a halo's 13 px line read +16 and +14 % in its
-/// third and fourth frames (the fit stating 1.5 px for a length 2.1 px long; the middles'
-/// path 13.15 px for a true 13.12), and accelerating halos at 1280×720 −11 % in their third
+/// reading an end. On the independent scenes a halo's 13 px line read +16 % in its third
+/// frame (the fit stating 1.5 px for a length 2.1 px long; the middles' path 13.15 px for a
+/// true 13.12; +5.1 % weighed), and accelerating halos at 1280×720 −11 % in their third
 /// (−4.4 and −4.7 % weighed). The weights are the variances as stated: the fit's length's,
 /// and the middles' path's from the middles' own deviations.
 ///
