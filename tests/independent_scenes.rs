@@ -14,7 +14,10 @@
 //! that moves into place is in place); the middle on 60 px streaks; the single-frame speed on
 //! streaks of at least 8 px.
 //!
-//! The default run renders [`DEFAULT_SCENES`] scenes; `GLINT_INDEPENDENT_SCENES=N` renders
+//! The default run renders [`DEFAULT_SCENES`] scenes at 640×480 and [`HD_SCENES`] at
+//! 1280×720 and holds both the detection rules and the accuracy bounds on them (each scene's
+//! and pooled); the bounds are not yet held on every scene of larger runs, which the ignored
+//! test asks. `GLINT_INDEPENDENT_SCENES=N` renders
 //! N, `GLINT_INDEPENDENT_SEED` another set, `GLINT_INDEPENDENT_SIZE=WxH` scenes drawn as a
 //! camera of that size sees them (every length in pixels scaled by W / 640),
 //! `GLINT_STREAK_MODEL=fit|auto` replays with that model, and `GLINT_INDEPENDENT_KEEP=DIR`
@@ -301,19 +304,27 @@ fn replay_scenes(size: &str, count: usize) -> Outcome {
 }
 
 /// The detection rules hold on every scene: the LED is taken at most a frame after it moved,
-/// kept in every frame from then on, and never reported before it moved.
+/// kept in every frame from then on, and never reported before it moved. And the accuracy
+/// bounds hold on each of the default run's scenes and pooled over them (not yet on every
+/// scene of larger runs: see [`independent_scenes_hold_the_bounds`]).
 #[test]
-fn independent_scenes_are_found_from_their_first_motion_on() {
-    let outcome = replay_scenes(SIZE, DEFAULT_SCENES);
-    assert!(outcome.broken.is_empty(), "{}", outcome.broken.join("\n"));
+fn independent_scenes_are_found_and_read_within_the_bounds() {
+    assert_found_and_within_the_bounds(replay_scenes(SIZE, DEFAULT_SCENES));
 }
 
-/// The same rules on such scenes seen by a 1280×720 camera: spots up to 12 px wide,
-/// streaks up to 120 px long, halos clipped across tens of pixels.
+/// The same on such scenes seen by a 1280×720 camera: spots up to 12 px wide, streaks up to
+/// 120 px long, halos clipped across tens of pixels.
 #[test]
-fn independent_scenes_seen_in_1280x720_are_found_from_their_first_motion_on() {
-    let outcome = replay_scenes(HD_SIZE, HD_SCENES);
+fn independent_scenes_seen_in_1280x720_are_found_and_read_within_the_bounds() {
+    assert_found_and_within_the_bounds(replay_scenes(HD_SIZE, HD_SCENES));
+}
+
+/// The detection rules first (a scene that breaks them is scored on what was found), then
+/// the accuracy bounds per scene and pooled.
+fn assert_found_and_within_the_bounds(outcome: Outcome) {
     assert!(outcome.broken.is_empty(), "{}", outcome.broken.join("\n"));
+    let out: Vec<_> = [outcome.scenes_out, outcome.pooled_out].concat();
+    assert!(out.is_empty(), "{}", out.join("\n"));
 }
 
 /// NOT YET HELD (README, "Accuracy on independently rendered scenes"): the accuracy bounds on
