@@ -774,17 +774,17 @@ impl Tracker {
         // Until this reading has observed enough for an offset of its own, the middles' path
         // weighs in (see [`length_offset::weighed_with_motion`]).
         let length_px = match (length_px, streak.path.filter(|_| !streak.path_failed)) {
-            (Some(l), Some(p)) if !enough => {
-                let weighing = p.length_noise_px.zip(fit_px).zip(motion_path).and_then(
-                    |((noise_px, fit_px), path)| {
-                        self.weighing_path(motion.is_some(), middles, fit_px, path)
-                            .map(|(path_px, var_px2)| (noise_px, path_px, var_px2))
-                    },
-                );
-                Some(weighing.map_or(l, |(noise_px, path_px, var_px2)| {
-                    length_offset::weighed_with_motion(l, noise_px * noise_px, path_px, var_px2)
-                }))
-            }
+            (Some(l), Some(p)) if !enough => Some(
+                self.weighed_with_middles(
+                    l,
+                    p.length_noise_px,
+                    fit_px,
+                    motion_path,
+                    motion,
+                    middles,
+                )
+                .unwrap_or(l),
+            ),
             (l, _) => l,
         };
         // The single frame's head, in by half that offset: a spot's profile or a tone curve
@@ -1055,28 +1055,38 @@ impl Tracker {
         }
     }
 
-    /// The middles' path over the exposure and its variance (px, px²) where they can weigh a
-    /// track's first single-frame lengths, from this frame's `motion_path`: the motion's own
-    /// (`from_motion`), or that of the run's first three or four middles with the variance
-    /// their own deviations give ([`motion::early_path_variance_px2`]), each middle taken as
-    /// uncertain as the fitted ends (`fit_px`) over √2, all of it along the path (where the
-    /// ends are least certain). Not from two middles: their one displacement measures no turn
-    /// and no change of speed, and on a circle it is a chord (a 60 px arc's middles said
-    /// 52.9 px where the fit read 60.5 px, right), on an LED speeding up the speed half an
-    /// interval ago (18.4 px where the fit read 22.3 px for 22.1).
-    fn weighing_path(
+    /// A track's first single-frame length `length_px`, stated uncertain by `length_noise_px`,
+    /// weighed with this frame's `motion_path` ([`length_offset::weighed_with_motion`]); `None`
+    /// where there is nothing to weigh it with. The middles' path's variance is the motion's
+    /// own, or for the run's first three or four middles the one their own deviations give
+    /// ([`motion::early_path_variance_px2`]), each middle taken as uncertain as the fitted ends
+    /// (`fit_px`) over √2, all of it along the path (where the ends are least certain). Not
+    /// from two middles: their one displacement measures no turn and no change of speed, and
+    /// on a circle it is a chord (a 60 px arc's middles said 52.9 px where the fit read
+    /// 60.5 px, right), on an LED speeding up the speed half an interval ago (18.4 px where
+    /// the fit read 22.3 px for 22.1).
+    fn weighed_with_middles(
         &self,
-        from_motion: bool,
+        length_px: f32,
+        length_noise_px: Option<f32>,
+        fit_px: Option<f32>,
+        motion_path: Option<(f32, f32)>,
+        motion: Option<motion::MotionHead>,
         middles: &[Middle],
-        fit_px: f32,
-        (path_px, var_px2): (f32, f32),
-    ) -> Option<(f32, f32)> {
-        if from_motion {
-            return Some((path_px, var_px2));
+    ) -> Option<f32> {
+        let (noise_px, fit_px) = (length_noise_px?, fit_px?);
+        let (path_px, mut var_px2) = motion_path?;
+        if motion.is_none() {
+            let middle_sd_px = fit_px * core::f32::consts::FRAC_1_SQRT_2;
+            var_px2 +=
+                motion::early_path_variance_px2(middles, self.config.exposure_us?, middle_sd_px)?;
         }
-        let middle_sd_px = fit_px * core::f32::consts::FRAC_1_SQRT_2;
-        motion::early_path_variance_px2(middles, self.config.exposure_us?, middle_sd_px)
-            .map(|early_px2| (path_px, var_px2 + early_px2))
+        Some(length_offset::weighed_with_motion(
+            length_px,
+            noise_px * noise_px,
+            path_px,
+            var_px2,
+        ))
     }
 
     /// The velocity of a path of `length_px` that the fit read as still, where the middles
