@@ -101,9 +101,13 @@ fn slow_line() {
     check_scene("slow-line");
 }
 
+/// The speed from the streak, and the frame's own path length behind it (`path_px`, before
+/// the track's offset and weighing), each within [`STREAK_SPEED_MAX_ERROR`] of the truth in
+/// every frame that has it.
 #[test]
 fn fast_line_and_its_single_frame_speed() {
-    let s = check_scene("fast-line");
+    let (s, reports, truths) = check_frames("fast-line");
+    check_errors("fast-line", &s.mid_errors_px, &s.pos_errors_px);
     assert!(
         s.streak_speed_errors.len() * 10 >= s.detected * 9,
         "speed from the streak in most frames"
@@ -116,6 +120,23 @@ fn fast_line_and_its_single_frame_speed() {
     assert!(
         worst <= STREAK_SPEED_MAX_ERROR,
         "worst speed error {worst:.4}"
+    );
+    let path_errors: Vec<f64> = reports
+        .iter()
+        .zip(&truths)
+        .filter_map(|(r, t)| Some(r["path_px"].as_f64()? / t.streak_px? - 1.0))
+        .map(f64::abs)
+        .collect();
+    assert!(
+        path_errors.len() * 10 >= s.detected * 9,
+        "a path length in most frames: {} of {}",
+        path_errors.len(),
+        s.detected
+    );
+    let worst = quantile(&path_errors, 1.0);
+    assert!(
+        worst <= STREAK_SPEED_MAX_ERROR,
+        "worst single-frame path error {worst:.4}"
     );
 }
 
@@ -271,7 +292,7 @@ fn csv_carries_the_same_columns() {
         assert_eq!(row.len(), header.len(), "a cell for every column: {row:?}");
         assert_eq!(row[col("frame")], j["frame"].to_string());
         assert_eq!(row[col("found")], j["found"].to_string());
-        for key in ["x", "y", "mid_x", "mid_y", "t"] {
+        for key in ["x", "y", "mid_x", "mid_y", "t", "path_px"] {
             match j.get(key).and_then(|v| v.as_f64()) {
                 Some(v) => assert!((row[col(key)].parse::<f64>().unwrap() - v).abs() < 1e-9),
                 None => assert_eq!(row[col(key)], ""),

@@ -20,7 +20,7 @@ use crate::source::clock::monotonic_now_us;
 /// The header line.
 pub const CSV_HEADER: &str = "frame,t,found,x,y,mid_x,mid_y,pos_method,vx,vy,v_method,area_px,\
 len_px,seq,dropped,blobs,threshold,ambiguous,blinded,overflow,heading_deg,floor_x,floor_y,\
-floor_vx,floor_vy,floor_speed,floor_heading_deg,floor_unit,beyond_horizon,fit_px";
+floor_vx,floor_vy,floor_speed,floor_heading_deg,floor_unit,beyond_horizon,fit_px,path_px";
 
 /// The columns added after [`CSV_HEADER`] when several robots are followed.
 pub const CSV_TRACK_COLUMNS: &str = "id,provisional,id_source,state,merged";
@@ -194,7 +194,11 @@ fn write_row(
         None => write!(out, ",,,,,,,,false")?,
     }
     match blob.and_then(|(_, streak)| streak.path?.fit_px) {
-        Some(fit_px) => write!(out, ",{fit_px:.3}"),
+        Some(fit_px) => write!(out, ",{fit_px:.3}")?,
+        None => write!(out, ",")?,
+    }
+    match blob.and_then(|(_, streak)| streak.path) {
+        Some(path) => write!(out, ",{:.3}", path.path_length_px),
         None => write!(out, ","),
     }
 }

@@ -13,7 +13,10 @@
 //! `--predict arrival`, a found frame with a known velocity gets `predicted`: `{"x", "y" (px),
 //! "ahead_ms"}`, the position extrapolated to the moment the line is written, `ahead_ms` after
 //! the end of the exposure (see [`super::predict`]). Then the detection's diagnostics, among
-//! them, with `--streak-model fit`, `fit_px`: one standard deviation of the fitted path's ends
+//! them, where the streak's path was read, `path_px`: its length from this frame alone (px),
+//! before the tracker's offset and weighing (a `streak` velocity is this exposure's path,
+//! weighed with the middles'; `path_px` is the frame's own measurement), with
+//! `--streak-model fit`, `fit_px`: one standard deviation of the fitted path's ends
 //! (px), and `fit_floor`: `learned`, `partly` or `flat`, whether the floor under the fitted
 //! pixels was learned or (where no floor was learned yet) one fitted flat floor.
 //!
@@ -121,7 +124,7 @@ impl<W: Write> Sink for JsonLinesSink<W> {
 impl<W: Write> JsonLinesSink<W> {
     /// With several robots: the frame's own fields, then `tracks`, one object per robot with
     /// the single-robot line's fields and meanings (`found`, `x`, `y`, `mid_x`, `mid_y`,
-    /// `pos_method`, `vx`, `vy`, `v_method`, the floor's, `area_px`, `len_px`, `fit_px`)
+    /// `pos_method`, `vx`, `vy`, `v_method`, the floor's, `area_px`, `len_px`, `path_px`, `fit_px`)
     /// after its `id`, `provisional`, `id_source`, `state` and `merged`.
     fn write_several(&mut self, r: &FrameReport) -> io::Result<()> {
         let out = &mut self.out;
@@ -220,7 +223,9 @@ fn write_floor(out: &mut impl Write, floor: Option<FloorFix>) -> io::Result<()> 
     Ok(())
 }
 
-/// `area_px`, `len_px` and, with a fitted model, `fit_px` and `fit_floor` of the light's blob.
+/// `area_px`, `len_px`, where the streak's path was read `path_px` (its length from this
+/// frame alone, before the tracker's learned offset and weighing) and, with a fitted model,
+/// `fit_px` and `fit_floor` of the light's blob.
 fn write_blob(out: &mut impl Write, blob: Option<(Blob, Streak)>) -> io::Result<()> {
     if let Some((blob, streak)) = blob {
         write!(
@@ -228,6 +233,9 @@ fn write_blob(out: &mut impl Write, blob: Option<(Blob, Streak)>) -> io::Result<
             ",\"area_px\":{},\"len_px\":{}",
             blob.area_px, streak.skeleton_length_px
         )?;
+        if let Some(path) = streak.path {
+            write!(out, ",\"path_px\":{:.3}", path.path_length_px)?;
+        }
         if let Some(fit_px) = streak.path.and_then(|p| p.fit_px) {
             write!(out, ",\"fit_px\":{fit_px:.3}")?;
         }
