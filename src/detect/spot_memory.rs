@@ -70,6 +70,7 @@ mod tests {
             spot_sigma_px: 1.0,
             noise_px: 0.1,
             length_noise_px: 0.1,
+            length_deviation_px: 0.1,
             uncertainty_px: 0.1,
             floor_measured: 1.0,
             spot: SpotFit::with_cost(cost),

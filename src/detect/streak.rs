@@ -138,6 +138,10 @@ pub struct StreakPath {
     /// One standard deviation of the path's length as the fit states it
     /// ([`StreakModel::Fit`], `PathFit::length_noise_px`), in image pixels.
     pub length_noise_px: Option<f32>,
+    /// The same with each pixel's own residual, at least `length_noise_px`
+    /// ([`StreakModel::Fit`], `PathFit::length_deviation_px`), in image pixels:
+    /// where the model's profile misses the LED's at the ends, the misfit shows here.
+    pub length_deviation_px: Option<f32>,
     /// The floor the fit read the light on ([`StreakModel::Fit`]).
     pub fit_floor: Option<FitFloor>,
 }
@@ -471,6 +475,7 @@ fn ramps_streak_path(tips: Option<tips::Tips>) -> Option<StreakPath> {
         path_length_px: t.path_length_px,
         fit_px: None,
         length_noise_px: None,
+        length_deviation_px: None,
         fit_floor: None,
     })
 }
@@ -580,6 +585,7 @@ fn fitted_path(
         path_length_px: f.path_length_px,
         fit_px: Some(f.uncertainty_px),
         length_noise_px: Some(f.length_noise_px * image_per_ideal(&f)),
+        length_deviation_px: Some(f.length_deviation_px * image_per_ideal(&f)),
         fit_floor: Some(FitFloor::of(f.floor_measured)),
     };
     (mid, Ok(path))

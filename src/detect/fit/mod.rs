@@ -185,6 +185,9 @@ pub struct PathFit {
     /// end's own deviation shows). Not calibrated: on a spot outside the model's family the
     /// residual is mostly its misfit, and the lengths of one LED scatter far less.
     pub length_noise_px: f32,
+    /// The same with each pixel's own residual (the sandwich), at least `length_noise_px`:
+    /// a frame whose model misses the LED's profile where its ends are read shows here.
+    pub length_deviation_px: f32,
     /// The same with each pixel's own residual (at least `noise_px`): where the model's
     /// profile misses the LED's at the pixels an end is read from, a frame whose model does
     /// not match its pixels shows here.
@@ -686,6 +689,7 @@ fn finish(
     let length_slopes = length_slopes(&p);
     let length_var = length_slopes.dot(&(covariance * length_slopes)).max(0.0) * residual_var;
     let robust_length_var = length_slopes.dot(&(robust * length_slopes)).max(0.0);
+    let length_deviation_px = length_var.max(robust_length_var).sqrt();
     let path = Path::new(&native(&p), true, samples.gradient);
     let measured = samples.floor_ln.iter().take(samples.len).flatten().count();
     let corners = path.arc.corners.iter().take(path.arc.count + 1);
@@ -703,6 +707,7 @@ fn finish(
         spot_sigma_px: sigma,
         noise_px: noise_var.sqrt(),
         length_noise_px: length_var.sqrt(),
+        length_deviation_px,
         uncertainty_px: noise_var.max(end_var_of(&robust)).sqrt(),
         floor_measured: measured as f32 / samples.len.max(1) as f32,
         spot: SpotFit {
@@ -713,7 +718,7 @@ fn finish(
             travel: Travel {
                 mid_px: local.to_image(path.arc.mid),
                 length_px: path.length(),
-                length_deviation_px: length_var.max(robust_length_var).sqrt(),
+                length_deviation_px,
                 // Known to the caller only (see `fit_from`).
                 after_a_path: false,
             },
