@@ -1018,8 +1018,10 @@ impl Tracker {
     /// half an interval's gain, and its path over the exposure is longer than the scaled
     /// displacement by half of what its path grew since the frame before (`ΔL = a dt e`,
     /// `D e / dt = L − ΔL / 2`). That growth is read from the two frames' single-frame
-    /// lengths (`this`, and the last frame's), whose steady offset cancels in it, where it is
-    /// beyond twice its deviation; then its variance is the observation's. Read from the
+    /// lengths (`this`, and the last frame's), whose steady offset cancels in it, and half of
+    /// it is added where it is beyond twice its deviation. Its variance (a quarter of the two
+    /// lengths') is the path's either way: within its deviation the growth is unknown, not
+    /// none. Read from the
     /// displacement alone, an LED speeding up by a third over its track (independent scenes
     /// seed 5, scene 26) gave its second frame's path as 11.1 px for the true 12.2 px, learned
     /// as part of the fit's offset; now 11.9 px.
@@ -1042,11 +1044,14 @@ impl Tracker {
                     .last_length
                     .filter(|l| middles.len() == 2 && l.t_us == before.t_us)
                     .filter(|l| l.reading == this.reading)
-                    .and_then(|last| {
+                    .map(|last| {
                         let grew_px = this.length_px - last.length_px;
                         let variance_px2 = this.variance_px2 + last.variance_px2;
-                        (grew_px * grew_px > 4.0 * variance_px2)
-                            .then_some((0.5 * grew_px, 0.25 * variance_px2))
+                        let beyond = grew_px * grew_px > 4.0 * variance_px2;
+                        (
+                            if beyond { 0.5 * grew_px } else { 0.0 },
+                            0.25 * variance_px2,
+                        )
                     });
                 let (half_growth_px, variance_px2) = growth.unwrap_or((0.0, 0.0));
                 (moved_px > statics::DRIFT_PX).then_some((path_px + half_growth_px, variance_px2))
@@ -1064,15 +1069,18 @@ impl Tracker {
     /// stated 0.4–0.8 px, and the agreement test then turned away middles' paths right to
     /// a tenth of a pixel (independent scenes at 1280×720: 24 scenes out of 300 with the
     /// even spread, 22 with the sandwich's). The offset's own uncertainty is not added to the
-    /// length's: once taken off, it is a fraction of the scatter it was taken against. The
-    /// middles' path's variance is the motion's
-    /// own, or for the run's first three or four middles the one their own deviations give
-    /// ([`motion::early_path_variance_px2`]), each middle taken as uncertain as the fitted ends
-    /// (`fit_px`) over √2, all of it along the path (where the ends are least certain). Not
-    /// from two middles: their one displacement measures no turn and no change of speed, and
-    /// on a circle it is a chord (a 60 px arc's middles said 52.9 px where the fit read
-    /// 60.5 px, right), on an LED speeding up the speed half an interval ago (18.4 px where
-    /// the fit read 22.3 px for 22.1).
+    /// length's: once taken off, it is a fraction of the scatter it was taken against.
+    ///
+    /// The middles' path's variance is the motion's own, or for the run's first two, three or
+    /// four middles the one their own deviations give ([`motion::first_path_variance_px2`]),
+    /// each middle taken as uncertain as the fitted ends (`fit_px`) over √2, all of it along
+    /// the path (where the ends are least certain). Two middles' one displacement measures no
+    /// change of speed: on an LED speeding up it is the speed half an interval ago, less the
+    /// half of the lengths' growth [`Tracker::motion_path`] adds where that growth is beyond
+    /// its deviations. Within them it is unknown, so its variance is added either way: a
+    /// quarter of the two lengths' variances, the frame before's taken as this one's.
+    /// (Weighed with no variance for the middles or the growth, before the agreement test,
+    /// two middles put 9 scenes of 300 out at 640×480 and 5 at 1280×720.)
     fn weighed_with_middles(
         &self,
         length_px: f32,
@@ -1087,7 +1095,7 @@ impl Tracker {
         if motion.is_none() {
             let middle_sd_px = fit_px * core::f32::consts::FRAC_1_SQRT_2;
             var_px2 +=
-                motion::early_path_variance_px2(middles, self.config.exposure_us?, middle_sd_px)?;
+                motion::first_path_variance_px2(middles, self.config.exposure_us?, middle_sd_px)?;
         }
         Some(length_offset::weighed_with_motion(
             length_px,
@@ -2080,13 +2088,16 @@ mod tests {
     /// A halo's 13 px line at a steady 1300 px/s, whose fit reads each path a steady 1.9–2.1 px
     /// long and states its length uncertain by 1.5 px (independent seed 2, scene 46: 15.2 px
     /// stating 1.5 for 13.1), its middles precise to a tenth. Before the offset is taken off
-    /// (three observations, beyond their scatter and the stated deviation), the third frame
-    /// read 15 % fast by its length alone; weighed with the middles' path from the third
-    /// middle on, every frame from the third has its speed within 5 %.
+    /// (three observations, beyond their scatter and the stated deviation), the second and
+    /// third frames read 15 % fast by their lengths alone; weighed with the middles' path,
+    /// every frame from the third has its speed within 5 %, and the second, whose two
+    /// middles do not tell a steady speed from a growing one (their path as uncertain as a
+    /// quarter of the two lengths' variances), within 6 % (+5.2 %).
     #[test]
     fn a_track_s_first_lengths_are_weighed_with_the_middles_path() {
         let (jitter_px, long_px) = (STEADY_JITTER_PX, [-2.1, -1.9, -2.0]);
         let read = read_short(10_000, 1300.0, (&jitter_px, &long_px), (1.5, 1.5), 8);
+        assert_streak_speeds_within(&read[..2], 1, 0.06);
         assert_streak_speeds_within(&read, 2, 0.05);
     }
 

@@ -324,6 +324,24 @@ pub fn first_path_px(middles: &[Middle], exposure_us: u32) -> Option<f32> {
     }
 }
 
+/// The variance (px²) of [`first_path_px`] from middles each uncertain along the path by
+/// `middle_sd_px`, independently: from two, the displacement's, `2 σ² (e / dt)²`; from three
+/// or four, [`early_path_variance_px2`]. `None` where [`first_path_px`] has none.
+pub fn first_path_variance_px2(
+    middles: &[Middle],
+    exposure_us: u32,
+    middle_sd_px: f32,
+) -> Option<f32> {
+    match middles {
+        [before, last] => {
+            let dt_us = last.t_us.checked_sub(before.t_us).filter(|&dt| dt > 0)?;
+            let scaled_sd_px = middle_sd_px * exposure_us as f32 / dt_us as f32;
+            Some(2.0 * scaled_sd_px * scaled_sd_px)
+        }
+        _ => early_path_variance_px2(middles, exposure_us, middle_sd_px),
+    }
+}
+
 /// The last two displacements of three or four middles, as velocities over their intervals,
 /// and the rate of the turn between them.
 struct EarlySteps {
@@ -518,8 +536,8 @@ mod tests {
             .collect()
     }
 
-    /// The early path's stated variance is its spread over middles that jitter along the
-    /// path by the deviation given: 4000 runs of three and of four middles, the last interval
+    /// The first path's stated variance is its spread over middles that jitter along the
+    /// path by the deviation given: 4000 runs of two, three and four middles, the last interval
     /// a third longer than the one before (a dropped frame's worth of difference), on a line
     /// at 1500 px/s.
     #[test]
@@ -538,7 +556,7 @@ mod tests {
                 .sum::<f32>()
                 - 6.0
         };
-        for count in [3usize, 4] {
+        for count in [2usize, 3, 4] {
             let times: Vec<u64> = (0..count as u64)
                 .map(|i| {
                     i * FRAME_US
@@ -556,7 +574,7 @@ mod tests {
                     px: (100.0 + 1500.0 * t_us as f32 * 1e-6, 80.0),
                 })
                 .collect();
-            let stated = early_path_variance_px2(&clean, EXPOSURE_US, sd_px).expect("a variance");
+            let stated = first_path_variance_px2(&clean, EXPOSURE_US, sd_px).expect("a variance");
             let paths: Vec<f32> = (0..4000)
                 .map(|_| {
                     let noisy: Vec<Middle> = clean
@@ -566,7 +584,7 @@ mod tests {
                             ..*m
                         })
                         .collect();
-                    early_path_px(&noisy, EXPOSURE_US).expect("a path")
+                    first_path_px(&noisy, EXPOSURE_US).expect("a path")
                 })
                 .collect();
             let mean = paths.iter().sum::<f32>() / paths.len() as f32;
