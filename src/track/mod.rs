@@ -781,7 +781,9 @@ impl Tracker {
             (Some(l), Some(p)) => Some(
                 self.weighed_with_middles(
                     l,
-                    p.length_deviation_px.or(length_spread_px2.map(f32::sqrt)),
+                    p.length_deviation_px.or(length_spread_px2
+                        .filter(|_| !reading.states_its_deviation())
+                        .map(f32::sqrt)),
                     fit_px,
                     motion_path,
                     motion,
@@ -1076,9 +1078,9 @@ impl Tracker {
     /// four middles the one their own deviations give ([`motion::first_path_variance_px2`]),
     /// each middle taken as uncertain as the fitted ends (`fit_px`) over √2, all of it along
     /// the path (where the ends are least certain). Two middles' one displacement measures no
-    /// change of speed: on an LED speeding up it is the speed half an interval ago, less the
-    /// half of the lengths' growth [`Tracker::motion_path`] adds where that growth is beyond
-    /// its deviations. Within them it is unknown, and `motion_path` states its variance
+    /// change of speed: on an LED speeding up it is the speed half an interval ago, short by
+    /// half the lengths' growth, which [`Tracker::motion_path`] adds where that growth is
+    /// beyond its deviations. Within them it is unknown, and `motion_path` states its variance
     /// either way (a quarter of the two lengths'). (Weighed with no variance for the middles
     /// or the growth, before the agreement test, two middles put 9 scenes of 300 out at
     /// 640×480 and 5 at 1280×720.)
