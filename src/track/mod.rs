@@ -2019,10 +2019,7 @@ mod tests {
             let s = fitted_streak((x, 100.0), [(x, 100.0); 2], read_px, (1.0, 1.5));
             let e = t.update(i * FRAME_US, Some(&s)).unwrap();
             if i >= 20 {
-                let (v, method) = e.velocity_px_s.unwrap();
-                assert_eq!(method, VelocityMethod::Streak, "frame {i}");
-                let error = v.0.hypot(v.1) / speed_px_s - 1.0;
-                assert!(error.abs() < 0.02, "frame {i}: {:+.1} %", 100.0 * error);
+                assert_streak_speed(&e, speed_px_s, 0.02, i);
                 checked += 1;
             }
         }
@@ -2076,6 +2073,20 @@ mod tests {
                 Some((v.0.hypot(v.1) / speed_px_s - 1.0, method))
             })
             .collect()
+    }
+
+    /// `e`'s velocity came from its streak, within `bound` (a fraction) of `speed_px_s`.
+    fn assert_streak_speed(e: &Estimate, speed_px_s: f32, bound: f32, frame: u64) {
+        let (v, method) = e
+            .velocity_px_s
+            .unwrap_or_else(|| panic!("frame {frame}: no velocity"));
+        assert_eq!(method, VelocityMethod::Streak, "frame {frame}");
+        let error = v.0.hypot(v.1) / speed_px_s - 1.0;
+        assert!(
+            error.abs() < bound,
+            "frame {frame}: {:+.1} %",
+            100.0 * error
+        );
     }
 
     /// Every frame of `read` (see [`read_short`]) from `from` on has its velocity from its
@@ -2153,10 +2164,7 @@ mod tests {
             }
             let e = t.update(i * FRAME_US, Some(&s)).unwrap();
             if i == 2 {
-                let (v, method) = e.velocity_px_s.unwrap();
-                assert_eq!(method, VelocityMethod::Streak);
-                let error = v.0.hypot(v.1) / speed_px_s - 1.0;
-                assert!(error.abs() < 0.03, "{:+.1} %", 100.0 * error);
+                assert_streak_speed(&e, speed_px_s, 0.03, i);
             }
         }
     }
@@ -2190,10 +2198,7 @@ mod tests {
             }
             let e = t.update(i * FRAME_US, Some(&s)).unwrap();
             if i >= 7 {
-                let (v, method) = e.velocity_px_s.unwrap();
-                assert_eq!(method, VelocityMethod::Streak, "frame {i}");
-                let error = v.0.hypot(v.1) / speed_px_s - 1.0;
-                assert!(error.abs() < 0.03, "frame {i}: {:+.1} %", 100.0 * error);
+                assert_streak_speed(&e, speed_px_s, 0.03, i);
             }
         }
     }
