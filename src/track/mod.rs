@@ -765,9 +765,10 @@ impl Tracker {
         // A path near the spot's width is read as still in one frame and as moving in the
         // next: the same fit of the same spot at about the same speed. Until the reading it
         // turned to has observed enough of its own, the offset learned in the other stands.
-        let enough = length_offset.has_enough();
         let offset_px = match reading.other_fit() {
-            Some(other) if !enough => self.length_offsets[other as usize].offset_px(other),
+            Some(other) if !length_offset.has_enough() => {
+                self.length_offsets[other as usize].offset_px(other)
+            }
             _ => length_offset.offset_px(reading),
         };
         let length_px = streak.path.map(|p| (p.path_length_px - offset_px).max(0.0));

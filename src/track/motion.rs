@@ -292,11 +292,7 @@ pub fn early_path_px(middles: &[Middle], exposure_us: u32) -> Option<f32> {
 /// `a / dt₀` times the exposure `e` (at equal intervals the variance is 6.5 times a
 /// middle's, over the interval, times the exposure). The turn's factor on the speeds is taken
 /// as 1. `None` where [`early_path_px`] has none.
-pub fn early_path_variance_px2(
-    middles: &[Middle],
-    exposure_us: u32,
-    middle_sd_px: f32,
-) -> Option<f32> {
+fn early_path_variance_px2(middles: &[Middle], exposure_us: u32, middle_sd_px: f32) -> Option<f32> {
     let s = early_steps(middles)?;
     let a = s.dt1 / (s.dt0 + s.dt1);
     let weights = [(1.0 + a) / s.dt1, (1.0 + a) / s.dt1 + a / s.dt0, a / s.dt0];
@@ -326,7 +322,8 @@ pub fn first_path_px(middles: &[Middle], exposure_us: u32) -> Option<f32> {
 
 /// The variance (px²) of [`first_path_px`] from middles each uncertain along the path by
 /// `middle_sd_px`, independently: from two, the displacement's, `2 σ² (e / dt)²`; from three
-/// or four, [`early_path_variance_px2`]. `None` where [`first_path_px`] has none.
+/// or four, the early path's, from the weights with which [`early_path_px`] takes its last
+/// three middles. `None` where [`first_path_px`] has none.
 pub fn first_path_variance_px2(
     middles: &[Middle],
     exposure_us: u32,
@@ -541,7 +538,7 @@ mod tests {
     /// a third longer than the one before (a dropped frame's worth of difference), on a line
     /// at 1500 px/s.
     #[test]
-    fn the_early_path_s_variance_is_its_spread_over_the_middles_jitter() {
+    fn the_first_path_s_variance_is_its_spread_over_the_middles_jitter() {
         let sd_px = 0.3f32;
         let mut state = 0x2545_f491u32;
         let mut gaussian = || {
