@@ -1268,7 +1268,6 @@ fn displacement(previous: Sample, mid_px: (f32, f32), t_us: u64) -> Option<((f32
     Some(((mid_px.0 - before.0, mid_px.1 - before.1), dt_s))
 }
 
-/// `head` moved `by_px` towards `mid` (away from it for a negative `by_px`), at most to `mid`.
 /// The single frame's head `h`, whose ends the fit states uncertain by `fit_px`, and the
 /// motion's head `m`, where the two agree: their mean, each weighed by the inverse of its
 /// variance. Two readings of the same point, one from this frame's end and one from the
@@ -1286,6 +1285,7 @@ fn blended_head(h: (f32, f32), fit_px: f32, m: motion::MotionHead) -> (f32, f32)
 /// no more than one of a hundredth of a pixel.
 const MIN_HEAD_VARIANCE_PX2: f32 = 1e-4;
 
+/// `head` moved `by_px` towards `mid` (away from it for a negative `by_px`), at most to `mid`.
 fn pulled_in(head: (f32, f32), mid: (f32, f32), by_px: f32) -> (f32, f32) {
     let (dx, dy) = (head.0 - mid.0, head.1 - mid.1);
     let length_px = dx.hypot(dy);
