@@ -17,6 +17,10 @@ Everything that glint-scene models one way is modelled another way here:
 - with `--row-time-us`, a rolling shutter: each sample of the LED's path lights only the rows
   whose own exposure holds its moment, row y's exposure ending y × the row time after row 0's;
   glint-scene draws each row's patch over that row's exposure window.
+- with `--flicker DEPTH`, room light that flickers at twice the mains frequency (`--flicker-hz`,
+  100 by default): the floor's light (not the LED's) times 1 + DEPTH · sin(2π f t + φ), averaged
+  over each row's exposure, so that frames differ in brightness and, under a rolling shutter,
+  bands run across each frame; glint-scene lights its floor evenly.
 
 Ground truth is written in glint-scene's truth CSV (frame, t, visible, x, y, mid_x, mid_y, vx,
 vy, streak_px, path_mid_x, path_mid_y): x, y is the LED at the end of the exposure, mid at its
@@ -33,6 +37,9 @@ exposure in µs and the picture's size among them).
 `--row-time-us US` reads the rows out one after another, US apart; each frame's noise then has
 a random stream of its own, so that the same seed with `--row-time-us 0` gives the same scenes
 under a global shutter (without the option, the scenes of earlier versions).
+`--flicker DEPTH` draws each frame's noise from a stream of its own too, so that the same seed
+with `--flicker 0` gives the same scenes under a steady room light (their noise differs where
+the light does: the shot noise's draws follow it).
 `--motion KIND`, `--spot KIND` and `--frames N` make every scene of that motion, spot or
 length (the rest drawn as without them). `--size WxH` draws its scenes from the same
 distributions as a camera of that size sees them: every length in pixels (the spot, the
@@ -312,6 +319,19 @@ def rolling_light(motion, pixel, m, t_start, t_end, row_time_s):
     return lo, light
 
 
+def room_light(force, phase, frame_start, frame_end, row_time_s):
+    """The room light on the floor over each row's exposure, relative to its mean: a column of
+    factors (one per row), or 1 without `--flicker`. Light at `1 + d sin(ω t + φ)` averages to
+    `1 + d (cos(ω a + φ) − cos(ω b + φ)) / (ω (b − a))` over an exposure from `a` to `b`."""
+    depth = force.flicker or 0.0
+    if depth == 0.0:
+        return 1.0
+    omega = 2 * math.pi * force.flicker_hz
+    rows = np.arange(HEIGHT, dtype=float)[:, None] * row_time_s
+    a, b = frame_start + rows, frame_end + rows
+    return 1.0 + depth * (np.cos(omega * a + phase) - np.cos(omega * b + phase)) / (omega * (b - a))
+
+
 def render_scene(rng, index, force):
     # The streak's length in one exposure, 2 to 60 px; a long one needs a long exposure.
     streak_px = float(rng.choice([rng.uniform(2, 20), rng.uniform(20, 40), 60.0]))
@@ -366,6 +386,10 @@ def render_scene(rng, index, force):
     row_time_s = (force.row_time_us or 0.0) * 1e-6
     if row_time_s > 0:
         pixel, m = pixel_kernels(kernel)
+    # The room light's phase at t = 0, from a stream of the scene's own: the other draws stay
+    # those of the steady scene.
+    flicker_phase = float(np.random.default_rng([force.seed, index]).uniform(0, 2 * math.pi))
+    own_noise = force.row_time_us is not None or force.flicker is not None
 
     out = bytearray()
     truths = []
@@ -382,7 +406,7 @@ def render_scene(rng, index, force):
         h, w = light.shape
         # A still spot's peak is 1 before scaling (the kernel's peak, the path's weight 1);
         # what falls outside the picture is dropped.
-        irradiance = floor.copy()
+        irradiance = floor * room_light(force, flicker_phase, frame_start, frame_end, row_time_s)
         x0, y0 = max(lo[0], 0), max(lo[1], 0)
         x1, y1 = min(lo[0] + w, WIDTH), min(lo[1] + h, HEIGHT)
         irradiance[y0:y1, x0:x1] += peak_full_wells * np.clip(
@@ -391,7 +415,7 @@ def render_scene(rng, index, force):
         # How many numbers the shot noise draws depends on the light, so under a rolling
         # shutter each frame's noise has a stream of its own: the scenes' other draws then stay
         # those of the same seed's global shutter (`--row-time-us 0`).
-        noise = rng if force.row_time_us is None else np.random.default_rng([force.seed, index, n])
+        noise = np.random.default_rng([force.seed, index, n]) if own_noise else rng
         electrons = noise.poisson(irradiance * camera["full_well_e"]).astype(float)
         electrons += noise.normal(0.0, camera["read_noise_e"], electrons.shape)
         v = tone(electrons / camera["full_well_e"], camera)
@@ -437,6 +461,7 @@ def render_scene(rng, index, force):
         # The first frame whose exposure starts after an LED moving into place stopped.
         "settled_frame": math.ceil(motion.move_s * FPS) if motion.kind == "settle" else 0,
         "row_time_us": force.row_time_us or 0.0,
+        "flicker": force.flicker or 0.0,
     }
     return bytes(out), truths, params
 
@@ -454,12 +479,24 @@ def main():
     parser.add_argument(
         "--row-time-us", type=float, help="a rolling shutter's row time, µs (0: a global shutter)"
     )
+    parser.add_argument(
+        "--flicker",
+        type=float,
+        help="the room light's flicker depth on the floor, 0 to 1 (0: steady, own noise streams)",
+    )
+    parser.add_argument(
+        "--flicker-hz", type=float, default=100.0, help="the room light's flicker frequency"
+    )
     args = parser.parse_args()
     global WIDTH, HEIGHT, SCALE
     WIDTH, HEIGHT = (int(v) for v in args.size.split("x"))
     SCALE = WIDTH / 640.0
     if args.row_time_us is not None and not 0.0 <= args.row_time_us * HEIGHT <= 1e6 / FPS:
         parser.error("--row-time-us must be at least 0 and read the rows out within a frame")
+    if args.flicker is not None and not 0.0 <= args.flicker <= 1.0:
+        parser.error("--flicker must be from 0 to 1")
+    if not args.flicker_hz > 0.0:
+        parser.error("--flicker-hz must be above 0")
     rng = np.random.default_rng(args.seed)
     scenes = []
     for k in range(args.count):
