@@ -432,8 +432,8 @@ const MAX_TURN_DISAGREEMENT_RAD: f32 = core::f32::consts::FRAC_PI_4;
 /// frame, where that turn is more than a right angle; with the turn (rad). `None` (the end
 /// farther from where the LED last was is then the head) where it turned less, where the
 /// streak's own bend does not say it turned that much or tells of another turn, or where the
-/// middles moved no farther than the streak is wide (`width_px`), too little to measure a
-/// turn by.
+/// middles moved no farther than `width_px` (the streak's width, or the middles' noise where
+/// that is the less), too little to measure a turn by.
 ///
 /// On a circle, the chord `c` between two middles and the arc `s` the LED went along between
 /// them (its speed, the streak's length over the exposure, times the interval) give the turn
