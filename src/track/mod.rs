@@ -2101,16 +2101,13 @@ mod tests {
         (0..frames)
             .map(|i| {
                 let k = i as usize;
-                let head_x = 100.0 + speed_px_s * (i * FRAME_US) as f32 * 1e-6;
-                let mid_x = head_x - 0.5 * true_px + jitter_px[k % jitter_px.len()];
                 let read_px = true_px - short_px[k % short_px.len()];
+                let jitter_px = jitter_px[k % jitter_px.len()];
+                let (_, mid_x, ends) = line_frame(i, speed_px_s, true_px, jitter_px, read_px);
                 let ends = if i < still_frames {
                     [(mid_x, 100.0); 2]
                 } else {
-                    [
-                        (mid_x - 0.5 * read_px, 100.0),
-                        (mid_x + 0.5 * read_px, 100.0),
-                    ]
+                    ends
                 };
                 let s = fitted_streak((mid_x, 100.0), ends, read_px, (fit_px, length_noise_px));
                 let e = t.update(i * FRAME_US, Some(&s)).unwrap();
@@ -2118,6 +2115,25 @@ mod tests {
                 Some((v.0.hypot(v.1) / speed_px_s - 1.0, method))
             })
             .collect()
+    }
+
+    /// Frame `i` of a straight run along y = 100 at `speed_px_s`, `true_px` of it in each
+    /// exposure: the LED's head at the exposure's end, the streak's middle moved by
+    /// `jitter_px`, and the ends of a path read `read_px` long about that middle.
+    fn line_frame(
+        i: u64,
+        speed_px_s: f32,
+        true_px: f32,
+        jitter_px: f32,
+        read_px: f32,
+    ) -> (f32, f32, [(f32, f32); 2]) {
+        let head_x = 100.0 + speed_px_s * (i * FRAME_US) as f32 * 1e-6;
+        let mid_x = head_x - 0.5 * true_px + jitter_px;
+        let ends = [
+            (mid_x - 0.5 * read_px, 100.0),
+            (mid_x + 0.5 * read_px, 100.0),
+        ];
+        (head_x, mid_x, ends)
     }
 
     /// `e`'s velocity came from its streak, within `bound` (a fraction) of `speed_px_s`.
@@ -2196,13 +2212,9 @@ mod tests {
             exposure_us: Some(exposure_us),
         });
         for i in 0..3u64 {
-            let head_x = 100.0 + speed_px_s * (i * FRAME_US) as f32 * 1e-6;
-            let mid_x = head_x - 0.5 * true_px + STEADY_JITTER_PX[i as usize];
             let read_px = true_px - 1.3;
-            let ends = [
-                (mid_x - 0.5 * read_px, 100.0),
-                (mid_x + 0.5 * read_px, 100.0),
-            ];
+            let jitter_px = STEADY_JITTER_PX[i as usize];
+            let (_, mid_x, ends) = line_frame(i, speed_px_s, true_px, jitter_px, read_px);
             let mut s = fitted_streak((mid_x, 100.0), ends, read_px, (0.3, 0.35));
             if let Some(p) = s.path.as_mut() {
                 p.length_deviation_px = Some(1.0);
@@ -2229,14 +2241,9 @@ mod tests {
             exposure_us: Some(exposure_us),
         });
         for i in 0..8u64 {
-            let k = i as usize;
-            let head_x = 100.0 + speed_px_s * (i * FRAME_US) as f32 * 1e-6;
-            let mid_x = head_x - 0.5 * true_px + STEADY_JITTER_PX[k % STEADY_JITTER_PX.len()];
+            let jitter_px = STEADY_JITTER_PX[i as usize % STEADY_JITTER_PX.len()];
             let read_px = true_px + 2.0;
-            let ends = [
-                (mid_x - 0.5 * read_px, 100.0),
-                (mid_x + 0.5 * read_px, 100.0),
-            ];
+            let (head_x, mid_x, ends) = line_frame(i, speed_px_s, true_px, jitter_px, read_px);
             let s = fitted_streak((mid_x, 100.0), ends, read_px, (0.5, 1.5));
             let e = t.update(i * FRAME_US, Some(&s)).unwrap();
             let miss_px = dist(e.position_px, (head_x, 100.0));
@@ -2301,13 +2308,9 @@ mod tests {
         });
         for i in 0..24u64 {
             let k = i as usize;
-            let head_x = 100.0 + speed_px_s * (i * FRAME_US) as f32 * 1e-6;
-            let mid_x = head_x - 0.5 * true_px + STEADY_JITTER_PX[k % STEADY_JITTER_PX.len()];
+            let jitter_px = STEADY_JITTER_PX[k % STEADY_JITTER_PX.len()];
             let read_px = true_px + scatter_px[k % scatter_px.len()];
-            let ends = [
-                (mid_x - 0.5 * read_px, 100.0),
-                (mid_x + 0.5 * read_px, 100.0),
-            ];
+            let (_, mid_x, ends) = line_frame(i, speed_px_s, true_px, jitter_px, read_px);
             let mut s = streak((mid_x, 100.0), Some(ends));
             if let Some(p) = s.path.as_mut() {
                 p.path_length_px = read_px;
