@@ -144,6 +144,11 @@ pub struct StreakPath {
     pub length_deviation_px: Option<f32>,
     /// The floor the fit read the light on ([`StreakModel::Fit`]).
     pub fit_floor: Option<FitFloor>,
+    /// Where the fit called its path still (`ends_px` the middle), the ends it read: a bloom
+    /// clipped far into its glow fits a spot as wide as the glow, wider than a path of
+    /// 10–20 px, which the fit still reads to a fraction of a pixel. One frame cannot tell
+    /// that path from a still bloom's misfit; the middles' motion can (the tracker's rule).
+    pub still_ends_px: Option<[(f32, f32); 2]>,
 }
 
 /// The floor under a fitted streak: learned where the floor was seen without the light, else
@@ -477,6 +482,7 @@ fn ramps_streak_path(tips: Option<tips::Tips>) -> Option<StreakPath> {
         length_noise_px: None,
         length_deviation_px: None,
         fit_floor: None,
+        still_ends_px: None,
     })
 }
 
@@ -582,6 +588,7 @@ fn fitted_path(
     };
     let path = StreakPath {
         ends_px: if still { [mid; 2] } else { f.ends_px },
+        still_ends_px: still.then_some(f.ends_px),
         path_length_px: f.path_length_px,
         fit_px: Some(f.uncertainty_px),
         length_noise_px: Some(f.length_noise_px * image_per_ideal(&f)),

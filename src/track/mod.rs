@@ -822,6 +822,23 @@ impl Tracker {
             .and_then(|length_px| {
                 self.still_path_velocity(length_px, motion, middles, mid_px, previous, t_us)
             });
+        // Such a path's own direction, in a track's second frame, where the two middles'
+        // chord is the only other and cannot tell a turn: on a circle it is half a frame's
+        // turn off the LED's heading, and the head carried along it as far. Independent
+        // scenes seed 8, scene 35: a halo's 16 px arcs in a fitted spot 20 px wide, turning
+        // 46° a frame, the second head 4.7 px off along the chord, 0.6 px along the fitted
+        // ends. From three middles on, their turn is read (`early_turning_head`, the
+        // motion's), and the fitted direction of a short path in a glow is the noisier: taken
+        // in every frame, it put 4 more sweep points out of 600 (1–4 px lines of blooms).
+        let still_direction = still_velocity
+            .filter(|_| middles.len() < 3)
+            .and(previous)
+            .zip(streak.path.and_then(|p| p.still_ends_px))
+            .and_then(|(previous, ends)| {
+                fitted_direction(ends, previous.estimate.position_px, fit_px?)
+            });
+        let along_still = |v: (f32, f32)| still_direction.map_or(v, |d| d.turned(v));
+        let still_velocity = still_velocity.map(along_still);
         // The motion's head is also taken where it agrees with the single frame's but is the
         // more precise of the two (its region narrower at the same quantile): a fit uncertain
         // by 10 px that lands 30 px off still "agrees". The single frame's length then stays
@@ -942,6 +959,7 @@ impl Tracker {
                 (Some(s), Some(l)) if l.0.hypot(l.1) < s.0.hypot(s.1) => l,
                 (steady, last) => steady.or(last)?,
             };
+            let (vx, vy) = along_still((vx, vy));
             // Both velocities are the middles' over whole frame intervals, but this frame's
             // own still path bounds the LED's travel during this exposure. An LED arriving
             // where it stops moved its last frames' distance between the middles and only its
@@ -1303,6 +1321,47 @@ fn pulled_in(head: (f32, f32), mid: (f32, f32), by_px: f32) -> (f32, f32) {
     (mid.0 + dx * scale, mid.1 + dy * scale)
 }
 
+/// A fitted path's direction: toward the end of `ends_px` farther from `before_px` (where
+/// the LED last was), with how far off it may be at 99 % (rad), from the ends' stated
+/// deviation `fit_px`. `None` for a path of no length.
+fn fitted_direction(
+    ends_px: [(f32, f32); 2],
+    before_px: (f32, f32),
+    fit_px: f32,
+) -> Option<FittedDirection> {
+    let [a, b] = ends_px;
+    let (head, tail) = if dist(a, before_px) >= dist(b, before_px) {
+        (a, b)
+    } else {
+        (b, a)
+    };
+    let length_px = dist(head, tail);
+    (length_px > 0.0).then(|| FittedDirection {
+        unit: ((head.0 - tail.0) / length_px, (head.1 - tail.1) / length_px),
+        // Each end's deviation across the path turns the chord by it over the length.
+        noise_rad: CHI2_1DOF_99.sqrt() * core::f32::consts::SQRT_2 * fit_px / length_px,
+    })
+}
+
+/// A fitted path's direction ([`fitted_direction`]).
+#[derive(Debug, Clone, Copy)]
+struct FittedDirection {
+    unit: (f32, f32),
+    noise_rad: f32,
+}
+
+impl FittedDirection {
+    /// `v` turned onto this direction, at its own speed, where it lies off it beyond the
+    /// fit's noise; else `v` (along a straight line the middles' chord is the steadier).
+    fn turned(self, v: (f32, f32)) -> (f32, f32) {
+        if motion::signed_angle(v, self.unit).abs() <= self.noise_rad {
+            return v;
+        }
+        let speed = v.0.hypot(v.1);
+        (self.unit.0 * speed, self.unit.1 * speed)
+    }
+}
+
 fn dist(a: (f32, f32), b: (f32, f32)) -> f32 {
     (a.0 - b.0).hypot(a.1 - b.1)
 }
@@ -1343,6 +1402,7 @@ mod tests {
                 length_noise_px: None,
                 length_deviation_px: None,
                 fit_floor: None,
+                still_ends_px: None,
             }),
             path_failed: false,
         }
@@ -2041,6 +2101,59 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// A bloom read as still (its fitted spot is its glow, wider than the 14 px path) on a
+    /// circle turning 46° a frame, the fit reading the ends of each arc. In the track's
+    /// second frame the head lies along the fitted ends, not along the two middles' chord,
+    /// which is half a frame's turn off: within the arc's sagitta (0.43 px) of the truth,
+    /// where carried along the chord it was 3.2 px off. On a straight line whose fitted ends
+    /// lie off it within their deviation, the chord stands.
+    #[test]
+    fn a_still_path_s_second_head_lies_along_its_fitted_ends() {
+        let exposure_us = 10_000u32;
+        let (radius_px, turn_rad) = (60.0f32, 0.8f32);
+        let exposure_turn_rad = turn_rad * exposure_us as f32 / FRAME_US as f32;
+        let on_circle = |a: f32| (200.0 + radius_px * a.cos(), 200.0 + radius_px * a.sin());
+        let arc_px = radius_px * exposure_turn_rad;
+        let mut t = Tracker::new(TrackerConfig {
+            exposure_us: Some(exposure_us),
+        });
+        let mut head_px = (0.0, 0.0);
+        for i in 0..2u64 {
+            let end = i as f32 * turn_rad;
+            let start = end - exposure_turn_rad;
+            let mid = on_circle(0.5 * (start + end));
+            let mut s = fitted_streak(mid, [mid; 2], arc_px, (0.3, 0.3));
+            if let Some(p) = s.path.as_mut() {
+                p.still_ends_px = Some([on_circle(start), on_circle(end)]);
+            }
+            head_px = t.update(i * FRAME_US, Some(&s)).unwrap().position_px;
+        }
+        let off_px = dist(head_px, on_circle(turn_rad));
+        assert!(off_px < 0.5, "second head {off_px:.2} px off the circle's");
+
+        // A line at y = 100, its fitted ends turned 3° off it (their deviation allows 4.3°).
+        let mut t = Tracker::new(TrackerConfig {
+            exposure_us: Some(exposure_us),
+        });
+        let half_px = 0.5 * arc_px;
+        let (c, s3) = (3f32.to_radians().cos(), 3f32.to_radians().sin());
+        for i in 0..2u64 {
+            let mid = (100.0 + 48.0 * i as f32, 100.0);
+            let mut s = fitted_streak(mid, [mid; 2], arc_px, (0.3, 0.3));
+            if let Some(p) = s.path.as_mut() {
+                p.still_ends_px = Some([
+                    (mid.0 - half_px * c, mid.1 - half_px * s3),
+                    (mid.0 + half_px * c, mid.1 + half_px * s3),
+                ]);
+            }
+            head_px = t.update(i * FRAME_US, Some(&s)).unwrap().position_px;
+        }
+        assert!(
+            (head_px.1 - 100.0).abs() < 0.05,
+            "line's second head at {head_px:?}"
+        );
     }
 
     /// A bloom read as still in every frame (its fitted spot is its glow) whose fit reads the
