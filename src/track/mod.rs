@@ -235,6 +235,9 @@ pub struct Tracker {
     /// The last frame's single-frame path length, for the change of speed the next frame's
     /// first path is read with (see [`Tracker::motion_path`]).
     last_length: Option<FrameLength>,
+    /// The time of the last frame whose head its turn told ([`motion::head_by_turn`]): a
+    /// frame after it may be told by where that head went.
+    turned_at_us: Option<u64>,
 }
 
 /// One frame's single-frame path length (px), as `reading` read it, and its stated variance
@@ -696,12 +699,49 @@ impl Tracker {
             let width_px = path.fit_px.map_or(streak.thickness_px, |f| {
                 streak.thickness_px.min(CHI2_2DOF_99.sqrt() * f)
             });
-            let streak_of = (mid_px, path.path_length_px, width_px);
+            let length_px = path.path_length_px;
+            let streak_of = (mid_px, length_px, width_px);
             let before = (previous.estimate.mid_px, dt_s, exposure_s);
-            motion::head_by_turn(path.ends_px, streak_of, before)
-                .map(|(end, turn_rad)| (path.ends_px[end], turn_rad))
+            let (end, turn_rad) = motion::head_by_turn(path.ends_px, streak_of, before)?;
+            // Near a half turn a frame the side of it is the length's to tell. A length that
+            // can be off by more than separates the two sides leaves it to where the LED last
+            // was, where the frame before's head was itself told by its turn: the tail is where
+            // that head went since. Independent scenes seed 6, scene 56: a halo on a 28 px
+            // circle turning 186° a frame, its first lengths 5 % short, read as 175°, two
+            // heads at the tail, 48 px off. After a head told otherwise (the end farther from
+            // the last, which can be the tail) the side stands: taken from such a head, the
+            // heads of seed 3's 190.6° wheel drawn with `--flicker 0` (scene 13) stayed at the
+            // tails from its seventh frame, where the side put them back a frame later.
+            let half_turn_px = motion::half_turn_length_px(mid_px, before);
+            let undecided = self.turned_at_us == Some(previous.t_us)
+                && path.length_deviation_px.is_some_and(|sd_px| {
+                    (length_px - half_turn_px).abs() <= CHI2_1DOF_99.sqrt() * sd_px
+                });
+            let by_travel = undecided.then(|| {
+                // A middle is where the LED was half an exposure before its frame's time.
+                let last_s = previous.t_us as f32 * 1e-6
+                    - match previous.estimate.position_method {
+                        PositionMethod::Mid => 0.5 * exposure_s,
+                        _ => 0.0,
+                    };
+                let travel_s = (t_us as f32 * 1e-6 - exposure_s - last_s).max(0.0);
+                let speed_px_s = length_px / exposure_s;
+                motion::head_by_travel(
+                    path.ends_px,
+                    previous.estimate.position_px,
+                    speed_px_s * travel_s,
+                    speed_px_s * dt_s / turn_rad,
+                )
+            });
+            // Told the other head, the LED turned to the other side of a half turn.
+            let (end, turn_rad) = match by_travel {
+                Some(other) if other != end => (other, core::f32::consts::TAU - turn_rad),
+                _ => (end, turn_rad),
+            };
+            Some((path.ends_px[end], turn_rad))
         });
         let turned_head = by_turn.map(|(head, _)| head);
+        self.turned_at_us = by_turn.map(|_| t_us);
         // Beyond a half turn a frame the middles alias (they turn the other way, less than a
         // half turn): their motion's head and path are not the LED's.
         let aliased = by_turn.is_some_and(|(_, turn_rad)| turn_rad > core::f32::consts::PI);
@@ -2488,7 +2528,7 @@ mod tests {
     fn a_wagon_wheel_s_heads_follow_its_turn() {
         for turn_deg in [181.5f32, 178.5, 185.0] {
             for sense in [1.0f32, -1.0] {
-                assert_wagon_wheel_heads(turn_deg, sense, 80.0, None);
+                assert_wagon_wheel_heads(turn_deg, sense, 80.0, None, (&[1.0], 0.1));
             }
         }
     }
@@ -2503,19 +2543,38 @@ mod tests {
     #[test]
     fn a_wagon_wheel_in_a_wide_glow_has_its_heads_follow_its_turn() {
         for sense in [1.0f32, -1.0] {
-            assert_wagon_wheel_heads(190.6, sense, 37.3, Some(87.0));
+            assert_wagon_wheel_heads(190.6, sense, 37.3, Some(87.0), (&[1.0], 0.1));
+        }
+    }
+
+    /// A halo on a circle of 28 px turning 186° a frame (either way round), its lengths
+    /// stated uncertain by 3 px (a halo's arcs: 2.5–5 px) and read 6 % short in the track's
+    /// third and fourth frames, as a halo's first lengths were (independent scenes seed 6,
+    /// scene 56), short enough to read as 175°. Where the lengths leave the side of the half
+    /// turn undecided, the tail is where the last head went since, and every head follows.
+    /// Told by the side alone, the third frame's head was at the tail, 37 px off.
+    #[test]
+    fn a_wagon_wheel_whose_lengths_read_short_has_its_heads_follow_where_it_went() {
+        let read = [
+            1.0, 1.0, 0.94, 0.94, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0,
+        ];
+        for sense in [1.0f32, -1.0] {
+            assert_wagon_wheel_heads(186.0, sense, 28.0, None, (&read, 3.0));
         }
     }
 
     /// Runs an LED round a circle of `radius_px` turning `turn_deg` a frame one way or the
     /// other (`sense`), its streaks of a blob `thickness_px` thick (the helper's own where
-    /// `None`), each fitted end stated uncertain by 0.1 px: every head from the track's second
-    /// frame on is within 0.5 px of the LED.
+    /// `None`), each fitted end stated uncertain by 0.1 px, each length read at the `read`
+    /// scale of the frame (in turn), its ends in by half the shortfall, and stated uncertain
+    /// by its deviation: every head from the track's second frame on is within 0.5 px of the
+    /// end read at the LED.
     fn assert_wagon_wheel_heads(
         turn_deg: f32,
         sense: f32,
         radius_px: f32,
         thickness_px: Option<f32>,
+        (read_scale, length_sd_px): (&[f32], f32),
     ) {
         let exposure_us = 16_000u32;
         let (dt_s, exposure_s) = (FRAME_US as f32 * 1e-6, 0.016f32);
@@ -2530,14 +2589,21 @@ mod tests {
         for i in 0..14u64 {
             let end_s = i as f32 * dt_s;
             let angle = |t_s: f32| 0.7 + omega * t_s;
-            let (head, tail) = (at(angle(end_s)), at(angle(end_s - exposure_s)));
+            // A length read short has each end in by half the shortfall.
+            let scale = read_scale[i as usize % read_scale.len()];
+            let in_s = 0.5 * (1.0 - scale) * exposure_s;
+            let (head, tail) = (
+                at(angle(end_s - in_s)),
+                at(angle(end_s - exposure_s + in_s)),
+            );
             let mid = at(angle(end_s - 0.5 * exposure_s));
             let ends = if i % 2 == 0 {
                 [tail, head]
             } else {
                 [head, tail]
             };
-            let mut s = fitted_streak(mid, ends, radius_px * omega.abs() * exposure_s, (0.1, 0.1));
+            let length_px = radius_px * omega.abs() * exposure_s;
+            let mut s = fitted_streak(mid, ends, scale * length_px, (0.1, length_sd_px));
             if let Some(thickness_px) = thickness_px {
                 s.thickness_px = thickness_px;
             }

@@ -483,6 +483,31 @@ pub fn head_by_turn(
     Some((usize::from(head_is_1), turn_rad))
 }
 
+/// The streak's length (over `exposure_s`) at which an LED whose middles moved from
+/// `before_px` to `mid_px` over `dt_s` turned exactly half a turn a frame: the chord of half a
+/// turn is 2/π of its arc.
+pub fn half_turn_length_px(
+    mid_px: (f32, f32),
+    (before_px, dt_s, exposure_s): ((f32, f32), f32, f32),
+) -> f32 {
+    core::f32::consts::FRAC_PI_2 * dist(mid_px, before_px) * exposure_s / dt_s
+}
+
+/// Which of a streak's `ends_px` is its head, from where the LED last was (`last_px`): on a
+/// circle of `radius_px` it went `travel_px` along it from there to where this exposure
+/// began, its tail, so the tail is the end whose distance from `last_px` is nearer that
+/// arc's chord.
+pub fn head_by_travel(
+    ends_px: [(f32, f32); 2],
+    last_px: (f32, f32),
+    travel_px: f32,
+    radius_px: f32,
+) -> usize {
+    let chord_px = 2.0 * radius_px * (0.5 * travel_px / radius_px).sin().abs();
+    let miss = |tail: (f32, f32)| (dist(last_px, tail) - chord_px).abs();
+    usize::from(miss(ends_px[0]) <= miss(ends_px[1]))
+}
+
 /// The turn (rad, from none to a whole turn) of a circular arc whose chord is `q` of its
 /// length: the inverse of [`chord_per_arc`] of half the turn, which falls monotonically over
 /// it (by bisection). No turn for `q` of 1 or more, a whole turn for `q` of 0 or less.
@@ -776,6 +801,43 @@ mod tests {
                         "{turn_deg}°: read {}°",
                         turn_rad.to_degrees()
                     );
+                }
+            }
+        }
+    }
+
+    /// On circles turning near a half turn a frame (174°–186°, either way round), the end
+    /// whose distance from the last head matches the chord of the arc gone since is the
+    /// tail, for streaks in either order and exposures of a tenth to nine tenths of the
+    /// frame; and from the last middle, half an exposure farther back, except at exactly a
+    /// half turn, where the two ends lie equally far from it.
+    #[test]
+    fn the_tail_is_where_the_last_head_went() {
+        let (dt_s, radius_px) = (1.0 / 30.0, 28.0f32);
+        let at = |angle: f32| {
+            let (x, y) = rotate((radius_px, 0.0), angle);
+            (200.0 + x, 200.0 + y)
+        };
+        for turn_deg in [174.0f32, 180.0, 186.0] {
+            for sense in [1.0f32, -1.0] {
+                for exposure_s in [0.1 * dt_s, 0.5 * dt_s, 0.9 * dt_s] {
+                    let omega = sense * turn_deg.to_radians() / dt_s;
+                    let angle = |t: f32| 0.3 + omega * t;
+                    let (head, tail) = (at(angle(dt_s)), at(angle(dt_s - exposure_s)));
+                    let speed_px_s = radius_px * omega.abs();
+                    let gap_px = speed_px_s * (dt_s - exposure_s);
+                    let half_px = 0.5 * speed_px_s * exposure_s;
+                    let last_head = at(angle(0.0));
+                    let last_mid = at(angle(-0.5 * exposure_s));
+                    for (ends, head_end) in [([tail, head], 1), ([head, tail], 0)] {
+                        let case = format!("{turn_deg}° × {sense}, exposure {exposure_s} s");
+                        let read = head_by_travel(ends, last_head, gap_px, radius_px);
+                        assert_eq!(read, head_end, "{case}, from the head");
+                        if turn_deg != 180.0 {
+                            let read = head_by_travel(ends, last_mid, gap_px + half_px, radius_px);
+                            assert_eq!(read, head_end, "{case}, from the middle");
+                        }
+                    }
                 }
             }
         }
