@@ -718,13 +718,13 @@ impl Tracker {
                     (length_px - half_turn_px).abs() <= CHI2_1DOF_99.sqrt() * sd_px
                 });
             let by_travel = undecided.then(|| {
-                // A middle is where the LED was half an exposure before its frame's time.
-                let last_s = previous.t_us as f32 * 1e-6
-                    - match previous.estimate.position_method {
-                        PositionMethod::Mid => 0.5 * exposure_s,
-                        _ => 0.0,
-                    };
-                let travel_s = (t_us as f32 * 1e-6 - exposure_s - last_s).max(0.0);
+                // From the last head, the time between the exposures; from a middle, where the
+                // LED was half an exposure before its frame's time, half an exposure more.
+                let travel_s = match previous.estimate.position_method {
+                    PositionMethod::Mid => dt_s - 0.5 * exposure_s,
+                    _ => dt_s - exposure_s,
+                }
+                .max(0.0);
                 let speed_px_s = length_px / exposure_s;
                 motion::head_by_travel(
                     path.ends_px,
