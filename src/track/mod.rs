@@ -712,9 +712,9 @@ impl Tracker {
             // the last, which can be the tail) the side stands: taken from such a head, the
             // heads of seed 3's 190.6° wheel drawn with `--flicker 0` (scene 13) stayed at the
             // tails from its seventh frame, where the side put them back a frame later.
-            let half_turn_px = motion::half_turn_length_px(mid_px, before);
             let undecided = self.turned_at_us == Some(previous.t_us)
                 && path.length_deviation_px.is_some_and(|sd_px| {
+                    let half_turn_px = motion::half_turn_length_px(mid_px, before);
                     (length_px - half_turn_px).abs() <= CHI2_1DOF_99.sqrt() * sd_px
                 });
             let by_travel = undecided.then(|| {
@@ -747,12 +747,7 @@ impl Tracker {
         let aliased = by_turn.is_some_and(|(_, turn_rad)| turn_rad > core::f32::consts::PI);
         let head = moving.and_then(|path| {
             let before = previous?.estimate.position_px;
-            let [a, b] = path.ends_px;
-            Some(match turned_head {
-                Some(head) => head,
-                None if dist(a, before) >= dist(b, before) => a,
-                None => b,
-            })
+            Some(turned_head.unwrap_or(head_and_tail(path.ends_px, before)[0]))
         });
         // One frame cannot always tell a still LED from a moving one; the middles' motion
         // between frames can (see [`motion`]). A single frame's head beyond the noise of
@@ -1361,6 +1356,17 @@ fn pulled_in(head: (f32, f32), mid: (f32, f32), by_px: f32) -> (f32, f32) {
     (mid.0 + dx * scale, mid.1 + dy * scale)
 }
 
+/// A path's `ends_px` as head and tail: the head is the end farther from `before_px`, where
+/// the LED last was.
+fn head_and_tail(ends_px: [(f32, f32); 2], before_px: (f32, f32)) -> [(f32, f32); 2] {
+    let [a, b] = ends_px;
+    if dist(a, before_px) >= dist(b, before_px) {
+        [a, b]
+    } else {
+        [b, a]
+    }
+}
+
 /// A fitted path's direction: toward the end of `ends_px` farther from `before_px` (where
 /// the LED last was), with how far off it may be at 99 % (rad), from the ends' stated
 /// deviation `fit_px`. `None` for a path of no length.
@@ -1369,12 +1375,7 @@ fn fitted_direction(
     before_px: (f32, f32),
     fit_px: f32,
 ) -> Option<FittedDirection> {
-    let [a, b] = ends_px;
-    let (head, tail) = if dist(a, before_px) >= dist(b, before_px) {
-        (a, b)
-    } else {
-        (b, a)
-    };
+    let [head, tail] = head_and_tail(ends_px, before_px);
     let length_px = dist(head, tail);
     (length_px > 0.0).then(|| FittedDirection {
         unit: ((head.0 - tail.0) / length_px, (head.1 - tail.1) / length_px),
