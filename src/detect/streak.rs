@@ -99,6 +99,10 @@ pub struct Streak {
     /// The streak model was fitted and failed: the middle is the only position to trust
     /// (nothing is extrapolated from it).
     pub path_failed: bool,
+    /// The blob reaches the frame's edge: the light runs on past what the camera sees (an
+    /// LED driving into or out of view), so its middle and length are the visible part's,
+    /// not its path's.
+    pub cut_by_edge: bool,
 }
 
 impl Streak {
@@ -444,6 +448,10 @@ pub fn analyze(
         thickness_px,
         path,
         path_failed: fitted_now && path.is_none(),
+        cut_by_edge: b.x_min_px == 0
+            || b.y_min_px == 0
+            || b.x_max_px + 1 >= frame.size().width()
+            || b.y_max_px + 1 >= frame.size().height(),
     }
 }
 

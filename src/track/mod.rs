@@ -206,7 +206,8 @@ pub struct Tracker {
     /// Whether the previous frame had the LED: the head needs the position just before.
     previous_found: bool,
     /// How many of the last samples of the history are of consecutive frames that had the
-    /// LED: the middles whose motion is measured (see [`motion`]).
+    /// LED, since the last whose streak the frame's edge cut: the middles whose motion is
+    /// measured (see [`motion`]).
     found_run: usize,
     /// The track was taken as the lone candidate in view and has not moved since: it may be a
     /// lamp, and yields to the first thing that moves.
@@ -945,7 +946,7 @@ impl Tracker {
                 mid_px,
                 velocity_px_s: Some(velocity_px_s),
             };
-            return Some(self.record(t_us, estimate));
+            return Some(self.record(t_us, estimate, streak.cut_by_edge));
         }
         let velocity_px_s =
             self.velocity(streak, length_px, head.unwrap_or(mid_px), previous, t_us);
@@ -1034,15 +1035,24 @@ impl Tracker {
                 })
                 .or(velocity_px_s),
         };
-        Some(self.record(t_us, estimate))
+        Some(self.record(t_us, estimate, streak.cut_by_edge))
     }
 
-    /// Enters a found frame's estimate into the history.
-    fn record(&mut self, t_us: u64, estimate: Estimate) -> Estimate {
+    /// Enters a found frame's estimate into the history. A streak `cut_by_edge` ends the run
+    /// of middles the motion is measured over: its middle is the visible part's, up to half
+    /// the path from the path's own (an LED driving into view). Taken as the first of a run,
+    /// it put the next frames' early paths off, and the offset learned from them: on the
+    /// independent scenes whose LED drives into view, seed 1's scene 47 at 1280×720 had its
+    /// head p95 at 1.16 px, 0.24 px without the cut middle.
+    fn record(&mut self, t_us: u64, estimate: Estimate, cut_by_edge: bool) -> Estimate {
         self.history.write(Sample { t_us, estimate });
         self.missed_frames = 0;
         self.previous_found = true;
-        self.found_run = (self.found_run + 1).min(HISTORY_FRAMES);
+        self.found_run = if cut_by_edge {
+            0
+        } else {
+            (self.found_run + 1).min(HISTORY_FRAMES)
+        };
         estimate
     }
 
@@ -1446,6 +1456,7 @@ mod tests {
                 still_ends_px: None,
             }),
             path_failed: false,
+            cut_by_edge: false,
         }
     }
 
@@ -2332,6 +2343,43 @@ mod tests {
         let read = read_short(10_000, 1300.0, (&jitter_px, &long_px), (1.5, 1.5), 8);
         assert_streak_speeds_within(&read[..2], 1, 0.06);
         assert_streak_speeds_within(&read, 2, 0.05);
+    }
+
+    /// An LED driving into view along a line at a steady 1300 px/s (13 px exposures): in
+    /// its first frame the frame's edge cuts its path in half, so that streak's middle lies
+    /// a quarter of the path ahead of the path's and its length is half the path. From the
+    /// next frame on the fit reads every path right, stating 0.5 px for its ends and 1 px
+    /// for its length. The cut middle starts no run of middles: every later speed is the
+    /// streak's within 1 % and every head within 0.1 px. Taken as the run's first middle,
+    /// the second frame's path was the chord from it, with half the lengths' growth from
+    /// the cut one: its speed read 11.5 % fast.
+    #[test]
+    fn a_streak_cut_by_the_frame_s_edge_starts_no_run_of_middles() {
+        let (exposure_us, speed_px_s) = (10_000u32, 1300.0f32);
+        let true_px = speed_px_s * exposure_us as f32 * 1e-6;
+        let mut t = Tracker::new(TrackerConfig {
+            exposure_us: Some(exposure_us),
+        });
+        for i in 0..6u64 {
+            let (head_x, mid_x, ends) = line_frame(i, speed_px_s, true_px, 0.0, true_px);
+            let s = if i == 0 {
+                // The edge at the path's middle: the visible half, from there to the head.
+                let visible = [(mid_x, 100.0), (head_x, 100.0)];
+                let mid = (0.5 * (mid_x + head_x), 100.0);
+                let mut s = fitted_streak(mid, visible, 0.5 * true_px, (0.5, 1.0));
+                s.cut_by_edge = true;
+                s
+            } else {
+                fitted_streak((mid_x, 100.0), ends, true_px, (0.5, 1.0))
+            };
+            let e = t.update(i * FRAME_US, Some(&s)).unwrap();
+            if i == 0 {
+                continue;
+            }
+            assert_streak_speed(&e, speed_px_s, 0.01, i);
+            let head_off_px = dist(e.position_px, (head_x, 100.0));
+            assert!(head_off_px < 0.1, "frame {i}: head {head_off_px:.2} px off");
+        }
     }
 
     /// A steady 13 px line whose fit reads each length up to 1.5 px off the truth, scattered
