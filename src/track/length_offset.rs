@@ -77,12 +77,17 @@ const MIN_VARIANCE_PX2: f32 = 0.01;
 ///
 /// Where the two differ beyond their deviations (χ² at 99 %), the frame's own length stands:
 /// the middles' path is the motion of the frames before carried on, and an LED that brakes,
-/// turns back or starts within this exposure shows it in this frame's streak alone.
+/// turns back or starts within this exposure shows it in this frame's streak alone. Unless
+/// the streak's length is known to be `misread` (the LED kept its speed, and the two differ
+/// by a steady misreading of the single frame's): then the middles' path stands. (Weighed
+/// with it by the variances as stated, a misread length still pulled the speed several
+/// percent off: its misreading is a bias its variance does not include.)
 pub fn weighed_with_motion(
     streak_px: f32,
     streak_var_px2: f32,
     motion_px: f32,
     motion_var_px2: f32,
+    misread: bool,
 ) -> f32 {
     let (streak_var_px2, motion_var_px2) = (
         streak_var_px2.max(MIN_VARIANCE_PX2),
@@ -90,7 +95,7 @@ pub fn weighed_with_motion(
     );
     let miss_px = streak_px - motion_px;
     if miss_px * miss_px > CHI2_1DOF_99 * (streak_var_px2 + motion_var_px2) {
-        return streak_px;
+        return if misread { motion_px } else { streak_px };
     }
     (streak_px / streak_var_px2 + motion_px / motion_var_px2)
         / (1.0 / streak_var_px2 + 1.0 / motion_var_px2)
@@ -244,16 +249,21 @@ mod tests {
 
     /// Two readings that agree within their deviations are weighed by them; where they
     /// disagree beyond (an LED braking within the exposure, whose path the middles cannot
-    /// know yet), the frame's own length stands.
+    /// know yet), the frame's own length stands, unless it is known misread.
     #[test]
-    fn a_length_is_weighed_with_the_middles_path_only_where_they_agree() {
-        let weighed = weighed_with_motion(15.0, 2.25, 13.0, 0.25);
+    fn a_length_is_weighed_with_the_middles_path_only_where_they_agree_or_it_is_misread() {
+        let weighed = weighed_with_motion(15.0, 2.25, 13.0, 0.25, false);
         assert!((weighed - 13.2).abs() < 1e-4, "{weighed}");
         // Variances below a tenth of a pixel's count as that.
-        let weighed = weighed_with_motion(13.1, 0.0, 13.0, 0.0);
+        let weighed = weighed_with_motion(13.1, 0.0, 13.0, 0.0, false);
         assert!((weighed - 13.05).abs() < 1e-4, "{weighed}");
         // 9 px apart where each is stated to a third of a pixel.
-        assert_eq!(weighed_with_motion(3.0, 0.09, 12.0, 0.01), 3.0);
+        assert_eq!(weighed_with_motion(3.0, 0.09, 12.0, 0.01, false), 3.0);
+        // ... unless the length is known misread: then the middles' path stands.
+        assert_eq!(weighed_with_motion(3.0, 0.09, 12.0, 0.01, true), 12.0);
+        // Where the two agree, a misread length is weighed as any other.
+        let weighed = weighed_with_motion(15.0, 2.25, 13.0, 0.25, true);
+        assert!((weighed - 13.2).abs() < 1e-4, "{weighed}");
     }
 
     #[test]

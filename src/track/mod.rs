@@ -242,13 +242,15 @@ pub struct Tracker {
 }
 
 /// One frame's single-frame path length (px), as `reading` read it, and its stated variance
-/// (px²).
+/// (px²); and its middles' path over the same exposure with that path's variance, where
+/// there was one.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct FrameLength {
     t_us: u64,
     reading: LengthReading,
     length_px: f32,
     variance_px2: f32,
+    middles_path: Option<(f32, f32)>,
 }
 
 /// Where a lost LED's body put it (see [`Tracker::follow_body`]).
@@ -782,10 +784,13 @@ impl Tracker {
                 reading,
                 length_px: p.path_length_px,
                 variance_px2: p.length_noise_px.map_or(0.0, |l| l * l),
+                middles_path: None,
             });
         let motion_path = self
             .motion_path(motion, middles, this_length)
             .filter(|_| !aliased);
+        let middles_path = self.with_middles_variance(motion_path, motion, middles, fit_px);
+        let this_length = this_length.map(|l| FrameLength { middles_path, ..l });
         let previous_length = self.last_length;
         self.last_length = this_length;
         let length_offset = &mut self.length_offsets[reading as usize];
@@ -828,10 +833,12 @@ impl Tracker {
                     p.length_deviation_px.or(length_spread_px2
                         .filter(|_| !reading.states_its_deviation())
                         .map(f32::sqrt)),
-                    fit_px,
-                    motion_path,
-                    motion,
-                    middles,
+                    middles_path,
+                    previous.zip(previous_length).zip(this_length).is_some_and(
+                        |((sample, before), now)| {
+                            misread_steadily(before, now, sample.t_us, middles.len())
+                        },
+                    ),
                 )
                 .unwrap_or(l),
             ),
@@ -1155,52 +1162,66 @@ impl Tracker {
     }
 
     /// A frame's single-frame length `length_px` (less its offset), stated uncertain by
-    /// `length_deviation_px`, weighed with this frame's `motion_path`
-    /// ([`length_offset::weighed_with_motion`]); `None` where there is nothing to weigh it
-    /// with. The length's deviation is the fit's with each pixel's own residual (the
-    /// sandwich's, `StreakPath::length_deviation_px`), not the residual spread evenly: on a
-    /// floor not yet learned a halo's first lengths read 1–3 px off while the even spread
-    /// stated 0.4–0.8 px, and the agreement test then turned away middles' paths right to
-    /// a tenth of a pixel (independent scenes at 1280×720: 24 scenes out of 300 with the
-    /// even spread, 22 with the sandwich's). The offset's own uncertainty is not added to the
-    /// length's: once taken off, it is a fraction of the scatter it was taken against.
+    /// `length_deviation_px`, weighed with this frame's `middles_path` and its variance
+    /// ([`Tracker::with_middles_variance`], [`length_offset::weighed_with_motion`]); `None`
+    /// where there is nothing to weigh it with. The length's deviation is the fit's with each
+    /// pixel's own residual (the sandwich's, `StreakPath::length_deviation_px`), not the
+    /// residual spread evenly: on a floor not yet learned a halo's first lengths read 1–3 px
+    /// off while the even spread stated 0.4–0.8 px, and the agreement test then turned away
+    /// middles' paths right to a tenth of a pixel (independent scenes at 1280×720: 24 scenes
+    /// out of 300 with the even spread, 22 with the sandwich's). The offset's own uncertainty
+    /// is not added to the length's: once taken off, it is a fraction of the scatter it was
+    /// taken against.
     ///
-    /// The middles' path's variance is the motion's own, or for the run's first two, three or
-    /// four middles the one their own deviations give ([`motion::first_path_variance_px2`]),
-    /// each middle taken as uncertain as the fitted ends (`fit_px`) over √2, all of it along
-    /// the path (where the ends are least certain). Two middles' one displacement measures no
-    /// change of speed: on an LED speeding up it is the speed half an interval ago, short by
-    /// half the lengths' growth, which [`Tracker::motion_path`] adds where that growth is
-    /// beyond its deviations. Within them it is unknown, and `motion_path` states its variance
-    /// either way (a quarter of the two lengths'). (Weighed with no variance for the middles
-    /// or the growth, before the agreement test, two middles put 9 scenes of 300 out at
-    /// 640×480 and 5 at 1280×720.)
+    /// Two middles' one displacement measures no change of speed: on an LED speeding up it
+    /// is the speed half an interval ago, short by half the lengths' growth, which
+    /// [`Tracker::motion_path`] adds where that growth is beyond its deviations. Within them
+    /// it is unknown, and `motion_path` states its variance either way (a quarter of the two
+    /// lengths'). (Weighed with no variance for the middles or the growth, before the
+    /// agreement test, two middles put 9 scenes of 300 out at 640×480 and 5 at 1280×720.)
     ///
     /// The ramps state no deviation: theirs is the spread of their lengths about the
     /// middles' paths so far (from three), and they have a path to weigh with only where
     /// the motion is known (sweep seeds 11–13: 78 points out without them, 74 with them).
+    ///
+    /// Where the two disagree, the frame's own length stands, unless it is `misread` (see
+    /// [`misread_steadily`]).
     fn weighed_with_middles(
         &self,
         length_px: f32,
         length_deviation_px: Option<f32>,
-        fit_px: Option<f32>,
+        middles_path: Option<(f32, f32)>,
+        misread: bool,
+    ) -> Option<f32> {
+        let deviation_px = length_deviation_px?;
+        let (path_px, var_px2) = middles_path?;
+        Some(length_offset::weighed_with_motion(
+            length_px,
+            deviation_px * deviation_px,
+            path_px,
+            var_px2,
+            misread,
+        ))
+    }
+
+    /// This frame's `motion_path` with its whole variance: the motion's own, or for the run's
+    /// first two, three or four middles the one their own deviations give
+    /// ([`motion::first_path_variance_px2`]), each middle taken as uncertain as the fitted
+    /// ends (`fit_px`) over √2, all of it along the path (where the ends are least certain).
+    fn with_middles_variance(
+        &self,
         motion_path: Option<(f32, f32)>,
         motion: Option<motion::MotionHead>,
         middles: &[Middle],
-    ) -> Option<f32> {
-        let deviation_px = length_deviation_px?;
+        fit_px: Option<f32>,
+    ) -> Option<(f32, f32)> {
         let (path_px, mut var_px2) = motion_path?;
         if motion.is_none() {
             let middle_sd_px = fit_px? * core::f32::consts::FRAC_1_SQRT_2;
             var_px2 +=
                 motion::first_path_variance_px2(middles, self.config.exposure_us?, middle_sd_px)?;
         }
-        Some(length_offset::weighed_with_motion(
-            length_px,
-            deviation_px * deviation_px,
-            path_px,
-            var_px2,
-        ))
+        Some((path_px, var_px2))
     }
 
     /// The velocity of a path of `length_px` that the fit read as still, where the middles
@@ -1328,6 +1349,47 @@ impl Tracker {
         let ((dx, dy), dt_s) = displacement(previous?, streak.mid_px, t_us)?;
         Some(((dx / dt_s, dy / dt_s), VelocityMethod::Frames))
     }
+}
+
+/// Whether a frame's length `now` that disagrees with its middles' path is the one misread:
+/// the LED kept its speed since the frame `before` (at `previous_us`, the frame before this
+/// one, read the same way), as both readings say, so the two differ by a steady misreading,
+/// and that is the single frame's, which reads the path's ends through a spot profile a real
+/// LED's need not have (the middles need only its symmetry).
+///
+/// Kept its speed: the two frames' lengths agree within their stated noise (χ² at 99 %), and
+/// so do their middles' paths (with their variances). A run's first path, from two middles,
+/// has no path before it to agree with; but it is a chord of the LED's path, never longer
+/// than its arc, so only a chord longer than the length tells a misread length, not a turn.
+///
+/// Independent scenes at 1280×720, seed 6's scene 17: a halo clipped at 173 full wells on a
+/// straight 76 px line, read 64.7 and 62.3 px in its first two frames (stated uncertain by
+/// 3.9 px), its two middles' chord giving 76.6 px: the second frame read 18.5 % slow and its
+/// head 6.9 px in, now +0.3 % and 0.4 px. Over the independent sets (seeds 1–9 at 640×480,
+/// 1–6 at 1280×720) 20 scenes read better and one worse, 3 more hold every bound, and the
+/// sweep's points out are the same. Without the middles' paths agreeing, an early path three
+/// middles read 13 % long on a tight arc (sweep seed 12, point 123, whose fitted middles are
+/// 1.5 px off) was weighed in and put that point out; and with the middles' path taken
+/// wherever the length is steady, even where the two agree, 3 sweep points went out and 3
+/// came in.
+fn misread_steadily(
+    before: FrameLength,
+    now: FrameLength,
+    previous_us: u64,
+    middles: usize,
+) -> bool {
+    let agree = |a: f32, b: f32, var_px2: f32| (a - b) * (a - b) <= CHI2_1DOF_99 * var_px2;
+    let lengths_agree = agree(
+        now.length_px,
+        before.length_px,
+        now.variance_px2 + before.variance_px2,
+    );
+    let paths_agree = match (middles, before.middles_path, now.middles_path) {
+        (2, _, Some((path_px, _))) => path_px > now.length_px,
+        (_, Some((a, var_a)), Some((b, var_b))) => agree(a, b, var_a + var_b),
+        _ => false,
+    };
+    before.t_us == previous_us && before.reading == now.reading && lengths_agree && paths_agree
 }
 
 /// The middle's displacement from `previous` to `mid_px` at `t_us`, and the time it took
@@ -2380,6 +2442,34 @@ mod tests {
             let head_off_px = dist(e.position_px, (head_x, 100.0));
             assert!(head_off_px < 0.1, "frame {i}: head {head_off_px:.2} px off");
         }
+    }
+
+    /// A steady 13 px line whose fit reads every path 2.3 px (18 %) short, stating 0.7 px
+    /// for its length and 0.5 px for its ends, its middles precise to a tenth (a halo
+    /// clipped far into its glow, independent scenes seed 6 at 1280×720, scene 17). The
+    /// track's second and third lengths disagree with their middles' paths beyond both
+    /// deviations, but the two frames' lengths agree, and so do their paths (the second's a
+    /// chord longer than the length): the lengths are misread, and the paths stand. Every
+    /// speed is within 1 % (−0.3 % and +0.4 % in the second and third frames); with the
+    /// frame's own length standing, both read −17.7 %.
+    #[test]
+    fn a_length_misread_steadily_gives_way_to_the_middles_path() {
+        let (jitter_px, short_px) = (STEADY_JITTER_PX, [2.3]);
+        let read = read_short(10_000, 1300.0, (&jitter_px, &short_px), (0.5, 0.7), 4);
+        assert_streak_speeds_within(&read, 1, 0.01);
+    }
+
+    /// The same line read right, whose third middle is 5 px behind the LED's (a middle
+    /// misread on a tight arc, sweep seed 12, point 123): the third frame's early path reads
+    /// 2.3 px short, beyond its deviation from the second frame's. The lengths agree, but the
+    /// paths do not: the frame's own length stands, and every speed to the sixth frame is
+    /// within 1 %. Taking a steady length alone as misread, the third and fourth frames read
+    /// −15 % and +20 %.
+    #[test]
+    fn a_steady_length_stands_against_a_middles_path_that_jumped() {
+        let jitter_px = [0.0, 0.0, -5.0, 0.0, 0.0, 0.0, 0.0];
+        let read = read_short(10_000, 1300.0, (&jitter_px, &[0.0]), (0.5, 0.7), 7);
+        assert_streak_speeds_within(&read, 1, 0.01);
     }
 
     /// A steady 13 px line whose fit reads each length up to 1.5 px off the truth, scattered
