@@ -1352,26 +1352,30 @@ impl Tracker {
 }
 
 /// Whether a frame's length `now` that disagrees with its middles' path is the one misread:
-/// the LED kept its speed since the frame `before` (at `previous_us`, the frame before this
-/// one, read the same way), as both readings say, so the two differ by a steady misreading,
-/// and that is the single frame's, which reads the path's ends through a spot profile a real
-/// LED's need not have (the middles need only its symmetry).
+/// the frame `before` (at `previous_us`, the frame before this one, read the same way) missed
+/// its middles' path by as much (within both lengths' stated noise and both paths' variances,
+/// χ² at 99 %). A miss that holds from frame to frame is a steady misreading, not a change of
+/// motion (an LED braking within this exposure shortens its streak at once, and its middles'
+/// path only later), and it is the single frame's: that reads the path's ends through a spot
+/// profile a real LED's need not have, where the middles need only its symmetry. It is what
+/// the length offset learns, but the offset takes three observations.
 ///
-/// Kept its speed: the two frames' lengths agree within their stated noise (χ² at 99 %), and
-/// so do their middles' paths (with their variances). A run's first path, from two middles,
-/// has no path before it to agree with; but it is a chord of the LED's path, never longer
-/// than its arc, so only a chord longer than the length tells a misread length, not a turn.
+/// A run's first path, from two middles, has no miss before it to agree with. It is a chord of
+/// the LED's path, never longer than the arc, so there a chord longer than the length, with
+/// the two frames' lengths agreeing (the LED kept its speed), tells a misread length; a
+/// shorter chord may be a turn.
 ///
 /// Independent scenes at 1280×720, seed 6's scene 17: a halo clipped at 173 full wells on a
 /// straight 76 px line, read 64.7 and 62.3 px in its first two frames (stated uncertain by
 /// 3.9 px), its two middles' chord giving 76.6 px: the second frame read 18.5 % slow and its
 /// head 6.9 px in, now +0.3 % and 0.4 px. Over the independent sets (seeds 1–9 at 640×480,
-/// 1–6 at 1280×720) 20 scenes read better and one worse, 3 more hold every bound, and the
-/// sweep's points out are the same. Without the middles' paths agreeing, an early path three
-/// middles read 13 % long on a tight arc (sweep seed 12, point 123, whose fitted middles are
-/// 1.5 px off) was weighed in and put that point out; and with the middles' path taken
-/// wherever the length is steady, even where the two agree, 3 sweep points went out and 3
-/// came in.
+/// 1–6 at 1280×720) 30 scenes read better and one worse, 4 more hold every bound, and the
+/// sweep's points out are the same. Asking the two frames' lengths and paths each to agree,
+/// instead of their misses, left an LED speeding up to its own length: 11 of those scenes
+/// read worse, one more out. Asking the lengths alone, an early path three middles read 13 %
+/// long on a tight arc (sweep seed 12, point 123, whose fitted middles are 1.5 px off) stood
+/// and put that point out; and with the middles' path taken wherever the misreading holds,
+/// even where the two agree, 3 sweep points went out and 3 came in.
 fn misread_steadily(
     before: FrameLength,
     now: FrameLength,
@@ -1379,17 +1383,19 @@ fn misread_steadily(
     middles: usize,
 ) -> bool {
     let agree = |a: f32, b: f32, var_px2: f32| (a - b) * (a - b) <= CHI2_1DOF_99 * var_px2;
-    let lengths_agree = agree(
-        now.length_px,
-        before.length_px,
-        now.variance_px2 + before.variance_px2,
-    );
-    let paths_agree = match (middles, before.middles_path, now.middles_path) {
-        (2, _, Some((path_px, _))) => path_px > now.length_px,
-        (_, Some((a, var_a)), Some((b, var_b))) => agree(a, b, var_a + var_b),
+    let lengths_var_px2 = now.variance_px2 + before.variance_px2;
+    let steady = match (middles, before.middles_path, now.middles_path) {
+        (2, _, Some((chord_px, _))) => {
+            chord_px > now.length_px && agree(now.length_px, before.length_px, lengths_var_px2)
+        }
+        (_, Some((before_px, before_var_px2)), Some((path_px, var_px2))) => agree(
+            now.length_px - path_px,
+            before.length_px - before_px,
+            lengths_var_px2 + before_var_px2 + var_px2,
+        ),
         _ => false,
     };
-    before.t_us == previous_us && before.reading == now.reading && lengths_agree && paths_agree
+    before.t_us == previous_us && before.reading == now.reading && steady
 }
 
 /// The middle's displacement from `previous` to `mid_px` at `t_us`, and the time it took
@@ -2459,15 +2465,42 @@ mod tests {
         assert_streak_speeds_within(&read, 1, 0.01);
     }
 
-    /// The same line read right, whose third middle is 5 px behind the LED's (a middle
+    /// An LED speeding up from 1000 px/s by 6000 px/s² (its 10 ms paths growing 2 px a
+    /// frame) whose fit reads every path 2 px short, stating 0.3 px for the length and the
+    /// ends, its middles the paths' own. From three middles on, each frame misses its
+    /// middles' path by what the frame before missed its own: every speed from the third
+    /// frame is within 1 %. Asking the two frames' lengths to agree as well (they grow), the
+    /// third frame read −14.6 %. The second, from two middles, has no miss before it, and
+    /// its chord stands only for lengths that agree: −17 %.
+    #[test]
+    fn an_accelerating_led_s_steady_misreading_gives_way_to_the_middles_path() {
+        let (exposure_us, exposure_s) = (10_000u32, 0.01f32);
+        let x_at = |t: f32| 100.0 + 1000.0 * t + 0.5 * 6000.0 * t * t;
+        let mut t = Tracker::new(TrackerConfig {
+            exposure_us: Some(exposure_us),
+        });
+        for i in 0..9u64 {
+            let end_s = (i * FRAME_US) as f32 * 1e-6;
+            let (tail_x, head_x) = (x_at(end_s - exposure_s), x_at(end_s));
+            let mid = (0.5 * (tail_x + head_x), 100.0);
+            let ends = [(tail_x + 1.0, 100.0), (head_x - 1.0, 100.0)];
+            let s = fitted_streak(mid, ends, head_x - tail_x - 2.0, (0.3, 0.3));
+            let e = t.update(i * FRAME_US, Some(&s)).unwrap();
+            if i >= 2 {
+                assert_streak_speed(&e, (head_x - tail_x) / exposure_s, 0.01, i);
+            }
+        }
+    }
+
+    /// The same line read right, whose third middle is 8 px behind the LED's (a middle
     /// misread on a tight arc, sweep seed 12, point 123): the third frame's early path reads
-    /// 2.3 px short, beyond its deviation from the second frame's. The lengths agree, but the
-    /// paths do not: the frame's own length stands, and every speed to the sixth frame is
-    /// within 1 %. Taking a steady length alone as misread, the third and fourth frames read
-    /// −15 % and +20 %.
+    /// 3.7 px short, and the frame's miss from it is not the second frame's, beyond both
+    /// lengths' noise and both paths' deviations. The frame's own length stands, and every
+    /// speed to the seventh frame is within 1 %. Taking any disagreeing length as misread
+    /// from three middles on, the third frame read −27.7 %.
     #[test]
     fn a_steady_length_stands_against_a_middles_path_that_jumped() {
-        let jitter_px = [0.0, 0.0, -5.0, 0.0, 0.0, 0.0, 0.0];
+        let jitter_px = [0.0, 0.0, -8.0, 0.0, 0.0, 0.0, 0.0];
         let read = read_short(10_000, 1300.0, (&jitter_px, &[0.0]), (0.5, 0.7), 7);
         assert_streak_speeds_within(&read, 1, 0.01);
     }
