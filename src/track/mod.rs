@@ -2454,10 +2454,11 @@ mod tests {
     /// for its length and 0.5 px for its ends, its middles precise to a tenth (a halo
     /// clipped far into its glow, independent scenes seed 6 at 1280×720, scene 17). The
     /// track's second and third lengths disagree with their middles' paths beyond both
-    /// deviations, but the two frames' lengths agree, and so do their paths (the second's a
-    /// chord longer than the length): the lengths are misread, and the paths stand. Every
-    /// speed is within 1 % (−0.3 % and +0.4 % in the second and third frames); with the
-    /// frame's own length standing, both read −17.7 %.
+    /// deviations, but the second's path is a chord longer than its length, the two
+    /// frames' lengths agreeing, and the third misses its path as the second did: the
+    /// lengths are misread, and the paths stand. Every speed is within 1 % (−0.3 % and
+    /// +0.4 % in the second and third frames); with the frame's own length standing, both
+    /// read −17.7 %.
     #[test]
     fn a_length_misread_steadily_gives_way_to_the_middles_path() {
         let (jitter_px, short_px) = (STEADY_JITTER_PX, [2.3]);
