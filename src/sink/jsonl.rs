@@ -18,7 +18,9 @@
 //! weighed with the middles'; `path_px` is the frame's own measurement), with
 //! `--streak-model fit`, `fit_px`: one standard deviation of the fitted path's ends
 //! (px), and `fit_floor`: `learned`, `partly` or `flat`, whether the floor under the fitted
-//! pixels was learned or (where no floor was learned yet) one fitted flat floor.
+//! pixels was learned or (where no floor was learned yet) one fitted flat floor; and
+//! `cut_by_edge: true` where the light reaches the frame's edge (an LED driving into or out of
+//! view), whose middle and `path_px` are the visible part's, not its path's.
 //!
 //! With several robots (`--robots N`, N > 1) the line holds the frame's own fields (`frame`,
 //! `t`, `found`: any robot found, `calib`, `seq`, `dropped`, `blobs`, `threshold`, `learning`,
@@ -225,7 +227,8 @@ fn write_floor(out: &mut impl Write, floor: Option<FloorFix>) -> io::Result<()> 
 
 /// `area_px`, `len_px`, where the streak's path was read `path_px` (its length from this
 /// frame alone, before the tracker's learned offset and weighing) and, with a fitted model,
-/// `fit_px` and `fit_floor` of the light's blob.
+/// `fit_px` and `fit_floor` of the light's blob, and `cut_by_edge` where it reaches the
+/// frame's edge.
 fn write_blob(out: &mut impl Write, blob: Option<(Blob, Streak)>) -> io::Result<()> {
     if let Some((blob, streak)) = blob {
         write!(
@@ -241,6 +244,9 @@ fn write_blob(out: &mut impl Write, blob: Option<(Blob, Streak)>) -> io::Result<
         }
         if let Some(floor) = streak.path.and_then(|p| p.fit_floor) {
             write!(out, ",\"fit_floor\":\"{}\"", floor.name())?;
+        }
+        if streak.cut_by_edge {
+            write!(out, ",\"cut_by_edge\":true")?;
         }
     }
     Ok(())
