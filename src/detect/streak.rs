@@ -36,7 +36,7 @@ use super::spot_memory::SpotMemory;
 use super::spot_shape::{self, SpotOptics, SpotShape};
 use super::threshold::Levels;
 use super::tips;
-use crate::frame::Frame;
+use crate::frame::{Frame, FrameSize};
 
 /// Pixels around a blob whose partial brightness still says where its edge is.
 pub const HALO_PX: u32 = 2;
@@ -99,13 +99,18 @@ pub struct Streak {
     /// The streak model was fitted and failed: the middle is the only position to trust
     /// (nothing is extrapolated from it).
     pub path_failed: bool,
-    /// The blob reaches the frame's edge: the light runs on past what the camera sees (an
-    /// LED driving into or out of view), so its middle and length are the visible part's,
-    /// not its path's.
-    pub cut_by_edge: bool,
+    /// Which of `ends_px` the frame's edge cut: the light runs on past what the camera sees
+    /// there (an LED driving into or out of view), so the middle and length are the visible
+    /// part's, not the path's, and that end is not where the LED was (see [`ends_cut`]).
+    pub cut_ends: [bool; 2],
 }
 
 impl Streak {
+    /// Whether the frame's edge cut either end of the streak.
+    pub fn cut_by_edge(&self) -> bool {
+        self.cut_ends[0] || self.cut_ends[1]
+    }
+
     /// Whether the streak model was fitted to it ([`StreakModel::Fit`], or
     /// [`StreakModel::Auto`] on a doubtful streak).
     pub fn fitted(&self) -> bool {
@@ -448,10 +453,50 @@ pub fn analyze(
         thickness_px,
         path,
         path_failed: fitted_now && path.is_none(),
-        cut_by_edge: b.x_min_px == 0
-            || b.y_min_px == 0
-            || b.x_max_px + 1 >= frame.size().width()
-            || b.y_max_px + 1 >= frame.size().height(),
+        cut_ends: ends_cut(b, ends_px, thickness_px, frame.size()),
+    }
+}
+
+/// Which of a blob's skeleton `ends` the frame's edge cut: where the blob (box `b`, mean
+/// thickness `thickness_px`) reaches an edge, an end is cut when a step past it, away from
+/// the other end, by half the thickness and a pixel, leaves the frame (the skeleton of a
+/// streak cut by the edge runs to within about half its width of the cut). A blob that
+/// reaches the edge with neither end cut so, or with no chord to step along, is cut at
+/// both: the last sliver of an LED leaving the view is a blob along the edge whose
+/// skeleton steps along it (an LED leaving at 450 px/s read 11 px short and 86 % slow
+/// from it), and from one frame it cannot be told from a streak along the edge whose light
+/// only grazes it.
+fn ends_cut(
+    b: BoundingBox,
+    ends: [(f32, f32); 2],
+    thickness_px: f32,
+    size: FrameSize,
+) -> [bool; 2] {
+    let touches = b.x_min_px == 0
+        || b.y_min_px == 0
+        || b.x_max_px + 1 >= size.width()
+        || b.y_max_px + 1 >= size.height();
+    if !touches {
+        return [false; 2];
+    }
+    let (width_px, height_px) = (size.width() as f32, size.height() as f32);
+    let chord_px = dist(ends[0], ends[1]);
+    if chord_px < MIN_CHORD_PX {
+        return [true; 2];
+    }
+    let step_px = 0.5 * thickness_px + 1.0;
+    let past = |end: (f32, f32), other: (f32, f32)| {
+        let (x, y) = (
+            end.0 + (end.0 - other.0) / chord_px * step_px,
+            end.1 + (end.1 - other.1) / chord_px * step_px,
+        );
+        // Pixel centres run from 0 to the size less one: past half a pixel beyond them is
+        // outside the picture.
+        x < -0.5 || y < -0.5 || x > width_px - 0.5 || y > height_px - 0.5
+    };
+    match [past(ends[0], ends[1]), past(ends[1], ends[0])] {
+        [false, false] => [true; 2],
+        cut => cut,
     }
 }
 

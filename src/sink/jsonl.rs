@@ -20,7 +20,9 @@
 //! (px), and `fit_floor`: `learned`, `partly` or `flat`, whether the floor under the fitted
 //! pixels was learned or (where no floor was learned yet) one fitted flat floor; and
 //! `cut_by_edge: true` where the light reaches the frame's edge (an LED driving into or out of
-//! view), whose middle and `path_px` are the visible part's, not its path's.
+//! view), whose middle and `path_px` are the visible part's, not its path's (on a track its
+//! velocity is then the track's, and its head carried along the track where the edge cut it:
+//! see `Tracker::update`).
 //!
 //! With several robots (`--robots N`, N > 1) the line holds the frame's own fields (`frame`,
 //! `t`, `found`: any robot found, `calib`, `seq`, `dropped`, `blobs`, `threshold`, `learning`,
@@ -245,7 +247,7 @@ fn write_blob(out: &mut impl Write, blob: Option<(Blob, Streak)>) -> io::Result<
         if let Some(floor) = streak.path.and_then(|p| p.fit_floor) {
             write!(out, ",\"fit_floor\":\"{}\"", floor.name())?;
         }
-        if streak.cut_by_edge {
+        if streak.cut_by_edge() {
             write!(out, ",\"cut_by_edge\":true")?;
         }
     }

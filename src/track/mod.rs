@@ -209,6 +209,11 @@ pub struct Tracker {
     /// LED, since the last whose streak the frame's edge cut: the middles whose motion is
     /// measured (see [`motion`]).
     found_run: usize,
+    /// How many of the last samples of the history are of consecutive frames whose streak
+    /// the frame's edge cut, and how long the run of middles before them was: the motion
+    /// those frames are carried by (see [`Tracker::cut_estimate`]).
+    cut_run: usize,
+    run_before_cut: usize,
     /// The track was taken as the lone candidate in view and has not moved since: it may be a
     /// lamp, and yields to the first thing that moves.
     tentative: bool,
@@ -448,6 +453,7 @@ impl Tracker {
         self.tentative = false;
         self.previous_found = false;
         self.found_run = 0;
+        self.cut_run = 0;
         self.missed_frames = 0;
     }
 
@@ -651,6 +657,7 @@ impl Tracker {
             self.missed_frames = self.missed_frames.saturating_add(1);
             self.previous_found = false;
             self.found_run = 0;
+            self.cut_run = 0;
             return None;
         };
         // Back after its body was followed while it was lost: where the body last put it is
@@ -684,6 +691,14 @@ impl Tracker {
             .or(followed)
             .or(self.came_from.take())
             .or(self.last_before_a_short_loss());
+        // A streak the frame's edge cut shows its path only up to the edge: its length is not
+        // the speed, and a cut end is not where the LED was.
+        if streak.cut_by_edge() {
+            self.last_length = None;
+            self.turned_at_us = None;
+            let estimate = self.cut_estimate(streak, previous, t_us);
+            return Some(self.record(t_us, estimate, true));
+        }
         let mid_px = streak.mid_px;
         // A still path (both ends the middle: no longer than the spot is wide) has no
         // direction to choose; like a streak whose ends could not be measured, its head is
@@ -953,7 +968,7 @@ impl Tracker {
                 mid_px,
                 velocity_px_s: Some(velocity_px_s),
             };
-            return Some(self.record(t_us, estimate, streak.cut_by_edge));
+            return Some(self.record(t_us, estimate, false));
         }
         let velocity_px_s =
             self.velocity(streak, length_px, head.unwrap_or(mid_px), previous, t_us);
@@ -1042,7 +1057,82 @@ impl Tracker {
                 })
                 .or(velocity_px_s),
         };
-        Some(self.record(t_us, estimate, streak.cut_by_edge))
+        Some(self.record(t_us, estimate, false))
+    }
+
+    /// The estimate of a frame whose `streak` the frame's edge cut, after `previous`: the
+    /// LED keeps the speed it had (its last middles' [`arc_speed_px_s`], else the frame
+    /// before's), along the heading its run of middles before this frame
+    /// gives (see [`heading_at`]). The end ahead along the heading is the head's: where it is
+    /// in view (an LED driving back into view) it is the head; where the edge cut it (an LED
+    /// driving out of view) the LED went on from the tail, which is in view, along the
+    /// exposure's chord. Read from the visible part instead, an LED leaving at 2400 px/s had
+    /// its last head 9 px short, at the edge, and its speed 15 % slow. With both ends cut, or
+    /// nothing known of the motion (a track's first frame), the visible part's middle, which
+    /// is not the path's.
+    fn cut_estimate(&self, streak: &Streak, previous: Option<Sample>, t_us: u64) -> Estimate {
+        let mid_px = streak.mid_px;
+        // The run of middles before this frame, or, where the frames before were cut too,
+        // before those.
+        let (middles, count) = match self.cut_run {
+            0 => self.run_middles(0, self.found_run),
+            cut => self.run_middles(cut, self.run_before_cut),
+        };
+        let before = &middles[..count];
+        let speed_px_s = arc_speed_px_s(before).or_else(|| {
+            let ((vx, vy), _) = previous?.estimate.velocity_px_s?;
+            Some(vx.hypot(vy))
+        });
+        let exposure_us = self.config.exposure_us.map(u64::from);
+        // A middle is where the LED was halfway through its exposure, so the heading the
+        // middles give at a frame's time is the LED's halfway through that frame's exposure
+        // (the chord's, on a steady turn), and half an exposure later its heading at the end.
+        let chord = heading_at(before, t_us);
+        let velocity_px_s =
+            speed_px_s.zip(heading_at(before, t_us + exposure_us.map_or(0, |e| e / 2)));
+        let velocity_px_s = velocity_px_s.map(|(speed, (dx, dy))| (speed * dx, speed * dy));
+        let head = speed_px_s.zip(chord).and_then(|(speed, (dx, dy))| {
+            let [a, b] = streak.ends_px;
+            let a_ahead = (a.0 - b.0) * dx + (a.1 - b.1) * dy >= 0.0;
+            let (head, tail) = if a_ahead { (0, 1) } else { (1, 0) };
+            // A measured moving path's end where it lies at the skeleton's end, within half
+            // the streak's width (the cut end's may not: the model sees a streak that ends at
+            // the edge, and may read the part in view as still). Else the skeleton's end, a
+            // whole pixel, moved onto the line through the middle along the chord: a blob's
+            // skeleton ends a pixel or two to the side of its axis.
+            let end_px = |i: usize| {
+                let skeleton_px = streak.ends_px[i];
+                let on_axis = || {
+                    let along = (skeleton_px.0 - mid_px.0) * dx + (skeleton_px.1 - mid_px.1) * dy;
+                    (mid_px.0 + along * dx, mid_px.1 + along * dy)
+                };
+                streak
+                    .path
+                    .filter(|p| p.ends_px[0] != p.ends_px[1])
+                    .map(|p| head_and_tail(p.ends_px, skeleton_px)[1])
+                    .filter(|&e| dist(e, skeleton_px) <= 0.5 * streak.thickness_px)
+                    .unwrap_or_else(on_axis)
+            };
+            match (streak.cut_ends[head], streak.cut_ends[tail]) {
+                (false, true) => Some(end_px(head)),
+                (true, false) => {
+                    let chord_px = speed * exposure_us? as f32 * 1e-6;
+                    let tail_px = end_px(tail);
+                    Some((tail_px.0 + chord_px * dx, tail_px.1 + chord_px * dy))
+                }
+                _ => None,
+            }
+        });
+        Estimate {
+            position_px: head.unwrap_or(mid_px),
+            position_method: if head.is_some() {
+                PositionMethod::Head
+            } else {
+                PositionMethod::Mid
+            },
+            mid_px,
+            velocity_px_s: velocity_px_s.map(|v| (v, VelocityMethod::Frames)),
+        }
     }
 
     /// Enters a found frame's estimate into the history. A streak `cut_by_edge` ends the run
@@ -1055,11 +1145,16 @@ impl Tracker {
         self.history.write(Sample { t_us, estimate });
         self.missed_frames = 0;
         self.previous_found = true;
-        self.found_run = if cut_by_edge {
-            0
+        if cut_by_edge {
+            if self.cut_run == 0 {
+                self.run_before_cut = self.found_run;
+            }
+            self.cut_run = (self.cut_run + 1).min(HISTORY_FRAMES);
+            self.found_run = 0;
         } else {
-            (self.found_run + 1).min(HISTORY_FRAMES)
-        };
+            self.cut_run = 0;
+            self.found_run = (self.found_run + 1).min(HISTORY_FRAMES);
+        }
         estimate
     }
 
@@ -1086,17 +1181,24 @@ impl Tracker {
     /// `mid_px` (oldest first), and how many: what the motion is measured over (see
     /// [`motion::motion_head`]).
     fn middles(&self, mid_px: (f32, f32), t_us: u64) -> ([Middle; MOTION_MIDDLES], usize) {
+        let (mut middles, before) = self.run_middles(0, self.found_run);
+        middles[before] = Middle { t_us, px: mid_px };
+        (middles, before + 1)
+    }
+
+    /// The middles of the last `run` samples before the newest `skip` (oldest first), at
+    /// most one fewer than [`MOTION_MIDDLES`], and how many.
+    fn run_middles(&self, skip: usize, run: usize) -> ([Middle; MOTION_MIDDLES], usize) {
         let mut middles = [Middle::default(); MOTION_MIDDLES];
-        let before = self.found_run.min(MOTION_MIDDLES - 1);
-        let recent = self.history.oldest_ordered().rev().take(before);
+        let before = run.min(MOTION_MIDDLES - 1);
+        let recent = self.history.oldest_ordered().rev().skip(skip).take(before);
         for (slot, sample) in middles[..before].iter_mut().rev().zip(recent) {
             *slot = Middle {
                 t_us: sample.t_us,
                 px: sample.estimate.mid_px,
             };
         }
-        middles[before] = Middle { t_us, px: mid_px };
-        (middles, before + 1)
+        (middles, before)
     }
 
     /// The path over the exposure that the middles say the LED drew, with its variance, where
@@ -1434,6 +1536,68 @@ fn pulled_in(head: (f32, f32), mid: (f32, f32), by_px: f32) -> (f32, f32) {
     (mid.0 + dx * scale, mid.1 + dy * scale)
 }
 
+/// The LED's heading (a unit vector) at `t_us` from the `middles` of a run (oldest first):
+/// their last displacement's direction, which is the heading halfway between the two
+/// middles' times, turned on at the rate it turned from the displacement before (a steady
+/// turn; none from two middles). `None` from fewer than two, or where the last two
+/// displacements turned by more than a right angle (no steady turn: a reversal).
+fn heading_at(middles: &[Middle], t_us: u64) -> Option<(f32, f32)> {
+    // Times from the newest middle's: a clock's microseconds in an f32 lose whole
+    // milliseconds after a day.
+    let newest_us = middles.last()?.t_us;
+    let since_us = |t_us: u64| (t_us as i64).wrapping_sub(newest_us as i64) as f32;
+    let step = |a: &Middle, b: &Middle| {
+        let (dx, dy) = (b.px.0 - a.px.0, b.px.1 - a.px.1);
+        let length_px = dx.hypot(dy);
+        let half_way_us = 0.5 * (since_us(a.t_us) + since_us(b.t_us));
+        (length_px > 0.0).then(|| ((dx / length_px, dy / length_px), half_way_us))
+    };
+    let n = middles.len();
+    let (last, last_us) = step(middles.get(n.checked_sub(2)?)?, middles.get(n - 1)?)?;
+    let turn_rad_per_us = match n
+        .checked_sub(3)
+        .and_then(|i| step(&middles[i], &middles[i + 1]))
+    {
+        Some((before, before_us)) => {
+            let turn_rad = motion::signed_angle(before, last);
+            if !turn_rad.is_finite() || turn_rad.abs() > MAX_TURN_RAD || last_us <= before_us {
+                return None;
+            }
+            turn_rad / (last_us - before_us)
+        }
+        None => 0.0,
+    };
+    Some(motion::rotate(
+        last,
+        turn_rad_per_us * (since_us(t_us) - last_us),
+    ))
+}
+
+/// The speed (px/s) along the arc between the last two of a run's `middles` (oldest first),
+/// turning as the two displacements before turned (a chord is shorter than its arc by
+/// `sin(θ/2) / (θ/2)` for a turn θ). The middles are read to tenths of a pixel where a single
+/// frame's length can be off by percent. `None` from fewer than two middles, and where they
+/// did not move.
+fn arc_speed_px_s(middles: &[Middle]) -> Option<f32> {
+    let n = middles.len();
+    let (a, b) = (middles.get(n.checked_sub(2)?)?, middles.get(n - 1)?);
+    let chord_px = dist(a.px, b.px);
+    let dt_s = b.t_us.checked_sub(a.t_us)? as f32 * 1e-6;
+    let turn_rad = n.checked_sub(3).map_or(0.0, |i| {
+        let c = &middles[i];
+        let before = (a.px.0 - c.px.0, a.px.1 - c.px.1);
+        let last = (b.px.0 - a.px.0, b.px.1 - a.px.1);
+        motion::signed_angle(before, last).abs()
+    });
+    let half_rad = 0.5 * turn_rad.min(MAX_TURN_RAD);
+    let arc_per_chord = if half_rad > 1e-4 {
+        half_rad / half_rad.sin()
+    } else {
+        1.0
+    };
+    (chord_px > 0.0 && dt_s > 0.0).then(|| chord_px * arc_per_chord / dt_s)
+}
+
 /// A path's `ends_px` as head and tail: the head is the end farther from `before_px`, where
 /// the LED last was.
 fn head_and_tail(ends_px: [(f32, f32); 2], before_px: (f32, f32)) -> [(f32, f32); 2] {
@@ -1524,7 +1688,7 @@ mod tests {
                 still_ends_px: None,
             }),
             path_failed: false,
-            cut_by_edge: false,
+            cut_ends: [false; 2],
         }
     }
 
@@ -2435,7 +2599,7 @@ mod tests {
                 let visible = [(mid_x, 100.0), (head_x, 100.0)];
                 let mid = (0.5 * (mid_x + head_x), 100.0);
                 let mut s = fitted_streak(mid, visible, 0.5 * true_px, (0.5, 1.0));
-                s.cut_by_edge = true;
+                s.cut_ends = [true, false];
                 s
             } else {
                 fitted_streak((mid_x, 100.0), ends, true_px, (0.5, 1.0))

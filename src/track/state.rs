@@ -65,7 +65,7 @@ mod tests {
             thickness_px: 6.0,
             path: None,
             path_failed: false,
-            cut_by_edge: false,
+            cut_ends: [false; 2],
         };
         t.update(1, Some(&streak));
         assert_eq!(t.state(), TrackState::Tracking);
