@@ -101,7 +101,10 @@ pub struct Streak {
     pub path_failed: bool,
     /// Which of `ends_px` the frame's edge cut: the light runs on past what the camera sees
     /// there (an LED driving into or out of view), so the middle and length are the visible
-    /// part's, not the path's, and that end is not where the LED was (see [`ends_cut`]).
+    /// part's, not the path's, and that end is not where the LED was. An end is cut where a
+    /// step past it, by half the blob's thickness and a pixel, leaves the picture; a blob
+    /// that reaches the edge with no end cut so (the last sliver of a leaving LED's light) is
+    /// cut at both.
     pub cut_ends: [bool; 2],
 }
 
