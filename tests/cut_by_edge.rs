@@ -1,7 +1,8 @@
 //! An LED driving into view and out of it again: a streak whose path runs past the frame's
-//! edge is flagged as cut (its middle and length are the visible part's), and a streak wholly
-//! in view is not, for a sharp disk, a Gaussian spot and a bloom; and `glint track` says so in
-//! its JSON lines (`cut_by_edge`).
+//! edge is flagged as cut at the end that runs out (its middle and length are the visible
+//! part's), and a streak wholly in view is not, for a sharp disk, a Gaussian spot and a bloom;
+//! `glint track` says so in its JSON lines (`cut_by_edge`), and an LED driving out of view on
+//! a track is placed and timed by the track.
 
 mod common;
 
@@ -41,7 +42,7 @@ fn a_streak_is_cut_exactly_where_its_path_runs_past_the_frame_s_edge() {
         let width_px = f64::from(scene.width_px());
         let mut detector = Detector::new(size, DetectorConfig::default()).unwrap();
         let mut bytes = vec![0u8; scene.frame_len_bytes()];
-        let (mut cut, mut whole) = (0, 0);
+        let (mut cut, mut whole, mut ends) = (0, 0, 0);
         for index in 0..scene.config().frame_count {
             let truth = scene.render(index, &mut bytes).unwrap();
             let frame = Frame::new_checked(&bytes, size, size.row_bytes()).unwrap();
@@ -66,6 +67,21 @@ fn a_streak_is_cut_exactly_where_its_path_runs_past_the_frame_s_edge() {
                             streak.cut_by_edge(),
                             "{spot:?}, frame {index}: past the edge"
                         );
+                        // With 8 px of the path in view, the end on the side the path runs
+                        // out of the picture is the one cut, and only it (the LED moves to
+                        // the right: in at the left edge, out at the right).
+                        let in_view_px = end_x.min(width_px - 1.0) - start_x.max(0.0);
+                        if in_view_px >= 8.0 {
+                            let [a, b] = streak.ends_px;
+                            let (left, right) = if a.0 <= b.0 { (0, 1) } else { (1, 0) };
+                            let out_left = start_x < 0.0;
+                            assert_eq!(
+                                (streak.cut_ends[left], streak.cut_ends[right]),
+                                (out_left, !out_left),
+                                "{spot:?}, frame {index}: the other end cut"
+                            );
+                            ends += 1;
+                        }
                         cut += 1;
                     }
                 }
@@ -74,6 +90,7 @@ fn a_streak_is_cut_exactly_where_its_path_runs_past_the_frame_s_edge() {
         }
         // The LED drives in, across and out: both kinds of frame are seen.
         assert!(cut >= 2 && whole >= 3, "{spot:?}: {cut} cut, {whole} whole");
+        assert!(ends >= 2, "{spot:?}: {ends} cut ends told");
     }
 }
 
