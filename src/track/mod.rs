@@ -1066,10 +1066,11 @@ impl Tracker {
     /// gives (see [`heading_at`]). The end ahead along the heading is the head's: where it is
     /// in view (an LED driving back into view) it is the head; where the edge cut it (an LED
     /// driving out of view) the LED went on from the tail, which is in view, along the
-    /// exposure's chord. Read from the visible part instead, an LED leaving at 2400 px/s had
-    /// its last head 9 px short, at the edge, and its speed 15 % slow. With both ends cut, or
-    /// nothing known of the motion (a track's first frame), the visible part's middle, which
-    /// is not the path's.
+    /// exposure's chord; with both ends cut (the last sliver of its light), the LED went on
+    /// from the head before. Read from the visible part instead, an LED leaving at 2400 px/s
+    /// had its last head 9 px short, at the edge, and its speed 15 % slow, and a sliver's
+    /// visible middle was 12–13 px short. With nothing known of the motion (a track's first
+    /// frame, or a frame after a loss), the visible part's middle, which is not the path's.
     fn cut_estimate(&self, streak: &Streak, previous: Option<Sample>, t_us: u64) -> Estimate {
         let mid_px = streak.mid_px;
         // The run of middles before this frame, or, where the frames before were cut too,
@@ -1078,8 +1079,8 @@ impl Tracker {
             0 => self.run_middles(0, self.found_run),
             cut => self.run_middles(cut, self.run_before_cut),
         };
-        let before = &middles[..count];
-        let speed_px_s = arc_speed_px_s(before).or_else(|| {
+        let before_middles = &middles[..count];
+        let speed_px_s = arc_speed_px_s(before_middles).or_else(|| {
             let ((vx, vy), _) = previous?.estimate.velocity_px_s?;
             Some(vx.hypot(vy))
         });
@@ -1087,9 +1088,11 @@ impl Tracker {
         // A middle is where the LED was halfway through its exposure, so the heading the
         // middles give at a frame's time is the LED's halfway through that frame's exposure
         // (the chord's, on a steady turn), and half an exposure later its heading at the end.
-        let chord = heading_at(before, t_us);
-        let velocity_px_s =
-            speed_px_s.zip(heading_at(before, t_us + exposure_us.map_or(0, |e| e / 2)));
+        let chord = heading_at(before_middles, t_us);
+        let velocity_px_s = speed_px_s.zip(heading_at(
+            before_middles,
+            t_us + exposure_us.map_or(0, |e| e / 2),
+        ));
         let velocity_px_s = velocity_px_s.map(|(speed, (dx, dy))| (speed * dx, speed * dy));
         let head = speed_px_s.zip(chord).and_then(|(speed, (dx, dy))| {
             let [a, b] = streak.ends_px;
@@ -1120,7 +1123,19 @@ impl Tracker {
                     let tail_px = end_px(tail);
                     Some((tail_px.0 + chord_px * dx, tail_px.1 + chord_px * dy))
                 }
-                _ => None,
+                // Both cut (the last sliver of the light): from the head before, along the
+                // chord between the two frames' ends of exposure, whose heading the middles
+                // give half an exposure after halfway between the two frames.
+                _ => {
+                    let before =
+                        previous.filter(|p| p.estimate.position_method == PositionMethod::Head)?;
+                    let dt_us = t_us.checked_sub(before.t_us)?;
+                    let halfway_us = before.t_us + dt_us / 2 + exposure_us? / 2;
+                    let (hx, hy) = heading_at(before_middles, halfway_us)?;
+                    let step_px = speed * dt_us as f32 * 1e-6;
+                    let (x, y) = before.estimate.position_px;
+                    Some((x + step_px * hx, y + step_px * hy))
+                }
             }
         });
         Estimate {
