@@ -237,3 +237,51 @@ fn line(start: (f64, f64), velocity: (f64, f64)) -> Trajectory {
         velocity_px_s: Point::new(velocity.0, velocity.1),
     }
 }
+
+/// An LED that drives to the right edge and parks there with its light cut by it, its
+/// centre 3 px inside to 0.5 px outside the picture. The motion before it stopped is carried
+/// into its first cut frame only: carried on through the frames cut in a row, it outran the
+/// parked LED by 23 px a frame. Parked, every cut frame gives the visible part's middle (within
+/// a spot's reach of the LED: 0.3–4.8 px here) and no velocity, and the positions stay put.
+#[test]
+fn an_led_parked_at_the_edge_is_not_carried_away() {
+    for spot in SPOTS {
+        for to_x in [636.0, 638.0, 639.0, 640.5] {
+            let mut config = Scene::preset_config("fast-line").expect("preset");
+            config.led.spot = spot;
+            config.frame_count = 24;
+            config.trajectory = Trajectory::Arrive {
+                from_px: Point::new(450.0, 240.0),
+                to_px: Point::new(to_x, 240.0),
+                move_s: 0.3,
+                arrive_s: 0.35,
+                then_velocity_px_s: Point::new(0.0, 0.0),
+            };
+            let rendered = common::render_scene(Scene::new(config).expect("scene"));
+            let out = common::track(&rendered, &[]);
+            assert!(out.status.success());
+            let lines = common::parse_jsonl(&out.stdout);
+            // From two frames after the arrival (frame 10.5 at 30 fps).
+            let parked: Vec<_> = lines.iter().zip(&rendered.truths).skip(12).collect();
+            let mut xs = Vec::new();
+            for (line, truth) in &parked {
+                let what = format!("{spot:?}, parked at {to_x}, frame {}", truth.frame);
+                assert_eq!(line["found"], true, "{what}");
+                let (x, y) = (line["x"].as_f64().unwrap(), line["y"].as_f64().unwrap());
+                let off_px = (x - truth.x_px.unwrap()).hypot(y - truth.y_px.unwrap());
+                assert!(off_px <= 8.0, "{what}: {off_px:.1} px off");
+                if line["cut_by_edge"] == true {
+                    assert_eq!(line["pos_method"], "mid", "{what}");
+                    assert!(line["vx"].is_null(), "{what}: a velocity");
+                }
+                xs.push(x);
+            }
+            let spread_px = xs.iter().cloned().fold(f64::MIN, f64::max)
+                - xs.iter().cloned().fold(f64::MAX, f64::min);
+            assert!(
+                spread_px <= 2.0,
+                "{spot:?}, parked at {to_x}: moved {spread_px:.1} px"
+            );
+        }
+    }
+}

@@ -209,11 +209,6 @@ pub struct Tracker {
     /// LED, since the last whose streak the frame's edge cut: the middles whose motion is
     /// measured (see [`motion`]).
     found_run: usize,
-    /// How many of the last samples of the history are of consecutive frames whose streak
-    /// the frame's edge cut, and how long the run of middles before them was: the motion
-    /// those frames are carried by (see [`Tracker::cut_estimate`]).
-    cut_run: usize,
-    run_before_cut: usize,
     /// The track was taken as the lone candidate in view and has not moved since: it may be a
     /// lamp, and yields to the first thing that moves.
     tentative: bool,
@@ -453,7 +448,6 @@ impl Tracker {
         self.tentative = false;
         self.previous_found = false;
         self.found_run = 0;
-        self.cut_run = 0;
         self.missed_frames = 0;
     }
 
@@ -657,7 +651,6 @@ impl Tracker {
             self.missed_frames = self.missed_frames.saturating_add(1);
             self.previous_found = false;
             self.found_run = 0;
-            self.cut_run = 0;
             return None;
         };
         // Back after its body was followed while it was lost: where the body last put it is
@@ -1061,29 +1054,25 @@ impl Tracker {
     }
 
     /// The estimate of a frame whose `streak` the frame's edge cut, after `previous`: the
-    /// LED keeps the speed it had (its last middles' [`arc_speed_px_s`], else the frame
-    /// before's), along the heading its run of middles before this frame
-    /// gives (see [`heading_at`]). The end ahead along the heading is the head's: where it is
+    /// LED keeps the speed it had (its last middles' [`arc_speed_px_s`]), along the heading
+    /// its run of middles before this frame gives (see [`heading_at`]), from two middles on.
+    /// The end ahead along the heading is the head's: where it is
     /// in view (an LED driving back into view) it is the head; where the edge cut it (an LED
     /// driving out of view) the LED went on from the tail, which is in view, along the
     /// exposure's chord; with both ends cut (the last sliver of its light), the LED went on
     /// from the head before. Read from the visible part instead, an LED leaving at 2400 px/s
     /// had its last head 9 px short, at the edge, and its speed 15 % slow, and a sliver's
-    /// visible middle was 12–13 px short. With nothing known of the motion (a track's first
-    /// frame, or a frame after a loss), the visible part's middle, which is not the path's.
+    /// visible middle was 12–13 px short. With nothing known of the motion (a run of fewer
+    /// than two middles: a track's first frame, a frame after a loss or after a cut frame),
+    /// the visible part's middle, which is not the path's, and no velocity.
     fn cut_estimate(&self, streak: &Streak, previous: Option<Sample>, t_us: u64) -> Estimate {
         let mid_px = streak.mid_px;
-        // The run of middles before this frame, or, where the frames before were cut too,
-        // before those.
-        let (middles, count) = match self.cut_run {
-            0 => self.run_middles(0, self.found_run),
-            cut => self.run_middles(cut, self.run_before_cut),
-        };
+        // The run of middles before this frame: none after a cut frame, whose motion is not
+        // measured. Carried on through frames cut in a row, the motion outran an LED that
+        // parked with its light at the edge, 23 px further each frame.
+        let (middles, count) = self.run_middles();
         let before_middles = &middles[..count];
-        let speed_px_s = arc_speed_px_s(before_middles).or_else(|| {
-            let ((vx, vy), _) = previous?.estimate.velocity_px_s?;
-            Some(vx.hypot(vy))
-        });
+        let speed_px_s = arc_speed_px_s(before_middles);
         let exposure_us = self.config.exposure_us.map(u64::from);
         // A middle is where the LED was halfway through its exposure, so the heading the
         // middles give at a frame's time is the LED's halfway through that frame's exposure
@@ -1160,16 +1149,11 @@ impl Tracker {
         self.history.write(Sample { t_us, estimate });
         self.missed_frames = 0;
         self.previous_found = true;
-        if cut_by_edge {
-            if self.cut_run == 0 {
-                self.run_before_cut = self.found_run;
-            }
-            self.cut_run = (self.cut_run + 1).min(HISTORY_FRAMES);
-            self.found_run = 0;
+        self.found_run = if cut_by_edge {
+            0
         } else {
-            self.cut_run = 0;
-            self.found_run = (self.found_run + 1).min(HISTORY_FRAMES);
-        }
+            (self.found_run + 1).min(HISTORY_FRAMES)
+        };
         estimate
     }
 
@@ -1196,17 +1180,17 @@ impl Tracker {
     /// `mid_px` (oldest first), and how many: what the motion is measured over (see
     /// [`motion::motion_head`]).
     fn middles(&self, mid_px: (f32, f32), t_us: u64) -> ([Middle; MOTION_MIDDLES], usize) {
-        let (mut middles, before) = self.run_middles(0, self.found_run);
+        let (mut middles, before) = self.run_middles();
         middles[before] = Middle { t_us, px: mid_px };
         (middles, before + 1)
     }
 
-    /// The middles of the last `run` samples before the newest `skip` (oldest first), at
-    /// most one fewer than [`MOTION_MIDDLES`], and how many.
-    fn run_middles(&self, skip: usize, run: usize) -> ([Middle; MOTION_MIDDLES], usize) {
+    /// The middles of the consecutive found frames so far (oldest first), at most one fewer
+    /// than [`MOTION_MIDDLES`], and how many.
+    fn run_middles(&self) -> ([Middle; MOTION_MIDDLES], usize) {
         let mut middles = [Middle::default(); MOTION_MIDDLES];
-        let before = run.min(MOTION_MIDDLES - 1);
-        let recent = self.history.oldest_ordered().rev().skip(skip).take(before);
+        let before = self.found_run.min(MOTION_MIDDLES - 1);
+        let recent = self.history.oldest_ordered().rev().take(before);
         for (slot, sample) in middles[..before].iter_mut().rev().zip(recent) {
             *slot = Middle {
                 t_us: sample.t_us,
