@@ -1054,17 +1054,19 @@ impl Tracker {
     }
 
     /// The estimate of a frame whose `streak` the frame's edge cut, after `previous`: the
-    /// LED keeps the speed it had (its last middles' [`arc_speed_px_s`]), along the heading
-    /// its run of middles before this frame gives (see [`heading_at`]), from two middles on.
+    /// LED keeps the speed it had (its last middles' [`arc_speed_px_s`], where they kept it:
+    /// [`kept_its_speed`]), along the heading its run of middles before this frame gives (see
+    /// [`heading_at`]).
     /// The end ahead along the heading is the head's: where it is
     /// in view (an LED driving back into view) it is the head; where the edge cut it (an LED
     /// driving out of view) the LED went on from the tail, which is in view, along the
     /// exposure's chord; with both ends cut (the last sliver of its light), the LED went on
     /// from the head before. Read from the visible part instead, an LED leaving at 2400 px/s
     /// had its last head 9 px short, at the edge, and its speed 15 % slow, and a sliver's
-    /// visible middle was 12–13 px short. With nothing known of the motion (a run of fewer
-    /// than two middles: a track's first frame, a frame after a loss or after a cut frame),
-    /// the visible part's middle, which is not the path's, and no velocity.
+    /// visible middle was 12–13 px short. With no steady motion known (a run of fewer than
+    /// three middles: a track's first frames, a frame after a loss or after a cut frame; or a
+    /// run that changed speed), the visible part's middle, which is not the path's, and no
+    /// velocity.
     fn cut_estimate(&self, streak: &Streak, previous: Option<Sample>, t_us: u64) -> Estimate {
         let mid_px = streak.mid_px;
         // The run of middles before this frame: none after a cut frame, whose motion is not
@@ -1072,8 +1074,9 @@ impl Tracker {
         // parked with its light at the edge, 23 px further each frame.
         let (middles, count) = self.run_middles();
         let before_middles = &middles[..count];
-        let speed_px_s = arc_speed_px_s(before_middles);
         let exposure_us = self.config.exposure_us.map(u64::from);
+        let speed_px_s = arc_speed_px_s(before_middles)
+            .filter(|_| exposure_us.is_some_and(|e| kept_its_speed(before_middles, e)));
         // A middle is where the LED was halfway through its exposure, so the heading the
         // middles give at a frame's time is the LED's halfway through that frame's exposure
         // (the chord's, on a steady turn), and half an exposure later its heading at the end.
@@ -1578,6 +1581,28 @@ fn heading_at(middles: &[Middle], t_us: u64) -> Option<(f32, f32)> {
         last,
         turn_rad_per_us * (since_us(t_us) - last_us),
     ))
+}
+
+/// The most a cut frame's head may move from a change of speed the middles showed, for the
+/// frame to be carried by its run's speed: the goal for the head (p95, px).
+const CARRIED_HEAD_PX: f32 = 1.5;
+
+/// Whether a run's `middles` (oldest first, at least three) kept their speed, so that it can
+/// carry a frame the edge cut, exposed for `exposure_us`: the change between the last two
+/// displacements, carried on over the interval and a half to that frame's exposure and scaled
+/// to it, moves its head by at most [`CARRIED_HEAD_PX`]. An LED arriving where it parks with
+/// its light at the edge slows in its last frames: carried at its last speed, its head landed
+/// 14–18 px past where it stopped.
+fn kept_its_speed(middles: &[Middle], exposure_us: u64) -> bool {
+    let n = middles.len();
+    let Some([a, b, c]) = n.checked_sub(3).and_then(|i| middles.get(i..)) else {
+        return false;
+    };
+    let Some(dt_us) = c.t_us.checked_sub(b.t_us).filter(|&dt| dt > 0) else {
+        return false;
+    };
+    let change_px = (dist(b.px, c.px) - dist(a.px, b.px)).abs();
+    1.5 * change_px * exposure_us as f32 / dt_us as f32 <= CARRIED_HEAD_PX
 }
 
 /// The speed (px/s) along the arc between the last two of a run's `middles` (oldest first),
