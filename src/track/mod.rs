@@ -1054,9 +1054,8 @@ impl Tracker {
     }
 
     /// The estimate of a frame whose `streak` the frame's edge cut, after `previous`: the
-    /// LED keeps the speed it had (its last middles' [`arc_speed_px_s`], where they kept it:
-    /// [`kept_its_speed`]), along the heading its run of middles before this frame gives (see
-    /// [`heading_at`]).
+    /// LED keeps the speed and turn of its run of middles before this frame, where they kept
+    /// their speed ([`motion::carried`]).
     /// The end ahead along the heading is the head's: where it is
     /// in view (an LED driving back into view) it is the head; where the edge cut it (an LED
     /// driving out of view) the LED went on from the tail, which is in view, along the
@@ -1073,20 +1072,15 @@ impl Tracker {
         // measured. Carried on through frames cut in a row, the motion outran an LED that
         // parked with its light at the edge, 23 px further each frame.
         let (middles, count) = self.run_middles();
-        let before_middles = &middles[..count];
-        let exposure_us = self.config.exposure_us.map(u64::from);
-        let speed_px_s = arc_speed_px_s(before_middles)
-            .filter(|_| exposure_us.is_some_and(|e| kept_its_speed(before_middles, e)));
-        // A middle is where the LED was halfway through its exposure, so the heading the
-        // middles give at a frame's time is the LED's halfway through that frame's exposure
-        // (the chord's, on a steady turn), and half an exposure later its heading at the end.
-        let chord = heading_at(before_middles, t_us);
-        let velocity_px_s = speed_px_s.zip(heading_at(
-            before_middles,
-            t_us + exposure_us.map_or(0, |e| e / 2),
-        ));
-        let velocity_px_s = velocity_px_s.map(|(speed, (dx, dy))| (speed * dx, speed * dy));
-        let head = speed_px_s.zip(chord).and_then(|(speed, (dx, dy))| {
+        let exposure_us = self.config.exposure_us;
+        let carried = exposure_us.and_then(|e| motion::carried(&middles[..count], e));
+        // Halfway through this exposure (the chord's heading), and at its end.
+        let velocity_px_s = carried.zip(exposure_us).map(|(c, e)| {
+            let (dx, dy) = c.heading_at(t_us + u64::from(e / 2));
+            (c.speed_px_s * dx, c.speed_px_s * dy)
+        });
+        let head = carried.zip(exposure_us).and_then(|(c, exposure_us)| {
+            let (speed, (dx, dy)) = (c.speed_px_s, c.heading_at(t_us));
             let [a, b] = streak.ends_px;
             let a_ahead = (a.0 - b.0) * dx + (a.1 - b.1) * dy >= 0.0;
             let (head, tail) = if a_ahead { (0, 1) } else { (1, 0) };
@@ -1111,7 +1105,7 @@ impl Tracker {
             match (streak.cut_ends[head], streak.cut_ends[tail]) {
                 (false, true) => Some(end_px(head)),
                 (true, false) => {
-                    let chord_px = speed * exposure_us? as f32 * 1e-6;
+                    let chord_px = speed * exposure_us as f32 * 1e-6;
                     let tail_px = end_px(tail);
                     Some((tail_px.0 + chord_px * dx, tail_px.1 + chord_px * dy))
                 }
@@ -1122,8 +1116,8 @@ impl Tracker {
                     let before =
                         previous.filter(|p| p.estimate.position_method == PositionMethod::Head)?;
                     let dt_us = t_us.checked_sub(before.t_us)?;
-                    let halfway_us = before.t_us + dt_us / 2 + exposure_us? / 2;
-                    let (hx, hy) = heading_at(before_middles, halfway_us)?;
+                    let halfway_us = before.t_us + dt_us / 2 + u64::from(exposure_us / 2);
+                    let (hx, hy) = c.heading_at(halfway_us);
                     let step_px = speed * dt_us as f32 * 1e-6;
                     let (x, y) = before.estimate.position_px;
                     Some((x + step_px * hx, y + step_px * hy))
@@ -1544,90 +1538,6 @@ fn pulled_in(head: (f32, f32), mid: (f32, f32), by_px: f32) -> (f32, f32) {
     }
     let scale = (length_px - by_px).max(0.0) / length_px;
     (mid.0 + dx * scale, mid.1 + dy * scale)
-}
-
-/// The LED's heading (a unit vector) at `t_us` from the `middles` of a run (oldest first):
-/// their last displacement's direction, which is the heading halfway between the two
-/// middles' times, turned on at the rate it turned from the displacement before (a steady
-/// turn; none from two middles). `None` from fewer than two, or where the last two
-/// displacements turned by more than a right angle (no steady turn: a reversal).
-fn heading_at(middles: &[Middle], t_us: u64) -> Option<(f32, f32)> {
-    // Times from the newest middle's: a clock's microseconds in an f32 lose whole
-    // milliseconds after a day.
-    let newest_us = middles.last()?.t_us;
-    let since_us = |t_us: u64| (t_us as i64).wrapping_sub(newest_us as i64) as f32;
-    let step = |a: &Middle, b: &Middle| {
-        let (dx, dy) = (b.px.0 - a.px.0, b.px.1 - a.px.1);
-        let length_px = dx.hypot(dy);
-        let half_way_us = 0.5 * (since_us(a.t_us) + since_us(b.t_us));
-        (length_px > 0.0).then(|| ((dx / length_px, dy / length_px), half_way_us))
-    };
-    let n = middles.len();
-    let (last, last_us) = step(middles.get(n.checked_sub(2)?)?, middles.get(n - 1)?)?;
-    let turn_rad_per_us = match n
-        .checked_sub(3)
-        .and_then(|i| step(&middles[i], &middles[i + 1]))
-    {
-        Some((before, before_us)) => {
-            let turn_rad = motion::signed_angle(before, last);
-            if !turn_rad.is_finite() || turn_rad.abs() > MAX_TURN_RAD || last_us <= before_us {
-                return None;
-            }
-            turn_rad / (last_us - before_us)
-        }
-        None => 0.0,
-    };
-    Some(motion::rotate(
-        last,
-        turn_rad_per_us * (since_us(t_us) - last_us),
-    ))
-}
-
-/// The most a cut frame's head may move from a change of speed the middles showed, for the
-/// frame to be carried by its run's speed: the goal for the head (p95, px).
-const CARRIED_HEAD_PX: f32 = 1.5;
-
-/// Whether a run's `middles` (oldest first, at least three) kept their speed, so that it can
-/// carry a frame the edge cut, exposed for `exposure_us`: the change between the last two
-/// displacements, carried on over the interval and a half to that frame's exposure and scaled
-/// to it, moves its head by at most [`CARRIED_HEAD_PX`]. An LED arriving where it parks with
-/// its light at the edge slows in its last frames: carried at its last speed, its head landed
-/// 14–18 px past where it stopped.
-fn kept_its_speed(middles: &[Middle], exposure_us: u64) -> bool {
-    let n = middles.len();
-    let Some([a, b, c]) = n.checked_sub(3).and_then(|i| middles.get(i..)) else {
-        return false;
-    };
-    let Some(dt_us) = c.t_us.checked_sub(b.t_us).filter(|&dt| dt > 0) else {
-        return false;
-    };
-    let change_px = (dist(b.px, c.px) - dist(a.px, b.px)).abs();
-    1.5 * change_px * exposure_us as f32 / dt_us as f32 <= CARRIED_HEAD_PX
-}
-
-/// The speed (px/s) along the arc between the last two of a run's `middles` (oldest first),
-/// turning as the two displacements before turned (a chord is shorter than its arc by
-/// `sin(θ/2) / (θ/2)` for a turn θ). The middles are read to tenths of a pixel where a single
-/// frame's length can be off by percent. `None` from fewer than two middles, and where they
-/// did not move.
-fn arc_speed_px_s(middles: &[Middle]) -> Option<f32> {
-    let n = middles.len();
-    let (a, b) = (middles.get(n.checked_sub(2)?)?, middles.get(n - 1)?);
-    let chord_px = dist(a.px, b.px);
-    let dt_s = b.t_us.checked_sub(a.t_us)? as f32 * 1e-6;
-    let turn_rad = n.checked_sub(3).map_or(0.0, |i| {
-        let c = &middles[i];
-        let before = (a.px.0 - c.px.0, a.px.1 - c.px.1);
-        let last = (b.px.0 - a.px.0, b.px.1 - a.px.1);
-        motion::signed_angle(before, last).abs()
-    });
-    let half_rad = 0.5 * turn_rad.min(MAX_TURN_RAD);
-    let arc_per_chord = if half_rad > 1e-4 {
-        half_rad / half_rad.sin()
-    } else {
-        1.0
-    };
-    (chord_px > 0.0 && dt_s > 0.0).then(|| chord_px * arc_per_chord / dt_s)
 }
 
 /// A path's `ends_px` as head and tail: the head is the end farther from `before_px`, where

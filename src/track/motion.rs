@@ -353,8 +353,17 @@ struct EarlySteps {
 /// [`EarlySteps`] of `middles` (oldest first), `None` with other than three or four of them
 /// or frame times that do not increase.
 fn early_steps(middles: &[Middle]) -> Option<EarlySteps> {
+    if !(3..MIN_INNOVATIONS + 3).contains(&middles.len()) {
+        return None;
+    }
+    last_steps(middles)
+}
+
+/// [`EarlySteps`] of the last three of `middles` (oldest first), `None` with fewer or frame
+/// times that do not increase.
+fn last_steps(middles: &[Middle]) -> Option<EarlySteps> {
     let n = middles.len();
-    if !(3..MIN_INNOVATIONS + 3).contains(&n) {
+    if n < 3 {
         return None;
     }
     let step = |j: usize| -> Option<((f32, f32), f32)> {
@@ -374,6 +383,69 @@ fn early_steps(middles: &[Middle]) -> Option<EarlySteps> {
         v1,
         dt1,
         rate: angle / (0.5 * (dt0 + dt1)),
+    })
+}
+
+/// The most a frame's head may move from a change of speed its run's middles showed, for the
+/// run to carry the frame at its speed ([`carried`]): the goal for the head (p95, px).
+const CARRIED_HEAD_PX: f32 = 1.5;
+
+/// A run's motion carried on at its last speed and turn, into a frame whose own middle is not
+/// its path's (a streak the frame's edge cut): see [`carried`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Carried {
+    /// The speed along the arc of the last displacement (px/s).
+    pub speed_px_s: f32,
+    /// The last displacement's direction (a unit vector): the heading halfway between its
+    /// two middles' times, `heading_us`.
+    heading: (f32, f32),
+    heading_us: u64,
+    /// The turn between the last two displacements, per µs.
+    rate_rad_per_us: f32,
+}
+
+impl Carried {
+    /// The heading (a unit vector) at a frame time `t_us`, turned on at the run's rate. A
+    /// middle is where the LED was halfway through its exposure, so this is the LED's heading
+    /// halfway through the exposure of a frame at `t_us` (the chord's, on a steady turn).
+    pub fn heading_at(&self, t_us: u64) -> (f32, f32) {
+        // From the heading's own time: a clock's microseconds in an f32 lose whole
+        // milliseconds after a day.
+        let since_us = (t_us as i64).wrapping_sub(self.heading_us as i64) as f32;
+        rotate(self.heading, self.rate_rad_per_us * since_us)
+    }
+}
+
+/// The motion the last three `middles` of a run (oldest first, the frame's own not among them)
+/// carry into a frame exposed for `exposure_us`: the speed along the arc of the last
+/// displacement and its heading, turning at the rate it turned from the one before. `None`
+/// with fewer middles, times that do not increase, a turn of more than a right angle (a
+/// reversal, no steady turn), or where the run did not keep its speed: the change between the
+/// last two displacements, carried on over the interval and a half to the frame's exposure
+/// and scaled to it, would move its head by more than the 1.5 px goal (`CARRIED_HEAD_PX`). An LED arriving
+/// where it parks with its light at the edge slows in its last frames: carried at its last
+/// speed, its head landed 14–18 px past where it stopped.
+pub fn carried(middles: &[Middle], exposure_us: u32) -> Option<Carried> {
+    let s = last_steps(middles)?;
+    let (v0_px, v1_px) = (s.v0.0.hypot(s.v0.1) * s.dt0, s.v1.0.hypot(s.v1.1) * s.dt1);
+    let change_px = (v1_px - v0_px).abs();
+    let turn_rad = s.rate * 0.5 * (s.dt0 + s.dt1);
+    let kept = 1.5 * change_px * exposure_us as f32 * 1e-6 / s.dt1 <= CARRIED_HEAD_PX;
+    if !kept
+        || !turn_rad.is_finite()
+        || turn_rad.abs() > core::f32::consts::FRAC_PI_2
+        || v1_px == 0.0
+    {
+        return None;
+    }
+    let [.., before, last] = middles else {
+        return None;
+    };
+    Some(Carried {
+        speed_px_s: s.v1.0.hypot(s.v1.1) / chord_per_arc(0.5 * s.rate * s.dt1),
+        heading: (s.v1.0 * s.dt1 / v1_px, s.v1.1 * s.dt1 / v1_px),
+        heading_us: before.t_us + (last.t_us - before.t_us) / 2,
+        rate_rad_per_us: s.rate * 1e-6,
     })
 }
 
