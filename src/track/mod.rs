@@ -61,7 +61,7 @@ use heapless::HistoryBuf;
 
 use crate::detect::blobs::Blob;
 use crate::detect::satellite;
-use crate::detect::streak::Streak;
+use crate::detect::streak::{Streak, StreakPath};
 use body::Body;
 use length_offset::{LengthOffset, LengthReading};
 use motion::{Middle, CHI2_1DOF_99, CHI2_2DOF_99, MOTION_MIDDLES};
@@ -251,6 +251,9 @@ struct FrameLength {
     length_px: f32,
     variance_px2: f32,
     middles_path: Option<(f32, f32)>,
+    /// The path's turn over the exposure, from its chord against its length (none for a
+    /// path read as still): see [`motion::first_path_px`].
+    bend_rad: f32,
 }
 
 /// Where a lost LED's body put it (see [`Tracker::follow_body`]).
@@ -793,6 +796,7 @@ impl Tracker {
                 length_px: p.path_length_px,
                 variance_px2: p.length_noise_px.map_or(0.0, |l| l * l),
                 middles_path: None,
+                bend_rad: bend_rad(&p),
             });
         let motion_path = self
             .motion_path(motion, middles, this_length)
@@ -1238,7 +1242,11 @@ impl Tracker {
                     return None;
                 };
                 let moved_px = dist(last.px, before.px);
-                let path_px = motion::first_path_px(middles, self.config.exposure_us?)?;
+                let path_px = motion::first_path_px(
+                    middles,
+                    self.config.exposure_us?,
+                    (this.bend_rad, this.length_px),
+                )?;
                 let growth = self
                     .last_length
                     .filter(|l| middles.len() == 2 && l.t_us == before.t_us)
@@ -1458,11 +1466,19 @@ impl Tracker {
 /// profile a real LED's need not have, where the middles need only its symmetry. It is what
 /// the length offset learns, but the offset takes three observations.
 ///
-/// A run's first path, from two middles, has no miss before it to agree with. It is a chord of
-/// the LED's path (with half the lengths' growth, where they grew, see
-/// [`Tracker::motion_path`]), never longer than the arc, so there a chord longer than the
-/// length tells a misread length, where the two frames' lengths agree or grew; a shorter
-/// chord may be a turn, and a length that shrank may be an LED braking within the exposure.
+/// A run's first path, from two middles, has no miss before it to agree with. It is their
+/// chord lengthened back to the arc by the streak's own bend (see [`motion::first_path_px`]),
+/// with half the lengths' growth where they grew beyond their deviations (see
+/// [`Tracker::motion_path`]). A path longer than the length tells a misread length where the
+/// two frames' lengths agree or grew (a length that shrank may be an LED braking within the
+/// exposure). A shorter one tells it where the lengths agree and the length is longer even
+/// than the path with half their growth: an LED speeding up within its lengths' noise has a
+/// chord half an interval behind it (independent scenes seed 6, scene 22: a first length read
+/// 5 px long, stated uncertain by 2.8 px; without the growth the second frame read −11.2 %).
+/// Taken that way, a halo's 120 px line read 124.1 and 123.6 px long under a 120.1 px chord
+/// (1280×720 seed 6, scene 54) had its second head 2.00 → 0.33 px off; see the README's "A
+/// second frame's chord on a circle, and a length read long" for the sets.
+///
 /// An LED speeding up whose lengths read 2 px short had its second frame 17 % slow where
 /// growing lengths were not taken (`an_accelerating_led_s_steady_misreading_...`); on the
 /// independent scenes two read better (640×480 seed 5's scene 22, head median 0.42 →
@@ -1489,10 +1505,19 @@ fn misread_steadily(
     let agree = |a: f32, b: f32, var_px2: f32| (a - b) * (a - b) <= CHI2_1DOF_99 * var_px2;
     let lengths_var_px2 = now.variance_px2 + before.variance_px2;
     let steady = match (middles, before.middles_path, now.middles_path) {
-        (2, _, Some((chord_px, _))) => {
-            let shrank_px = before.length_px - now.length_px;
-            chord_px > now.length_px
-                && (shrank_px <= 0.0 || agree(now.length_px, before.length_px, lengths_var_px2))
+        (2, _, Some((path_px, path_var_px2))) => {
+            let grew_px = now.length_px - before.length_px;
+            let lengths_agree = agree(now.length_px, before.length_px, lengths_var_px2);
+            if path_px > now.length_px {
+                grew_px >= 0.0 || lengths_agree
+            } else {
+                lengths_agree
+                    && !agree(
+                        now.length_px,
+                        path_px + 0.5 * grew_px.max(0.0),
+                        now.variance_px2 + path_var_px2,
+                    )
+            }
         }
         (_, Some((before_px, before_var_px2)), Some((path_px, var_px2))) => agree(
             now.length_px - path_px,
@@ -1502,6 +1527,17 @@ fn misread_steadily(
         _ => false,
     };
     before.t_us == previous_us && before.reading == now.reading && steady
+}
+
+/// The turn (rad) of a path over its exposure, from its chord against its length
+/// ([`motion::turn_of_chord_per_arc`]); none for a path read as still, whose ends are its
+/// middle.
+fn bend_rad(path: &StreakPath) -> f32 {
+    if path.still_ends_px.is_some() || path.path_length_px <= 0.0 {
+        return 0.0;
+    }
+    let [a, b] = path.ends_px;
+    motion::turn_of_chord_per_arc(dist(a, b) / path.path_length_px)
 }
 
 /// The middle's displacement from `previous` to `mid_px` at `t_us`, and the time it took
@@ -2596,6 +2632,81 @@ mod tests {
             let e = t.update(i * FRAME_US, Some(&s)).unwrap();
             if i >= 1 {
                 assert_streak_speed(&e, (head_x - tail_x) / exposure_s, 0.01, i);
+            }
+        }
+    }
+
+    /// The same line read 2.3 px (18 %) long in every frame. The second frame's chord is
+    /// now shorter than its length, the two frames' lengths agreeing and its miss beyond
+    /// both deviations: the length is misread, and the chord stands. Every speed is within
+    /// 1 %; with the second frame's own length standing wherever the chord is the shorter
+    /// (as before), it read +17.7 %.
+    #[test]
+    fn a_length_misread_steadily_long_gives_way_to_the_middles_path() {
+        let read = read_short(10_000, 1300.0, (&STEADY_JITTER_PX, &[-2.3]), (0.5, 0.7), 4);
+        assert_streak_speeds_within(&read, 1, 0.01);
+    }
+
+    /// An LED speeding up hard (36 px paths over a 30 ms exposure, growing 10 px a frame),
+    /// whose first length reads 5 px long and states 2.8 px, the second read right and
+    /// stating 0.8 px (independent scenes seed 6, scene 22, a halo's first frame on a floor
+    /// not yet learned). The lengths agree within the first's deviation and the chord, half
+    /// an interval behind, is the shorter: but half the lengths' growth explains the miss, so
+    /// the second frame's own length stands, within 2 %. Taking the chord wherever it was the
+    /// shorter with the lengths agreeing, that frame read −12.0 %.
+    #[test]
+    fn a_length_grown_past_a_chord_of_an_led_speeding_up_stands() {
+        let (exposure_us, exposure_s) = (30_000u32, 0.03f32);
+        let x_at = |t: f32| 100.0 + 1200.0 * t + 0.5 * 10_000.0 * t * t;
+        let mut t = Tracker::new(TrackerConfig {
+            exposure_us: Some(exposure_us),
+        });
+        for (i, (long_px, deviation_px)) in [(5.0, 2.8), (0.0, 0.8)].into_iter().enumerate() {
+            let end_s = (i as u64 * FRAME_US) as f32 * 1e-6;
+            let (tail_x, head_x) = (x_at(end_s - exposure_s), x_at(end_s));
+            let mid = (0.5 * (tail_x + head_x), 100.0);
+            let read_px = head_x - tail_x + long_px;
+            let ends = [
+                (mid.0 - 0.5 * read_px, 100.0),
+                (mid.0 + 0.5 * read_px, 100.0),
+            ];
+            let s = fitted_streak(mid, ends, read_px, (0.3, deviation_px));
+            let e = t.update(i as u64 * FRAME_US, Some(&s)).unwrap();
+            if i == 1 {
+                assert_streak_speed(&e, (head_x - tail_x) / exposure_s, 0.02, 1);
+            }
+        }
+    }
+
+    /// An LED on a circle of 60 px turning 90° a frame (27° over its 10 ms exposure, 28.3 px
+    /// arcs), its fitted arcs on the circle, read right and read 2 px short. The second
+    /// frame's two middles are 90° apart: their chord is 10 % shorter than the arc between
+    /// them. Lengthened back on the circle that the streak's own bend says, it is the arc, and
+    /// the second frame's speed is within 1 % either way. Taken as it is, the chord is read as
+    /// the path and the length as misread long: −10.0 % where the length was right, −8.9 %
+    /// where it was short.
+    #[test]
+    fn a_second_frame_s_chord_on_a_circle_is_lengthened_by_the_streak_s_bend() {
+        let (radius_px, turn_rad, exposure_us) = (60.0f32, std::f32::consts::FRAC_PI_2, 10_000u32);
+        let rate_rad_s = turn_rad / (FRAME_US as f32 * 1e-6);
+        let arc_px = radius_px * rate_rad_s * exposure_us as f32 * 1e-6;
+        let on_circle = |a: f32| (320.0 + radius_px * a.cos(), 240.0 + radius_px * a.sin());
+        for short_px in [0.0, 2.0] {
+            let mut t = Tracker::new(TrackerConfig {
+                exposure_us: Some(exposure_us),
+            });
+            for i in 0..2u64 {
+                let end_s = (i * FRAME_US) as f32 * 1e-6;
+                let mid_rad = rate_rad_s * (end_s - 0.5 * exposure_us as f32 * 1e-6);
+                let read_px = arc_px - short_px;
+                let half_rad = 0.5 * read_px / radius_px;
+                let ends = [on_circle(mid_rad - half_rad), on_circle(mid_rad + half_rad)];
+                let s = fitted_streak(on_circle(mid_rad), ends, read_px, (0.3, 0.3));
+                let e = t.update(i * FRAME_US, Some(&s)).unwrap();
+                if i == 1 {
+                    let speed_px_s = arc_px / (exposure_us as f32 * 1e-6);
+                    assert_streak_speed(&e, speed_px_s, 0.01, i);
+                }
             }
         }
     }

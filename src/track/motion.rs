@@ -303,18 +303,47 @@ fn early_path_variance_px2(middles: &[Middle], exposure_us: u32, middle_sd_px: f
 
 /// The path over an exposure of `exposure_us` that a track's first two, three or four middles
 /// give (oldest first, the current one last): [`early_path_px`] from three or four; from two,
-/// the one displacement scaled from its interval to the exposure, which has no turn or change
-/// of speed to measure yet (on a circle it is a chord, on an LED speeding up the speed half an
-/// interval ago), but is the path of a line at a steady speed, where most short tracks'
-/// lengths are read steadily long or short (independent seeds 1–5: 21 scenes of 300 out with
-/// the offset learned from the third middle, 18 from the second). `None` with other counts or
-/// frame times that do not increase.
-pub fn first_path_px(middles: &[Middle], exposure_us: u32) -> Option<f32> {
+/// the one displacement scaled from its interval to the exposure, which has no change of speed
+/// to measure yet (on an LED speeding up it is the speed half an interval ago), but is the
+/// path of a line at a steady speed, where most short tracks' lengths are read steadily long
+/// or short (independent seeds 1–5: 21 scenes of 300 out with the offset learned from the
+/// third middle, 18 from the second). `None` with other counts or frame times that do not
+/// increase.
+///
+/// On a circle the displacement is a chord of the arc between the middles, shorter by
+/// `chord_per_arc` of half the turn between them. Two middles cannot measure that turn, but
+/// the current streak's own bend can: its path of `length_px` turned by `bend_rad` over the
+/// exposure (read from its chord against its length, `turn_of_chord_per_arc`) lies on a
+/// circle of radius `length_px / bend_rad`, and the chord `c` between the middles spans the
+/// arc `2r · asin(c / 2r)` on it. The radius, not the turn, is taken: a path read short on
+/// its circle turns less but has the same radius. (On independent 1280×720 seed 4's scene 33,
+/// 120 px arcs turning 61° an exposure, the chord gave 111.2 px, the arc 120.5 px.) Beyond
+/// half a turn between the middles (the bend's turn over the interval), or a chord wider than
+/// the circle, the chord tells nothing of the arc: `None`.
+pub fn first_path_px(
+    middles: &[Middle],
+    exposure_us: u32,
+    (bend_rad, length_px): (f32, f32),
+) -> Option<f32> {
     match middles {
         [before, last] => {
             let dt_us = last.t_us.checked_sub(before.t_us).filter(|&dt| dt > 0)?;
-            let moved_px = (last.px.0 - before.px.0).hypot(last.px.1 - before.px.1);
-            Some(moved_px * exposure_us as f32 / dt_us as f32)
+            let chord_px = (last.px.0 - before.px.0).hypot(last.px.1 - before.px.1);
+            let per_exposure = exposure_us as f32 / dt_us as f32;
+            if bend_rad / per_exposure >= core::f32::consts::PI {
+                return None;
+            }
+            let arc_px = if bend_rad > 0.0 {
+                let radius_px = length_px / bend_rad;
+                let half_chord = chord_px / (2.0 * radius_px);
+                if half_chord >= 1.0 {
+                    return None;
+                }
+                2.0 * radius_px * half_chord.asin()
+            } else {
+                chord_px
+            };
+            Some(arc_px * per_exposure)
         }
         _ => early_path_px(middles, exposure_us),
     }
@@ -583,7 +612,7 @@ pub fn head_by_travel(
 /// The turn (rad, from none to a whole turn) of a circular arc whose chord is `q` of its
 /// length: the inverse of [`chord_per_arc`] of half the turn, which falls monotonically over
 /// it (by bisection). No turn for `q` of 1 or more, a whole turn for `q` of 0 or less.
-fn turn_of_chord_per_arc(q: f32) -> f32 {
+pub(crate) fn turn_of_chord_per_arc(q: f32) -> f32 {
     if q >= 1.0 {
         return 0.0;
     }
@@ -678,7 +707,7 @@ mod tests {
                             ..*m
                         })
                         .collect();
-                    first_path_px(&noisy, EXPOSURE_US).expect("a path")
+                    first_path_px(&noisy, EXPOSURE_US, (0.0, 0.0)).expect("a path")
                 })
                 .collect();
             let mean = paths.iter().sum::<f32>() / paths.len() as f32;
@@ -811,23 +840,54 @@ mod tests {
         let (vx, vy) = (700.0f32, -250.0f32);
         let line = |t: f32| (100.0 + vx * t, 300.0 + vy * t);
         let truth = vx.hypot(vy) * exposure_s;
-        let path = first_path_px(&middles(line, 2), EXPOSURE_US).unwrap();
+        let path = first_path_px(&middles(line, 2), EXPOSURE_US, (0.0, 0.0)).unwrap();
         assert!((path - truth).abs() < 1e-3 * truth, "{path} px, {truth}");
         let (v0, a) = (300.0f32, 8000.0f32);
         let speeding = |t: f32| (100.0 + v0 * t + 0.5 * a * t * t, 50.0);
         for n in [3, 4] {
             let m = middles(speeding, n);
             assert_eq!(
-                first_path_px(&m, EXPOSURE_US),
+                first_path_px(&m, EXPOSURE_US, (0.0, 0.0)),
                 early_path_px(&m, EXPOSURE_US)
             );
         }
         let mut two = middles(line, 2);
         two[1].t_us = two[0].t_us;
-        assert_eq!(first_path_px(&two, EXPOSURE_US), None);
+        assert_eq!(first_path_px(&two, EXPOSURE_US, (0.0, 0.0)), None);
         for n in [1, 5] {
-            assert_eq!(first_path_px(&middles(line, n), EXPOSURE_US), None);
+            assert_eq!(
+                first_path_px(&middles(line, n), EXPOSURE_US, (0.0, 0.0)),
+                None
+            );
         }
+    }
+
+    /// Two middles on a circle of 40 px turning 60° a frame (54° over the exposure): their
+    /// chord is 4.5 % shorter than the arc between them, and lengthened by the circle the
+    /// path's bend puts it on, the first path is the arc to 0.1 %, whether the path was read
+    /// right or 10 % short on its circle (the same radius). Beyond half a turn between the
+    /// middles (a bend of 170° over the exposure) or with a chord wider than the bend's circle,
+    /// two middles give no path.
+    #[test]
+    fn the_first_two_middles_chord_is_lengthened_by_the_path_s_bend() {
+        let (frame_s, exposure_s) = (FRAME_US as f32 * 1e-6, EXPOSURE_US as f32 * 1e-6);
+        let (r, w) = (40.0f32, 60f32.to_radians() / frame_s);
+        let circle = |t: f32| (300.0 + r * (w * t).cos(), 200.0 + r * (w * t).sin());
+        let m = middles(circle, 2);
+        let truth = r * w * exposure_s;
+        let bend_rad = w * exposure_s;
+        for length_px in [truth, 0.9 * truth] {
+            let bend = (bend_rad * length_px / truth, length_px);
+            let path = first_path_px(&m, EXPOSURE_US, bend).unwrap();
+            assert!((path - truth).abs() < 1e-3 * truth, "{path} px, {truth}");
+        }
+        let chord = first_path_px(&m, EXPOSURE_US, (0.0, truth)).unwrap();
+        assert!(truth - chord > 0.04 * truth, "{chord} px, {truth}");
+        let beyond_half_turn = (170f32.to_radians(), 10.0 * truth);
+        assert_eq!(first_path_px(&m, EXPOSURE_US, beyond_half_turn), None);
+        // A 10 px path turning a radian: a circle of 10 px, on which the middles, 40 px
+        // apart, cannot both lie.
+        assert_eq!(first_path_px(&m, EXPOSURE_US, (1.0, 10.0)), None);
     }
 
     #[test]
