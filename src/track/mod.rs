@@ -2624,16 +2624,34 @@ mod tests {
             exposure_us: Some(exposure_us),
         });
         for i in 0..9u64 {
-            let end_s = (i * FRAME_US) as f32 * 1e-6;
-            let (tail_x, head_x) = (x_at(end_s - exposure_s), x_at(end_s));
-            let mid = (0.5 * (tail_x + head_x), 100.0);
-            let ends = [(tail_x + 1.0, 100.0), (head_x - 1.0, 100.0)];
-            let s = fitted_streak(mid, ends, head_x - tail_x - 2.0, (0.3, 0.3));
+            let (s, speed_px_s) = speeding_frame(&x_at, i, exposure_s, -2.0, (0.3, 0.3));
             let e = t.update(i * FRAME_US, Some(&s)).unwrap();
             if i >= 1 {
-                assert_streak_speed(&e, (head_x - tail_x) / exposure_s, 0.01, i);
+                assert_streak_speed(&e, speed_px_s, 0.01, i);
             }
         }
+    }
+
+    /// Frame `i` of an LED along y = 100 at `x_at(t)`, exposed for `exposure_s` up to the
+    /// frame's time: its streak read `long_px` longer than the path about its middle, stating
+    /// `deviations` (ends, length), and the LED's mean speed over the exposure.
+    fn speeding_frame(
+        x_at: &impl Fn(f32) -> f32,
+        i: u64,
+        exposure_s: f32,
+        long_px: f32,
+        deviations: (f32, f32),
+    ) -> (Streak, f32) {
+        let end_s = (i * FRAME_US) as f32 * 1e-6;
+        let (tail_x, head_x) = (x_at(end_s - exposure_s), x_at(end_s));
+        let mid = (0.5 * (tail_x + head_x), 100.0);
+        let read_px = head_x - tail_x + long_px;
+        let ends = [
+            (mid.0 - 0.5 * read_px, 100.0),
+            (mid.0 + 0.5 * read_px, 100.0),
+        ];
+        let s = fitted_streak(mid, ends, read_px, deviations);
+        (s, (head_x - tail_x) / exposure_s)
     }
 
     /// The same line read 2.3 px (18 %) long in every frame. The second frame's chord is
@@ -2662,18 +2680,12 @@ mod tests {
             exposure_us: Some(exposure_us),
         });
         for (i, (long_px, deviation_px)) in [(5.0, 2.8), (0.0, 0.8)].into_iter().enumerate() {
-            let end_s = (i as u64 * FRAME_US) as f32 * 1e-6;
-            let (tail_x, head_x) = (x_at(end_s - exposure_s), x_at(end_s));
-            let mid = (0.5 * (tail_x + head_x), 100.0);
-            let read_px = head_x - tail_x + long_px;
-            let ends = [
-                (mid.0 - 0.5 * read_px, 100.0),
-                (mid.0 + 0.5 * read_px, 100.0),
-            ];
-            let s = fitted_streak(mid, ends, read_px, (0.3, deviation_px));
-            let e = t.update(i as u64 * FRAME_US, Some(&s)).unwrap();
+            let i = i as u64;
+            let (s, speed_px_s) =
+                speeding_frame(&x_at, i, exposure_s, long_px, (0.3, deviation_px));
+            let e = t.update(i * FRAME_US, Some(&s)).unwrap();
             if i == 1 {
-                assert_streak_speed(&e, (head_x - tail_x) / exposure_s, 0.02, 1);
+                assert_streak_speed(&e, speed_px_s, 0.02, 1);
             }
         }
     }
