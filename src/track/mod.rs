@@ -251,9 +251,9 @@ struct FrameLength {
     length_px: f32,
     variance_px2: f32,
     middles_path: Option<(f32, f32)>,
-    /// The path's turn over the exposure, from its chord against its length (none for a
-    /// path read as still): see [`motion::first_path_px`].
-    bend_rad: f32,
+    /// The distance between the path's ends, whose bend against its length tells the turn
+    /// (its length for a path read as still): see [`motion::first_path_px`].
+    ends_chord_px: f32,
 }
 
 /// Where a lost LED's body put it (see [`Tracker::follow_body`]).
@@ -796,7 +796,7 @@ impl Tracker {
                 length_px: p.path_length_px,
                 variance_px2: p.length_noise_px.map_or(0.0, |l| l * l),
                 middles_path: None,
-                bend_rad: bend_rad(&p),
+                ends_chord_px: ends_chord_px(&p),
             });
         let motion_path = self
             .motion_path(motion, middles, this_length)
@@ -1245,7 +1245,7 @@ impl Tracker {
                 let path_px = motion::first_path_px(
                     middles,
                     self.config.exposure_us?,
-                    (this.bend_rad, this.length_px),
+                    (this.ends_chord_px, this.length_px),
                 )?;
                 let growth = self
                     .last_length
@@ -1529,15 +1529,13 @@ fn misread_steadily(
     before.t_us == previous_us && before.reading == now.reading && steady
 }
 
-/// The turn (rad) of a path over its exposure, from its chord against its length
-/// ([`motion::turn_of_chord_per_arc`]); none for a path read as still, whose ends are its
-/// middle.
-fn bend_rad(path: &StreakPath) -> f32 {
-    if path.still_ends_px.is_some() || path.path_length_px <= 0.0 {
-        return 0.0;
+/// The distance between a path's ends: its length for a path read as still, whose ends are its
+/// middle and which has no bend to read.
+fn ends_chord_px(path: &StreakPath) -> f32 {
+    match path.still_ends_px {
+        Some(_) => path.path_length_px,
+        None => dist(path.ends_px[0], path.ends_px[1]),
     }
-    let [a, b] = path.ends_px;
-    motion::turn_of_chord_per_arc(dist(a, b) / path.path_length_px)
 }
 
 /// The middle's displacement from `previous` to `mid_px` at `t_us`, and the time it took

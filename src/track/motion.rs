@@ -312,24 +312,30 @@ fn early_path_variance_px2(middles: &[Middle], exposure_us: u32, middle_sd_px: f
 ///
 /// On a circle the displacement is a chord of the arc between the middles, shorter by
 /// `chord_per_arc` of half the turn between them. Two middles cannot measure that turn, but
-/// the current streak's own bend can: its path of `length_px` turned by `bend_rad` over the
-/// exposure (read from its chord against its length, `turn_of_chord_per_arc`) lies on a
-/// circle of radius `length_px / bend_rad`, and the chord `c` between the middles spans the
-/// arc `2r · asin(c / 2r)` on it. The radius, not the turn, is taken: a path read short on
-/// its circle turns less but has the same radius. (On independent 1280×720 seed 4's scene 33,
-/// 120 px arcs turning 61° an exposure, the chord gave 111.2 px, the arc 120.5 px.) Beyond
-/// half a turn between the middles (the bend's turn over the interval), or a chord wider than
-/// the circle, the chord tells nothing of the arc: `None`.
+/// the current streak's own bend can: its path of `length_px`, whose ends are `ends_chord_px`
+/// apart, turned over the exposure by what that chord against that length says
+/// (`turn_of_chord_per_arc`), so it lies on a circle of its length over that turn, and the
+/// chord `c` between the middles spans the arc `2r · asin(c / 2r)` on it. The radius, not the
+/// turn, is taken: a path read short on its circle turns less but has the same radius. (On
+/// independent 1280×720 seed 4's scene 33, 120 px arcs turning 61° an exposure, the chord gave
+/// 111.2 px, the arc 120.5 px.) Beyond half a turn between the middles (the bend's turn over
+/// the interval), or a chord wider than the circle, the chord tells nothing of the arc:
+/// `None`. A path read as still is passed as straight (its chord its length).
 pub fn first_path_px(
     middles: &[Middle],
     exposure_us: u32,
-    (bend_rad, length_px): (f32, f32),
+    (ends_chord_px, length_px): (f32, f32),
 ) -> Option<f32> {
     match middles {
         [before, last] => {
             let dt_us = last.t_us.checked_sub(before.t_us).filter(|&dt| dt > 0)?;
             let chord_px = (last.px.0 - before.px.0).hypot(last.px.1 - before.px.1);
             let per_exposure = exposure_us as f32 / dt_us as f32;
+            let bend_rad = if length_px > 0.0 {
+                turn_of_chord_per_arc(ends_chord_px / length_px)
+            } else {
+                0.0
+            };
             if bend_rad / per_exposure >= core::f32::consts::PI {
                 return None;
             }
@@ -612,7 +618,7 @@ pub fn head_by_travel(
 /// The turn (rad, from none to a whole turn) of a circular arc whose chord is `q` of its
 /// length: the inverse of [`chord_per_arc`] of half the turn, which falls monotonically over
 /// it (by bisection). No turn for `q` of 1 or more, a whole turn for `q` of 0 or less.
-pub(crate) fn turn_of_chord_per_arc(q: f32) -> f32 {
+fn turn_of_chord_per_arc(q: f32) -> f32 {
     if q >= 1.0 {
         return 0.0;
     }
@@ -875,19 +881,26 @@ mod tests {
         let circle = |t: f32| (300.0 + r * (w * t).cos(), 200.0 + r * (w * t).sin());
         let m = middles(circle, 2);
         let truth = r * w * exposure_s;
-        let bend_rad = w * exposure_s;
+        // A path of `length_px` on the circle: its ends are a chord of it.
+        let on_circle = |length_px: f32| (2.0 * r * (0.5 * length_px / r).sin(), length_px);
         for length_px in [truth, 0.9 * truth] {
-            let bend = (bend_rad * length_px / truth, length_px);
-            let path = first_path_px(&m, EXPOSURE_US, bend).unwrap();
+            let path = first_path_px(&m, EXPOSURE_US, on_circle(length_px)).unwrap();
             assert!((path - truth).abs() < 1e-3 * truth, "{path} px, {truth}");
         }
-        let chord = first_path_px(&m, EXPOSURE_US, (0.0, truth)).unwrap();
+        let chord = first_path_px(&m, EXPOSURE_US, (truth, truth)).unwrap();
         assert!(truth - chord > 0.04 * truth, "{chord} px, {truth}");
-        let beyond_half_turn = (170f32.to_radians(), 10.0 * truth);
+        // A path turning 170° over the exposure on a circle of 100 px.
+        let beyond_half_turn = (
+            200.0 * (85f32.to_radians()).sin(),
+            100.0 * 170f32.to_radians(),
+        );
         assert_eq!(first_path_px(&m, EXPOSURE_US, beyond_half_turn), None);
         // A 10 px path turning a radian: a circle of 10 px, on which the middles, 40 px
         // apart, cannot both lie.
-        assert_eq!(first_path_px(&m, EXPOSURE_US, (1.0, 10.0)), None);
+        assert_eq!(
+            first_path_px(&m, EXPOSURE_US, (20.0 * 0.5f32.sin(), 10.0)),
+            None
+        );
     }
 
     #[test]
