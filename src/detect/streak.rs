@@ -119,6 +119,13 @@ impl Streak {
     pub fn fitted(&self) -> bool {
         self.path_failed || self.path.is_some_and(|p| p.fit_px.is_some())
     }
+
+    /// The path, where it was read as moving: longer than the spot is wide, beyond its ends'
+    /// deviations (a still path's ends are both its middle, and the ramps give a still spot
+    /// no path).
+    pub fn moving_path(&self) -> Option<StreakPath> {
+        self.path.filter(|p| p.ends_px[0] != p.ends_px[1])
+    }
 }
 
 /// How the LED's position at the start and end of the exposure is measured.

@@ -28,8 +28,10 @@
 //! - A lone candidate with nothing else in view is the LED when it appeared where nothing
 //!   stood in the frame before (the LED coming back after the track expired, or coming into
 //!   view). In the first frame of a run nothing has appeared: there a lone candidate is taken
-//!   only when it is smeared (longer than the spot is wide, see [`SMEARED_ELONGATION`]); a
-//!   round one (a glare spot, or an LED at rest) is `ambiguous` until it moves.
+//!   only when it is smeared (longer than the spot is wide, see [`SMEARED_ELONGATION`], or
+//!   where a glow clipped wide makes its outline round, when its streak reads a moving path:
+//!   [`Tracker::smear_in_question`]); a round one (a glare spot, or an LED at rest) is
+//!   `ambiguous` until it moves.
 //! - A track taken that way is tentative until it moves: if it stands still for the two
 //!   frames after it is withdrawn (the frame is `ambiguous`), so that a lamp switched on or a
 //!   glare bar alone in the first frame is reported at most in the frame it appeared in and
@@ -218,6 +220,9 @@ pub struct Tracker {
     acquired_frame: u64,
     /// Whether any frame was chosen in yet: in the first one nothing can have appeared.
     seen_a_frame: bool,
+    /// The first frame's lone candidate that its streak showed smeared, though its outline is
+    /// round (see [`Tracker::smeared_by_its_streak`]), until that frame is chosen in.
+    smeared: Option<usize>,
     /// The time of the last frame chosen in.
     last_t_us: u64,
     /// When the LED was just acquired because it moved: where it most likely was in the
@@ -371,6 +376,7 @@ impl Tracker {
             self.last_length = None;
         }
         self.seen_a_frame = true;
+        self.smeared = None;
         let chosen = candidates
             .clone()
             .find(|&(index, _)| choice == Choice::Blob(index))
@@ -454,6 +460,64 @@ impl Tracker {
         self.missed_frames = 0;
     }
 
+    /// The one candidate in view that may be the LED, whatever its shape: new where it is
+    /// (nothing stood still there), not a speck beside a larger blob, and not another light of
+    /// the tracked LED's body. `None` with none or several.
+    fn lone_candidate(
+        &self,
+        candidates: impl Iterator<Item = (usize, Blob)> + Clone,
+        frame_index: u64,
+        t_us: u64,
+    ) -> Option<(usize, Blob)> {
+        let known = |b: &Blob| self.statics.known(b.mass_centre_px);
+        let possible = candidates
+            .clone()
+            .filter(|(_, b)| known(b) != Known::Cleared);
+        let mut all = possible.clone();
+        let (Some((index, blob)), None) = (all.next(), all.next()) else {
+            return None;
+        };
+        let here = blob.mass_centre_px;
+        let frame_us = t_us.saturating_sub(self.last_t_us);
+        let another = self.prediction(t_us).is_some_and(|(predicted, _)| {
+            let everything = possible.map(|(_, b)| b.mass_centre_px);
+            self.is_another_light(here, predicted, frame_index, frame_us, everything)
+        });
+        let satellite = satellite::is_satellite(&blob, candidates.map(|(_, o)| o));
+        let lone = known(&blob) == Known::Fresh
+            && !self.statics.stood_still(here, frame_index)
+            && !another
+            && !satellite;
+        lone.then_some((index, blob))
+    }
+
+    /// In a run's first frame, the lone candidate whose outline is too round to call it
+    /// smeared ([`SMEARED_ELONGATION`]): whether it is, only its streak can tell. A glow
+    /// clipped wide around a streak makes a round outline of a long smear: a 49 px streak in a
+    /// halo clipped 78 px across has an outline only 1.5 times as long as it is wide, and was
+    /// `ambiguous` until it had moved. See [`Tracker::smeared_by_its_streak`].
+    pub fn smear_in_question(
+        &self,
+        candidates: impl Iterator<Item = (usize, Blob)> + Clone,
+        frame_index: u64,
+        t_us: u64,
+    ) -> Option<usize> {
+        if self.seen_a_frame {
+            return None;
+        }
+        self.lone_candidate(candidates, frame_index, t_us)
+            .filter(|(_, blob)| blob.elongation < SMEARED_ELONGATION)
+            .map(|(index, _)| index)
+    }
+
+    /// The candidate [`Tracker::smear_in_question`] named read a moving path (longer than
+    /// its spot is wide, as the streak measured the spot: [`Streak::moving_path`]): it is
+    /// smeared, and the next [`Tracker::choose`] takes it as a smear alone in the first frame.
+    /// A round spot (a lamp's glare, an LED at rest) reads still and stays `ambiguous`.
+    pub fn smeared_by_its_streak(&mut self, index: usize) {
+        self.smeared = Some(index);
+    }
+
     fn pick(
         &self,
         candidates: impl Iterator<Item = (usize, Blob)> + Clone,
@@ -497,19 +561,14 @@ impl Tracker {
                 self.is_another_light(here, predicted, frame_index, frame_us, everything.clone())
             })
         };
-        let mut all = possible.clone();
-        let lone = match (all.next(), all.next()) {
-            (Some((index, blob)), None)
-                if known(&blob) == Known::Fresh
-                    && !self.statics.stood_still(blob.mass_centre_px, frame_index)
-                    && (self.seen_a_frame || blob.elongation >= SMEARED_ELONGATION)
-                    && !another(&blob)
-                    && !satellite(&blob) =>
-            {
-                Some(index)
-            }
-            _ => None,
-        };
+        let lone = self
+            .lone_candidate(candidates.clone(), frame_index, t_us)
+            .filter(|&(index, blob)| {
+                self.seen_a_frame
+                    || blob.elongation >= SMEARED_ELONGATION
+                    || self.smeared == Some(index)
+            })
+            .map(|(index, _)| index);
         if let Some((predicted, gate_px)) = prediction {
             let nearest = possible
                 .clone()
@@ -699,7 +758,7 @@ impl Tracker {
         // A still path (both ends the middle: no longer than the spot is wide) has no
         // direction to choose; like a streak whose ends could not be measured, its head is
         // carried from the middle by the frames' velocity below.
-        let moving = streak.path.filter(|p| p.ends_px[0] != p.ends_px[1]);
+        let moving = streak.moving_path();
         // The head is the end farther from where the LED was; but on a circle turning more
         // than a right angle a frame, the end that the turn says, measured from the middles
         // and the streak's length over the exposure.
@@ -1100,8 +1159,7 @@ impl Tracker {
                     (mid_px.0 + along * dx, mid_px.1 + along * dy)
                 };
                 streak
-                    .path
-                    .filter(|p| p.ends_px[0] != p.ends_px[1])
+                    .moving_path()
                     .map(|p| head_and_tail(p.ends_px, skeleton_px)[1])
                     .filter(|&e| dist(e, skeleton_px) <= 0.5 * streak.thickness_px)
                     .unwrap_or_else(on_axis)
@@ -1777,6 +1835,41 @@ mod tests {
             );
             t.update(i * FRAME_US, Some(&streak((x, 300.0), None)));
         }
+    }
+
+    #[test]
+    fn a_round_outline_its_streak_shows_smeared_is_taken_in_the_first_frame_only() {
+        // The first frame's lone round outline is in question; once its streak read a moving
+        // path, it is taken (as a smear alone, withdrawn if it then stands still).
+        let mut t = Tracker::new(TrackerConfig::default());
+        let glow = (0, blob_at(100.0, 100.0));
+        assert_eq!(t.smear_in_question([glow].into_iter(), 0, 0), Some(0));
+        t.smeared_by_its_streak(0);
+        assert_eq!(t.choose([glow].into_iter(), 0, 0), Choice::Blob(0));
+        // Asked once: a later frame's lone round blob is judged by where it appeared.
+        assert_eq!(t.smear_in_question([glow].into_iter(), 1, FRAME_US), None);
+        // Not asked about an outline elongated enough to be called smeared on its own, nor
+        // about one of two candidates.
+        let fresh = Tracker::new(TrackerConfig::default());
+        let smear = (
+            0,
+            Blob {
+                elongation: SMEARED_ELONGATION,
+                ..blob_at(100.0, 100.0)
+            },
+        );
+        assert_eq!(fresh.smear_in_question([smear].into_iter(), 0, 0), None);
+        let other = (1, blob_at(300.0, 100.0));
+        assert_eq!(
+            fresh.smear_in_question([glow, other].into_iter(), 0, 0),
+            None
+        );
+        // Without its streak's word the round outline stays ambiguous.
+        let mut unmeasured = Tracker::new(TrackerConfig::default());
+        assert_eq!(
+            unmeasured.choose([glow].into_iter(), 0, 0),
+            Choice::Ambiguous
+        );
     }
 
     #[test]
