@@ -113,7 +113,18 @@ fn nearest_rank(sorted: &[f64], q: f64) -> f64 {
 /// `glow_width` times the core's σ at `glow_ratio` of its radiance, on a camera of read noise
 /// `noise` (clip units) and tone exponent `gamma`.
 fn speed_ramp_in_bloom(glow_width: f64, glow_ratio: f64, noise: f64, gamma: f64) -> SceneConfig {
-    let mut config = preset("speed-ramp");
+    in_bloom(preset("speed-ramp"), glow_width, glow_ratio, noise, gamma)
+}
+
+/// `config` with its spot a bloom: a glow `glow_width` times the core's σ at `glow_ratio` of
+/// its radiance, on a camera of read noise `noise` (clip units) and tone exponent `gamma`.
+fn in_bloom(
+    mut config: SceneConfig,
+    glow_width: f64,
+    glow_ratio: f64,
+    noise: f64,
+    gamma: f64,
+) -> SceneConfig {
     config.camera.noise_sigma = noise;
     config.camera.gamma = gamma;
     let sigma_px = config.led.radius_px;
@@ -588,22 +599,13 @@ fn a_smear_in_a_glow_that_clips_round_is_taken_in_the_first_frame() {
         (3.0, 0.1, 10.0, 20.0),
         (4.0, 0.03, 30.0, 20.0),
     ] {
-        let mut config = preset("slow-line");
+        let mut config = in_bloom(preset("slow-line"), glow_width, glow_ratio, noise, gamma);
         config.frame_count = 8;
-        config.camera.noise_sigma = noise;
-        config.camera.gamma = gamma;
         let exposure_s = f64::from(config.exposure_us) * 1e-6;
         config.trajectory = Trajectory::Line {
             start_px: Point::new(200.0, 240.0),
             velocity_px_s: Point::new(0.8 * streak_px / exposure_s, 0.6 * streak_px / exposure_s),
         };
-        let sigma_px = config.led.radius_px;
-        config.led.spot = Spot::Bloom {
-            sigma_px,
-            glow_sigma_px: glow_width * sigma_px,
-            glow_ratio,
-        };
-        config.led.glow_peak = 0.0;
         config.led.peak = peak;
         let label =
             format!("{streak_px} px streak, glow {glow_width}σ at {glow_ratio}, peak {peak}");
