@@ -179,23 +179,21 @@ impl Pipeline {
                     detector.set_row_skew(row_skew(shutter, tracker, meta.timestamp_us));
                 }
                 // A first frame's lone round outline may be a smear in a wide glow: its streak
-                // says, and is the LED's streak if it is taken.
+                // says.
                 let (frame_index, t_us) = (meta.index, meta.timestamp_us);
-                let measured = tracker
+                let smeared = tracker
                     .smear_in_question(detector.candidates(), frame_index, t_us)
-                    .and_then(|index| {
-                        Some((index, detector.analyze(frame, index, detection.levels)?))
+                    .filter(|&index| {
+                        let probed = detector.probe(frame, index, detection.levels);
+                        probed.is_some_and(|(_, streak)| streak.moving_path().is_some())
                     });
-                if let Some((index, _)) = measured.filter(|(_, (_, s))| s.moving_path().is_some()) {
+                if let Some(index) = smeared {
                     tracker.smeared_by_its_streak(index);
                 }
                 let choice = tracker.choose(detector.candidates(), frame_index, t_us);
                 detection.best = match choice {
                     Choice::Blob(index) => {
-                        let best = match measured {
-                            Some((measured, best)) if measured == index => Some(best),
-                            _ => detector.analyze(frame, index, detection.levels),
-                        };
+                        let best = detector.analyze(frame, index, detection.levels);
                         // Report the level the LED itself was cut at.
                         if best.is_some() {
                             detection.levels = detector.levels_of(frame, index, detection.levels);

@@ -10,6 +10,7 @@
 //! In every case: after acquisition every visible frame is found, and every report lies
 //! within [`REPORT_TOLERANCE_PX`] of the true LED (no false reports).
 
+use glint::detect::{Detector, DetectorConfig};
 use glint::frame::{Frame, FrameSize};
 use glint::pipeline::{Pipeline, PipelineConfig};
 use glint::report::FrameReport;
@@ -635,4 +636,47 @@ fn a_smear_in_a_glow_that_clips_round_is_taken_in_the_first_frame() {
         // next frame on, the head.
         check(&label, &runs[1..], Point::default());
     }
+}
+
+/// A blob probed before the tracker chooses (`Detector::probe`: a first frame's round outline
+/// whose streak must say whether it is smeared) and then not taken leaves nothing behind: a
+/// detector that probed the LED's blob in the first frame, without analysing it, reads every
+/// streak after exactly as one that did not. Left behind, the probe's fitted spot would start
+/// the next frame's fit warm (here the first fits' ends, of an LED at rest, 25 px uncertain).
+#[test]
+fn a_probed_blob_leaves_no_trace_in_the_streaks_read_after() {
+    let mut config = in_bloom(preset("speed-ramp"), 4.0, 0.05, 0.008, 2.2);
+    config.frame_count = 30;
+    let scene = Scene::new(config).expect("valid scene");
+    let size = FrameSize::new(scene.width_px(), scene.height_px()).unwrap();
+    let detector = || {
+        let mut d = Detector::new(size, DetectorConfig::default()).unwrap();
+        d.set_exposure_us(Some(scene.exposure_us()));
+        d
+    };
+    let (mut probing, mut plain) = (detector(), detector());
+    let mut buffer = vec![0u8; scene.frame_len_bytes()];
+    let mut fitted = 0;
+    for i in 0..scene.frame_count() {
+        scene.render(i, &mut buffer).unwrap();
+        let frame = Frame::new_checked(&buffer, size, size.row_bytes()).unwrap();
+        let t_us = i as u64 * 33_333;
+        let read = |d: &mut Detector, probe: bool| {
+            let levels = d.segment_at(&frame, t_us).levels;
+            let largest = d.candidates().max_by_key(|(_, b)| b.area_px);
+            largest.and_then(|(index, _)| match (i, probe) {
+                (0, true) => d.probe(&frame, index, levels).map(|_| None),
+                (0, false) => Some(None),
+                _ => Some(d.analyze(&frame, index, levels)),
+            })
+        };
+        let (probed, unprobed) = (read(&mut probing, true), read(&mut plain, false));
+        assert!(probed.is_some(), "frame {i}: the LED is in view");
+        fitted += usize::from(unprobed.flatten().is_some_and(|(_, s)| s.fitted()));
+        assert_eq!(probed, unprobed, "frame {i}");
+    }
+    assert!(
+        fitted >= 10,
+        "the streak model was fitted in {fitted} frames"
+    );
 }

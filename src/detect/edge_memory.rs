@@ -43,6 +43,7 @@ pub struct EdgeVerdict {
 }
 
 /// The falls read in the last frames, by place.
+#[derive(Clone)]
 pub struct EdgeMemory {
     places: PlaceMemory<Falls>,
 }

@@ -23,6 +23,7 @@ pub const MAX_AGE_FRAMES: u64 = 2;
 const MAX_SPEEDUP: f32 = 1.5;
 
 /// The values read in the last frames, by place.
+#[derive(Clone)]
 pub struct PlaceMemory<T> {
     slots: [Option<Slot<T>>; MAX_KEEP_OUT],
     /// The frame being analysed.

@@ -9,6 +9,7 @@ use super::fit::{PathFit, SpotFit};
 use super::place_memory::{Place, PlaceMemory};
 
 /// The spots fitted in the last frames, by place.
+#[derive(Clone)]
 pub struct SpotMemory {
     places: PlaceMemory<SpotFit>,
 }
