@@ -182,7 +182,7 @@ impl Pipeline {
                 // says.
                 let (frame_index, t_us) = (meta.index, meta.timestamp_us);
                 let smeared = tracker
-                    .smear_in_question(detector.candidates(), frame_index, t_us)
+                    .smear_in_question(detector.candidates(), frame_index)
                     .filter(|&index| {
                         let probed = detector.probe(frame, index, detection.levels);
                         probed.is_some_and(|(_, streak)| streak.moving_path().is_some())

@@ -461,33 +461,25 @@ impl Tracker {
     }
 
     /// The one candidate in view that may be the LED, whatever its shape: new where it is
-    /// (nothing stood still there), not a speck beside a larger blob, and not another light of
-    /// the tracked LED's body. `None` with none or several.
+    /// (nothing stood still there), not a speck beside a larger blob, and not `another` light
+    /// of the tracked LED's body. `None` with none or several.
     fn lone_candidate(
         &self,
         candidates: impl Iterator<Item = (usize, Blob)> + Clone,
         frame_index: u64,
-        t_us: u64,
+        another: impl Fn(&Blob) -> bool,
     ) -> Option<(usize, Blob)> {
         let known = |b: &Blob| self.statics.known(b.mass_centre_px);
-        let possible = candidates
+        let mut possible = candidates
             .clone()
             .filter(|(_, b)| known(b) != Known::Cleared);
-        let mut all = possible.clone();
-        let (Some((index, blob)), None) = (all.next(), all.next()) else {
+        let (Some((index, blob)), None) = (possible.next(), possible.next()) else {
             return None;
         };
-        let here = blob.mass_centre_px;
-        let frame_us = t_us.saturating_sub(self.last_t_us);
-        let another = self.prediction(t_us).is_some_and(|(predicted, _)| {
-            let everything = possible.map(|(_, b)| b.mass_centre_px);
-            self.is_another_light(here, predicted, frame_index, frame_us, everything)
-        });
-        let satellite = satellite::is_satellite(&blob, candidates.map(|(_, o)| o));
         let lone = known(&blob) == Known::Fresh
-            && !self.statics.stood_still(here, frame_index)
-            && !another
-            && !satellite;
+            && !self.statics.stood_still(blob.mass_centre_px, frame_index)
+            && !another(&blob)
+            && !satellite::is_satellite(&blob, candidates.map(|(_, o)| o));
         lone.then_some((index, blob))
     }
 
@@ -500,12 +492,12 @@ impl Tracker {
         &self,
         candidates: impl Iterator<Item = (usize, Blob)> + Clone,
         frame_index: u64,
-        t_us: u64,
     ) -> Option<usize> {
         if self.seen_a_frame {
             return None;
         }
-        self.lone_candidate(candidates, frame_index, t_us)
+        // Nothing is tracked before the first frame: no light is another of its body.
+        self.lone_candidate(candidates, frame_index, |_| false)
             .filter(|(_, blob)| blob.elongation < SMEARED_ELONGATION)
             .map(|(index, _)| index)
     }
@@ -562,7 +554,7 @@ impl Tracker {
             })
         };
         let lone = self
-            .lone_candidate(candidates.clone(), frame_index, t_us)
+            .lone_candidate(candidates.clone(), frame_index, another)
             .filter(|&(index, blob)| {
                 self.seen_a_frame
                     || blob.elongation >= SMEARED_ELONGATION
@@ -1843,11 +1835,11 @@ mod tests {
         // path, it is taken (as a smear alone, withdrawn if it then stands still).
         let mut t = Tracker::new(TrackerConfig::default());
         let glow = (0, blob_at(100.0, 100.0));
-        assert_eq!(t.smear_in_question([glow].into_iter(), 0, 0), Some(0));
+        assert_eq!(t.smear_in_question([glow].into_iter(), 0), Some(0));
         t.smeared_by_its_streak(0);
         assert_eq!(t.choose([glow].into_iter(), 0, 0), Choice::Blob(0));
         // Asked once: a later frame's lone round blob is judged by where it appeared.
-        assert_eq!(t.smear_in_question([glow].into_iter(), 1, FRAME_US), None);
+        assert_eq!(t.smear_in_question([glow].into_iter(), 1), None);
         // Not asked about an outline elongated enough to be called smeared on its own, nor
         // about one of two candidates.
         let fresh = Tracker::new(TrackerConfig::default());
@@ -1858,12 +1850,9 @@ mod tests {
                 ..blob_at(100.0, 100.0)
             },
         );
-        assert_eq!(fresh.smear_in_question([smear].into_iter(), 0, 0), None);
+        assert_eq!(fresh.smear_in_question([smear].into_iter(), 0), None);
         let other = (1, blob_at(300.0, 100.0));
-        assert_eq!(
-            fresh.smear_in_question([glow, other].into_iter(), 0, 0),
-            None
-        );
+        assert_eq!(fresh.smear_in_question([glow, other].into_iter(), 0), None);
         // Without its streak's word the round outline stays ambiguous.
         let mut unmeasured = Tracker::new(TrackerConfig::default());
         assert_eq!(
