@@ -65,6 +65,11 @@ const MEASURED_PATH_FRACTION: f32 = 0.03;
 /// streak's middle is not the light's path (see [`off_its_light`]).
 const LIGHT_OFF_PATH_FRACTION: f32 = 0.25;
 
+/// Of that, the fraction of the path left to the reading of the light's middle (the quarter
+/// less the sixth a steady acceleration may put it off): the allowance across a fitted path
+/// beyond its sagitta (see [`off_its_light`]).
+const ACROSS_READING_FRACTION: f32 = LIGHT_OFF_PATH_FRACTION - 1.0 / 6.0;
+
 /// A blob whose skeleton's chord is at least this many times its thickness is a streak with
 /// an axis, whose middle is placed by the symmetry of its light ([`mirror_middle`]).
 const ELONGATED_WIDTHS: f32 = 2.0;
@@ -627,10 +632,10 @@ fn fitted_path(
         return (mid_px, Err(NoFit::Uncertain));
     }
     // A path whose middle lies farther from the streak's own middle than any steady
-    // acceleration puts the light is not the light's path, in either model: the fit wandered
-    // off it (a halo clipped at 56 full wells on 1280x720, independent scenes seed 4 scene 5:
-    // a fitted middle 30.5 px from the light's on a 95 px path, the head 38 px off).
-    if off_its_light(f.mid_px, mid_px, f.path_length_px) {
+    // acceleration or bend puts the light is not the light's path, in either model: the fit
+    // wandered off it (a halo clipped at 56 full wells on 1280x720, independent scenes seed 4
+    // scene 5: a fitted middle 30.5 px from the light's on a 95 px path, the head 38 px off).
+    if off_its_light(&f, mid_px) {
         return (mid_px, Err(NoFit::OffItsLight));
     }
     // No longer than the spot is wide, within the noise's deviation: still, and both ends
@@ -661,17 +666,40 @@ fn fitted_path(
     (mid, Ok(path))
 }
 
-/// Whether a fitted path of `path_length_px` whose middle is `fitted_mid_px` lies off the
-/// light whose middle the streak's pixels put at `light_mid_px`. An LED lays its light over
-/// the exposure in time, so the light's centre is its mean position: under a steady
-/// acceleration, from rest included, that is at most a sixth of the path from the path's
-/// middle, and the clip, which spreads a saturated streak's light evenly along it, draws it
-/// nearer. The bound is a quarter of the path, the rest of it left to the reading of the
-/// light's middle (a skeleton's on an arc), plus a pixel. Over sweep seeds 11-13 (2,851
-/// moving fitted paths) the largest distance was 0.26 of a 35 px path and 0.34 of a 1 px one
-/// (0.33 px).
-fn off_its_light(fitted_mid_px: (f32, f32), light_mid_px: (f32, f32), path_length_px: f32) -> bool {
-    dist(fitted_mid_px, light_mid_px) > LIGHT_OFF_PATH_FRACTION * path_length_px + 1.0
+/// Whether the fitted path `f` lies off the light whose middle the streak's pixels put at
+/// `light_mid_px`. An LED lays its light over the exposure in time, so the light's centre is
+/// its mean position: under a steady acceleration, from rest included, that is at most a
+/// sixth of the path from the path's middle, and the clip, which spreads a saturated
+/// streak's light evenly along it, draws it nearer. The bound is a quarter of the path, the
+/// rest of it left to the reading of the light's middle (a skeleton's on an arc), plus a
+/// pixel. Over sweep seeds 11-13 (2,851 moving fitted paths) the largest distance was 0.26 of
+/// a 35 px path and 0.34 of a 1 px one (0.33 px).
+///
+/// Across the path's chord the light's centre lies on a straight path's line whatever the
+/// speed, and on an arc between the arc's middle and the chord's (the centre of an arc's
+/// light is nearer the chord than the arc is), so no farther off than the sagitta. Across,
+/// the bound is the sagitta plus the same allowance for the reading (a twelfth of the path,
+/// the quarter less the sixth) and a pixel. A straight 180 px path of a halo clipped 110 px
+/// wide, seen by a 1920×1080 camera (independent scenes seed 2, scene 26), was fitted along
+/// the blob's flank, 42 px beside its light, within the quarter of its length; over the
+/// independent scenes at 640×480 (seeds 1-9), 1280×720 (seeds 1-6) and 320×240 and
+/// 1920×1080 (seeds 1-2), 9,400 fitted paths, the light lay at most 2.2 px across beyond the
+/// sagitta on paths the fit placed, 0.08 of a 29 px path.
+fn off_its_light(f: &PathFit, light_mid_px: (f32, f32)) -> bool {
+    let length_px = f.path_length_px;
+    if dist(f.mid_px, light_mid_px) > LIGHT_OFF_PATH_FRACTION * length_px + 1.0 {
+        return true;
+    }
+    let [a, b] = f.ends_px;
+    let chord_px = dist(a, b);
+    if chord_px <= 0.0 {
+        return false;
+    }
+    let chord_mid_px = (0.5 * (a.0 + b.0), 0.5 * (a.1 + b.1));
+    let sagitta_px = dist(f.mid_px, chord_mid_px);
+    let (dx, dy) = (light_mid_px.0 - f.mid_px.0, light_mid_px.1 - f.mid_px.1);
+    let across_px = (dx * (b.1 - a.1) - dy * (b.0 - a.0)).abs() / chord_px;
+    across_px > sagitta_px + ACROSS_READING_FRACTION * length_px + 1.0
 }
 
 /// Image pixels per ideal pixel along a fitted path (1 where it is too short to tell): the
@@ -976,4 +1004,53 @@ fn middle(
     };
     mirror_middle::centre(frame, rough, d, n, 0.5 * length, lines_offset_px, top_luma)
         .unwrap_or(rough)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::detect::fit::SpotFit;
+
+    /// A fitted path from `a` to `b` whose middle is `mid` (on the chord for a straight path,
+    /// a sagitta off it for an arc) and whose length is `length_px`.
+    fn fitted(a: (f32, f32), b: (f32, f32), mid: (f32, f32), length_px: f32) -> PathFit {
+        PathFit {
+            ends_px: [a, b],
+            mid_px: mid,
+            path_length_px: length_px,
+            ideal_path_length_px: length_px,
+            spot_sigma_px: 2.0,
+            noise_px: 0.5,
+            length_noise_px: 0.5,
+            length_deviation_px: 0.5,
+            uncertainty_px: 0.5,
+            floor_measured: 1.0,
+            spot: SpotFit::with_cost(1.0),
+        }
+    }
+
+    /// Along a path the light may lie up to a quarter of it from the fitted middle (an LED
+    /// speeding up or slowing down lays more light at its slow end); across a straight path
+    /// it lies on the path's line, and across an arc between the arc and its chord. A
+    /// straight 180 px path fitted 42 px beside its light (independent scenes seed 2, scene 26
+    /// at 1920×1080) is within the quarter, and off its light across.
+    #[test]
+    fn a_fitted_path_beside_its_light_is_off_it_where_one_along_it_or_round_it_is_not() {
+        let straight = fitted((100.0, 100.0), (280.0, 100.0), (190.0, 100.0), 180.0);
+        assert!(!off_its_light(&straight, (220.0, 101.0)), "30 px along");
+        assert!(off_its_light(&straight, (240.0, 100.0)), "50 px along");
+        assert!(!off_its_light(&straight, (190.0, 110.0)), "10 px across");
+        assert!(off_its_light(&straight, (190.0, 142.0)), "42 px across");
+        // An arc bulging 60 px to +y (r 97.5 px): a uniform arc's light centres 21 px inside
+        // its middle, toward the chord.
+        let arc = fitted((100.0, 100.0), (280.0, 100.0), (190.0, 160.0), 229.4);
+        assert!(!off_its_light(&arc, (190.0, 139.0)), "inside the arc");
+        // A gentle one, 15 px: its light may lie up to the chord, not 35 px outside it.
+        let gentle = fitted((100.0, 100.0), (280.0, 100.0), (190.0, 115.0), 183.3);
+        assert!(!off_its_light(&gentle, (190.0, 100.0)), "on the chord");
+        assert!(
+            off_its_light(&gentle, (190.0, 150.0)),
+            "35 px outside the arc"
+        );
+    }
 }
