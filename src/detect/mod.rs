@@ -130,7 +130,7 @@ pub struct Detection {
     pub blob_count: usize,
     /// What did not fit in the bounded tables.
     pub overflow: Overflow,
-    /// More than [`BLINDED_FRACTION`] of the frame is saturated.
+    /// More than [`BLINDED_FRACTION`] of the frame is saturated (counted before the erosions).
     pub blinded: bool,
     /// The frame went into the background model instead of being searched.
     pub learning: bool,
@@ -286,6 +286,11 @@ impl Detector {
             }
             _ => threshold::apply(frame, self.config.threshold, &mut self.mask),
         };
+        // Blinded is read before the erosions: they thin what was saturated, not the glare. A
+        // frame of one level under the automatic level is saturated throughout, and three
+        // erosions left a 2 px band of an 8 px wide frame, under the fraction, that was
+        // reported as the LED.
+        let saturated_px = mask_px;
         if self.config.erosions > 0 && mask_px > 0 {
             let window = self.mask.full_window();
             morph::erode_n(
@@ -302,7 +307,8 @@ impl Detector {
             mask_px,
             blob_count: 0,
             overflow: Overflow::default(),
-            blinded: (mask_px + glare_px) as f32 > self.size.pixels() as f32 * BLINDED_FRACTION,
+            blinded: (saturated_px + glare_px) as f32
+                > self.size.pixels() as f32 * BLINDED_FRACTION,
             learning,
             best: None,
         };
