@@ -131,6 +131,17 @@ impl Streak {
     pub fn moving_path(&self) -> Option<StreakPath> {
         self.path.filter(|p| p.ends_px[0] != p.ends_px[1])
     }
+
+    /// The longest path the LED can have taken during the exposure that left this blob: its
+    /// light lies along the whole path, so the blob reaches from end to end of it, and a
+    /// barely clipped end may fall short of the clip by a spot's width. Both widths are the
+    /// diameter of a disk of the blob's area (a streak's own width is less), and the length
+    /// the skeleton's.
+    pub fn longest_path_px(&self) -> f32 {
+        let area_px = self.thickness_px * (self.skeleton_length_px as f32 + 1.0);
+        let diameter_px = 2.0 * (area_px / core::f32::consts::PI).sqrt();
+        self.skeleton_length_px as f32 + 2.0 * diameter_px
+    }
 }
 
 /// How the LED's position at the start and end of the exposure is measured.

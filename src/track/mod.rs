@@ -1016,7 +1016,7 @@ impl Tracker {
                 mid_px,
                 velocity_px_s: Some(velocity_px_s),
             };
-            return Some(self.record(t_us, estimate, false));
+            return Some(self.record(t_us, in_its_light(estimate, streak), false));
         }
         let velocity_px_s =
             self.velocity(streak, length_px, head.unwrap_or(mid_px), previous, t_us);
@@ -1105,7 +1105,7 @@ impl Tracker {
                 })
                 .or(velocity_px_s),
         };
-        Some(self.record(t_us, estimate, false))
+        Some(self.record(t_us, in_its_light(estimate, streak), false))
     }
 
     /// The estimate of a frame whose `streak` the frame's edge cut, after `previous`: the
@@ -1612,6 +1612,26 @@ fn blended_head(h: (f32, f32), fit_px: f32, m: motion::MotionHead) -> (f32, f32)
 /// The least variance a head is weighed by (px²): a reading that claims to be exact is worth
 /// no more than one of a hundredth of a pixel.
 const MIN_HEAD_VARIANCE_PX2: f32 = 1e-4;
+
+/// `estimate` with its head given up for the middle where the head lies farther from the
+/// middle than the longest path the streak's light can hold ([`Streak::longest_path_px`]):
+/// the LED is on its path, so such a head is not where it was, whatever carried it there.
+/// Velocities read across a jump do: the frames' velocity of a light that went out and
+/// another that came on 190 px away put a round spot's head 42 px past its light, out of the
+/// frame, and a motion whose middles had jumped to a window flashing into the clip put a
+/// short fitted streak's head 90 px off. (A streak the frame's edge cut is placed by its
+/// track beyond its light, and does not come here.)
+fn in_its_light(estimate: Estimate, streak: &Streak) -> Estimate {
+    let (head, mid) = (estimate.position_px, estimate.mid_px);
+    if dist(head, mid) <= streak.longest_path_px() {
+        return estimate;
+    }
+    Estimate {
+        position_px: mid,
+        position_method: PositionMethod::Mid,
+        ..estimate
+    }
+}
 
 /// `head` moved `by_px` towards `mid` (away from it for a negative `by_px`), at most to `mid`.
 fn pulled_in(head: (f32, f32), mid: (f32, f32), by_px: f32) -> (f32, f32) {
