@@ -125,7 +125,7 @@ impl MarkerTracker {
         };
         let centre = marker.centre();
         let velocity = self.previous.and_then(|(t0, c0)| {
-            let dt_s = t_us.checked_sub(t0).filter(|&dt| dt > 0)? as f64 * 1e-6;
+            let dt_s = f64::from(super::frame_interval_s(t0, t_us)?);
             let v = (centre - c0) / dt_s;
             Some(((v.x as f32, v.y as f32), VelocityMethod::Frames))
         });

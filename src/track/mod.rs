@@ -631,15 +631,15 @@ impl Tracker {
         };
         // The body's velocity from where its lights put the LED now and last time: on a
         // curve the LED's last velocity no longer says where it goes.
-        let velocity_px_s = match self.followed {
-            Some(f) if t_us > f.t_us => {
-                let dt_s = (t_us - f.t_us) as f32 * 1e-6;
-                (
-                    (led_px.0 - f.led_px.0) / dt_s,
-                    (led_px.1 - f.led_px.1) / dt_s,
-                )
-            }
-            _ => self.last_velocity_px_s(),
+        let interval_s = self
+            .followed
+            .and_then(|f| Some((f, frame_interval_s(f.t_us, t_us)?)));
+        let velocity_px_s = match interval_s {
+            Some((f, dt_s)) => (
+                (led_px.0 - f.led_px.0) / dt_s,
+                (led_px.1 - f.led_px.1) / dt_s,
+            ),
+            None => self.last_velocity_px_s(),
         };
         self.followed = Some(Followed {
             t_us,
@@ -707,6 +707,22 @@ impl Tracker {
             self.found_run = 0;
             return None;
         };
+        // A frame less than a camera's shortest interval after the last one found is not a
+        // new moment (a timestamp held still or repeated): it gives its middle alone, and is
+        // kept out of the track, whose paths and velocities it would divide by next to
+        // nothing (a 9.8 px streak 1 µs after the frame before was read at 9.8 million px/s).
+        if self
+            .history
+            .recent()
+            .is_some_and(|last| frame_interval_s(last.t_us, t_us).is_none())
+        {
+            return Some(Estimate {
+                position_px: streak.mid_px,
+                position_method: PositionMethod::Mid,
+                mid_px: streak.mid_px,
+                velocity_px_s: None,
+            });
+        }
         // Back after its body was followed while it was lost: where the body last put it is
         // where it was then, so that this frame has a head and a velocity, and the next one
         // does not predict it standing still beside its other lights.
@@ -1128,7 +1144,9 @@ impl Tracker {
         // parked with its light at the edge, 23 px further each frame.
         let (middles, count) = self.run_middles();
         let exposure_us = self.config.exposure_us;
-        let carried = exposure_us.and_then(|e| motion::carried(&middles[..count], e));
+        let carried = exposure_us
+            .and_then(|e| motion::carried(&middles[..count], e))
+            .filter(|_| carried_to(&middles[..count], t_us));
         // Halfway through this exposure (the chord's heading), and at its end.
         let velocity_px_s = carried.zip(exposure_us).map(|(c, e)| {
             let (dx, dy) = c.heading_at(t_us + u64::from(e / 2));
@@ -1588,10 +1606,36 @@ fn ends_chord_px(path: &StreakPath) -> f32 {
     }
 }
 
+/// Whether the motion of a run of `middles` (oldest first) reaches a frame at `t_us`: no
+/// farther than two of the run's last intervals from its last middle (a dropped frame). The
+/// run's motion is the one it kept over its last interval; carried over a camera's stall of
+/// a second, it put a leaving LED's last sliver 390 px past the frame's edge.
+fn carried_to(middles: &[Middle], t_us: u64) -> bool {
+    let [.., before, last] = middles else {
+        return false;
+    };
+    let interval_us = last.t_us.saturating_sub(before.t_us);
+    t_us.saturating_sub(last.t_us) <= 2 * interval_us
+}
+
+/// The shortest time between two frames that a velocity is read across. No camera glint
+/// meets delivers frames closer (0.5 ms is 2,000 frames a second); a driver's timestamps held
+/// still where they ran backwards (`source::v4l2::timeline`) or a stamp repeated in a
+/// sidecar give intervals of none or a few microseconds, over which a middle's jitter of a
+/// pixel was read as 7.7 million px/s.
+pub const MIN_FRAME_INTERVAL_US: u64 = 500;
+
+/// The time from `from_us` to `to_us` in seconds, where it is a frame interval a camera can
+/// have (at least [`MIN_FRAME_INTERVAL_US`]).
+pub fn frame_interval_s(from_us: u64, to_us: u64) -> Option<f32> {
+    let dt_us = to_us.checked_sub(from_us)?;
+    (dt_us >= MIN_FRAME_INTERVAL_US).then(|| dt_us as f32 * 1e-6)
+}
+
 /// The middle's displacement from `previous` to `mid_px` at `t_us`, and the time it took
-/// (s); `None` unless that time is positive.
+/// (s); `None` unless that time is a frame interval ([`frame_interval_s`]).
 fn displacement(previous: Sample, mid_px: (f32, f32), t_us: u64) -> Option<((f32, f32), f32)> {
-    let dt_s = t_us.checked_sub(previous.t_us).filter(|&dt| dt > 0)? as f32 * 1e-6;
+    let dt_s = frame_interval_s(previous.t_us, t_us)?;
     let before = previous.estimate.mid_px;
     Some(((mid_px.0 - before.0, mid_px.1 - before.1), dt_s))
 }
@@ -1715,18 +1759,21 @@ mod tests {
         }
     }
 
+    /// A streak whose path has the ends `tips`, where given: its skeleton as long as that path
+    /// (a blob holds its LED's path), 6 px thick.
     fn streak(mid: (f32, f32), tips: Option<[(f32, f32); 2]>) -> Streak {
+        let path_px = |[a, b]: [(f32, f32); 2]| (b.0 - a.0).hypot(b.1 - a.1);
         Streak {
             centroid_px: mid,
             seed_point_px: (mid.0 as u16, mid.1 as u16),
             mid_px: mid,
             ends_px: [mid, mid],
-            skeleton_length_px: 0,
+            skeleton_length_px: tips.map_or(0, |t| path_px(t).round() as u32),
             skeleton_px: 1,
             thickness_px: 6.0,
             path: tips.map(|ends_px| StreakPath {
                 ends_px,
-                path_length_px: ((ends_px[1].0 - ends_px[0].0).hypot(ends_px[1].1 - ends_px[0].1)),
+                path_length_px: path_px(ends_px),
                 fit_px: None,
                 length_noise_px: None,
                 length_deviation_px: None,
@@ -1757,6 +1804,64 @@ mod tests {
     }
 
     const FRAME_US: u64 = 33_333;
+
+    /// A streak moving 10 px a frame along x, its exposure's path the whole interval.
+    fn along_x(i: u64) -> Streak {
+        let mid = (100.0 + 10.0 * i as f32, 50.0);
+        streak(mid, Some([(mid.0 - 5.0, mid.1), (mid.0 + 5.0, mid.1)]))
+    }
+
+    #[test]
+    fn a_frame_less_than_a_camera_interval_after_the_last_gives_its_middle_alone() {
+        let config = TrackerConfig {
+            exposure_us: Some(FRAME_US as u32),
+        };
+        let mut t = Tracker::new(config);
+        for i in 0..3 {
+            t.update(i * FRAME_US, Some(&along_x(i))).unwrap();
+        }
+        // The same moment stamped again a microsecond on, the light a pixel farther.
+        let mut again = along_x(2);
+        again.mid_px.0 += 1.0;
+        let e = t.update(2 * FRAME_US + 1, Some(&again)).unwrap();
+        assert_eq!(e.position_method, PositionMethod::Mid);
+        assert_eq!(e.position_px, again.mid_px);
+        assert_eq!(e.velocity_px_s, None);
+        // The next frame's velocity is the LED's, 300 px/s, not that pixel over a microsecond.
+        let e = t.update(3 * FRAME_US, Some(&along_x(3))).unwrap();
+        let ((vx, vy), _) = e.velocity_px_s.unwrap();
+        assert!((vx - 300.0).abs() < 30.0 && vy.abs() < 1.0, "{vx}, {vy}");
+    }
+
+    #[test]
+    fn a_cut_streak_after_a_stall_is_not_carried_by_the_motion_before_it() {
+        let config = TrackerConfig {
+            exposure_us: Some(FRAME_US as u32),
+        };
+        let sliver = |i: u64| Streak {
+            cut_ends: [true, true],
+            path: None,
+            ..along_x(i)
+        };
+        let run = |t: &mut Tracker| {
+            for i in 0..4 {
+                t.update(i * FRAME_US, Some(&along_x(i))).unwrap();
+            }
+        };
+        // A frame later, the last sliver is carried on from the head before.
+        let mut t = Tracker::new(config);
+        run(&mut t);
+        let e = t.update(4 * FRAME_US, Some(&sliver(4))).unwrap();
+        assert_eq!(e.position_method, PositionMethod::Head);
+        // A second later nothing says where the LED went: its sliver's middle.
+        let mut t = Tracker::new(config);
+        run(&mut t);
+        let e = t
+            .update(3 * FRAME_US + 1_000_000, Some(&sliver(4)))
+            .unwrap();
+        assert_eq!(e.position_method, PositionMethod::Mid);
+        assert_eq!(e.position_px, sliver(4).mid_px);
+    }
 
     #[test]
     fn two_unknown_candidates_are_ambiguous_until_one_moves() {
@@ -2490,6 +2595,8 @@ mod tests {
             if let Some(p) = s.path.as_mut() {
                 p.still_ends_px = Some([on_circle(start), on_circle(end)]);
             }
+            // The bloom's blob holds the arc.
+            s.skeleton_length_px = arc_px.ceil() as u32;
             head_px = t.update(i * FRAME_US, Some(&s)).unwrap().position_px;
         }
         let off_px = dist(head_px, on_circle(turn_rad));
@@ -3238,9 +3345,12 @@ mod tests {
             let end_s = (i * FRAME_US) as f32 * 1e-6;
             let (tail_x, head_x) = (x_at(end_s - exposure_s), x_at(end_s));
             let mid = (0.5 * (tail_x + head_x), 100.0);
-            let e = t
-                .update(i * FRAME_US, Some(&streak(mid, Some([mid, mid]))))
-                .unwrap();
+            // The glow's blob holds the path it hides.
+            let s = Streak {
+                skeleton_length_px: (head_x - tail_x).ceil() as u32,
+                ..streak(mid, Some([mid, mid]))
+            };
+            let e = t.update(i * FRAME_US, Some(&s)).unwrap();
             if i >= 5 {
                 let error_px = (e.position_px.0 - head_x).hypot(e.position_px.1 - 100.0);
                 assert!(

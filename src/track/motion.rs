@@ -26,7 +26,7 @@
 //! model makes its own prediction errors large, so its motion head is trusted less at once,
 //! in the very frame it changes course.
 
-use super::dist;
+use super::{dist, frame_interval_s};
 
 /// Middles the motion is measured over, the current one included: up to five prediction
 /// errors, and for a settling LED only the frames since it stopped after a few frames at rest.
@@ -115,11 +115,7 @@ pub fn motion_head(middles: &[Middle], exposure_us: u32) -> Option<MotionHead> {
     let mut v = [(0.0f32, 0.0f32); MOTION_MIDDLES];
     let mut dt_s = [0.0f32; MOTION_MIDDLES];
     for j in 1..n {
-        let dt_us = middles[j].t_us.checked_sub(middles[j - 1].t_us)?;
-        if dt_us == 0 {
-            return None;
-        }
-        dt_s[j] = dt_us as f32 * 1e-6;
+        dt_s[j] = frame_interval_s(middles[j - 1].t_us, middles[j].t_us)?;
         let (a, b) = (middles[j - 1].px, middles[j].px);
         v[j] = ((b.0 - a.0) / dt_s[j], (b.1 - a.1) / dt_s[j]);
     }
@@ -402,11 +398,7 @@ fn last_steps(middles: &[Middle]) -> Option<EarlySteps> {
         return None;
     }
     let step = |j: usize| -> Option<((f32, f32), f32)> {
-        let dt_us = middles[j].t_us.checked_sub(middles[j - 1].t_us)?;
-        if dt_us == 0 {
-            return None;
-        }
-        let dt_s = dt_us as f32 * 1e-6;
+        let dt_s = frame_interval_s(middles[j - 1].t_us, middles[j].t_us)?;
         let (a, b) = (middles[j - 1].px, middles[j].px);
         Some((((b.0 - a.0) / dt_s, (b.1 - a.1) / dt_s), dt_s))
     };
