@@ -32,8 +32,9 @@ use proptest::prelude::*;
 use proptest::test_runner::TestRunner;
 use serde_json::Value;
 
-/// The frame rate the sequences are stamped at.
+/// The frame rate the sequences are stamped at, and its frame interval.
 const FPS: f64 = 30.0;
+const PERIOD_US: u64 = 33_333;
 
 /// One light in the scene.
 #[derive(Debug, Clone)]
@@ -87,7 +88,9 @@ struct Case {
     window: Option<Window>,
     hot_pixels: Vec<(f32, f32)>,
     lights: Vec<Light>,
+    /// Each frame's event and the time since the frame before (the first frame's is not used).
     events: Vec<Event>,
+    gaps_us: Vec<u64>,
     detector: DetectorConfig,
     exposure_us: Option<u32>,
     row_time_us: Option<f32>,
@@ -135,6 +138,18 @@ fn event() -> impl Strategy<Value = Event> {
         12 => Just(Event::Plain),
         1 => any::<u8>().prop_map(Event::Level),
         1 => (0.3f32..2.5).prop_map(Event::Gain),
+    ]
+}
+
+/// The time from one frame to the next, in µs: the frame rate's mostly, and what cameras
+/// also send: a repeated timestamp, a microsecond, a frame or many dropped, a stall.
+fn frame_gap_us() -> impl Strategy<Value = u64> {
+    prop_oneof![
+        12 => Just(PERIOD_US),
+        1 => Just(0u64),
+        1 => 1u64..100,
+        1 => (2u64..5).prop_map(|n| n * PERIOD_US),
+        1 => 1_000_000u64..100_000_000,
     ]
 }
 
@@ -207,7 +222,7 @@ fn case() -> impl Strategy<Value = Case> {
         ),
         (
             prop_oneof![1 => proptest::collection::vec(light(), 0..4), 2 => proptest::collection::vec(light(), 1..=1)],
-            proptest::collection::vec(event(), 2..16),
+            proptest::collection::vec((event(), frame_gap_us()), 2..16),
             detector(),
             prop_oneof![1 => Just(None), 3 => (50u32..40_000).prop_map(Some)],
             prop_oneof![3 => Just(None), 1 => (1.0f32..80.0).prop_map(Some)],
@@ -228,7 +243,7 @@ fn case() -> impl Strategy<Value = Case> {
         .prop_map(
             |(
                 (size, format, floor_luma, noise_luma, window, hot_pixels),
-                (lights, events, detector, exposure_us, row_time_us, robots, floor_corners, seed),
+                (lights, frames, detector, exposure_us, row_time_us, robots, floor_corners, seed),
             )| Case {
                 size,
                 format,
@@ -237,7 +252,8 @@ fn case() -> impl Strategy<Value = Case> {
                 window,
                 hot_pixels,
                 lights,
-                events,
+                events: frames.iter().map(|f| f.0).collect(),
+                gaps_us: frames.iter().map(|f| f.1).collect(),
                 detector,
                 exposure_us,
                 row_time_us,
@@ -534,8 +550,11 @@ fn run(case: &Case, coverage: &RefCell<Coverage>) -> Result<(), TestCaseError> {
     let bounds = Bounds::of(case);
     let mut out = Vec::new();
     let mut sink = JsonLinesSink::new(&mut out, false);
-    let period_us = (1e6 / FPS) as u64;
+    let mut t_us = 0u64;
     for index in 0..case.events.len() {
+        if index > 0 {
+            t_us += case.gaps_us[index];
+        }
         let luma = render_luma(case, index, &mut noise);
         let bytes = pack(&luma, case.format, &mut noise);
         let frame =
@@ -545,8 +564,8 @@ fn run(case: &Case, coverage: &RefCell<Coverage>) -> Result<(), TestCaseError> {
             index: index as u64,
             sequence: index as u64,
             dropped: 0,
-            timestamp_us: index as u64 * period_us,
-            monotonic_us: index as u64 * period_us,
+            timestamp_us: t_us,
+            monotonic_us: t_us,
         };
         let report = pipeline.process(&frame, meta);
         sink.write(&report).unwrap();
@@ -623,6 +642,7 @@ mod found {
                 still(2.251_156_8, 4_939.726, (0.1, 0.893_816_35), 13_497),
             ],
             events: vec![Event::Plain, Event::Plain],
+            gaps_us: vec![PERIOD_US; 2],
             detector: DetectorConfig {
                 method: MaskMethod::Saturation,
                 threshold: Threshold::Auto,
@@ -684,6 +704,7 @@ mod found {
                 &[Event::Gain(1.236_883_9), Event::Plain],
             ]
             .concat(),
+            gaps_us: vec![PERIOD_US; 7],
             detector: DetectorConfig {
                 method: MaskMethod::Saturation,
                 threshold: Threshold::Auto,
@@ -724,6 +745,7 @@ mod found {
                 off_mask: 0,
             }],
             events: vec![Event::Plain, Event::Level(230)],
+            gaps_us: vec![PERIOD_US; 2],
             detector: DetectorConfig {
                 method: MaskMethod::Saturation,
                 threshold: Threshold::Auto,
@@ -764,6 +786,7 @@ mod found {
                 off_mask: 0,
             }],
             events: vec![Event::Plain, Event::Plain],
+            gaps_us: vec![PERIOD_US; 2],
             detector: DetectorConfig {
                 method: MaskMethod::Saturation,
                 threshold: Threshold::Auto,
