@@ -1629,7 +1629,7 @@ pub const MIN_FRAME_INTERVAL_US: u64 = 500;
 /// have (at least [`MIN_FRAME_INTERVAL_US`]).
 pub fn frame_interval_s(from_us: u64, to_us: u64) -> Option<f32> {
     let dt_us = to_us.checked_sub(from_us)?;
-    (dt_us >= MIN_FRAME_INTERVAL_US).then(|| dt_us as f32 * 1e-6)
+    (dt_us >= MIN_FRAME_INTERVAL_US).then_some(dt_us as f32 * 1e-6)
 }
 
 /// The middle's displacement from `previous` to `mid_px` at `t_us`, and the time it took
