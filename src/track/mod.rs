@@ -1660,11 +1660,11 @@ const MIN_HEAD_VARIANCE_PX2: f32 = 1e-4;
 /// `estimate` with its head given up for the middle where the head lies farther from the
 /// middle than the longest path the streak's light can hold ([`Streak::longest_path_px`]):
 /// the LED is on its path, so such a head is not where it was, whatever carried it there.
-/// Velocities read across a jump do: the frames' velocity of a light that went out and
-/// another that came on 190 px away put a round spot's head 42 px past its light, out of the
-/// frame, and a motion whose middles had jumped to a window flashing into the clip put a
-/// short fitted streak's head 90 px off. (A streak the frame's edge cut is placed by its
-/// track beyond its light, and does not come here.)
+/// Velocities read across a jump carried heads there: the frames' velocity of a light that
+/// went out and another that came on 190 px away put a round spot's head 42 px past its
+/// light, out of the frame, and a motion whose middles had jumped to a window flashing into
+/// the clip put a short fitted streak's head 90 px off. (A streak the frame's edge cut is
+/// placed by its track beyond its light, and does not come here.)
 fn in_its_light(estimate: Estimate, streak: &Streak) -> Estimate {
     let (head, mid) = (estimate.position_px, estimate.mid_px);
     if dist(head, mid) <= streak.longest_path_px() {
