@@ -1625,11 +1625,17 @@ fn carried_to(middles: &[Middle], t_us: u64) -> bool {
 /// pixel was read as 7.7 million px/s.
 pub const MIN_FRAME_INTERVAL_US: u64 = 500;
 
-/// The time from `from_us` to `to_us` in seconds, where it is a frame interval a camera can
+/// The time from `from_us` to `to_us` in µs, where it is a frame interval a camera can
 /// have (at least [`MIN_FRAME_INTERVAL_US`]).
+pub fn frame_interval_us(from_us: u64, to_us: u64) -> Option<u64> {
+    to_us
+        .checked_sub(from_us)
+        .filter(|&dt_us| dt_us >= MIN_FRAME_INTERVAL_US)
+}
+
+/// [`frame_interval_us`] in seconds.
 pub fn frame_interval_s(from_us: u64, to_us: u64) -> Option<f32> {
-    let dt_us = to_us.checked_sub(from_us)?;
-    (dt_us >= MIN_FRAME_INTERVAL_US).then_some(dt_us as f32 * 1e-6)
+    frame_interval_us(from_us, to_us).map(|dt_us| dt_us as f32 * 1e-6)
 }
 
 /// The middle's displacement from `previous` to `mid_px` at `t_us`, and the time it took

@@ -26,7 +26,7 @@
 //! model makes its own prediction errors large, so its motion head is trusted less at once,
 //! in the very frame it changes course.
 
-use super::{dist, frame_interval_s};
+use super::{dist, frame_interval_s, frame_interval_us};
 
 /// Middles the motion is measured over, the current one included: up to five prediction
 /// errors, and for a settling LED only the frames since it stopped after a few frames at rest.
@@ -104,7 +104,7 @@ impl MotionHead {
 
 /// The motion head of the last of `middles` (oldest first, consecutive found frames, the
 /// current one last) for an exposure of `exposure_us`, or `None` with too few middles or
-/// frame times that do not increase.
+/// frame times less than a frame interval apart.
 pub fn motion_head(middles: &[Middle], exposure_us: u32) -> Option<MotionHead> {
     // A prediction error of the turning motion needs three middles before it.
     let n = middles.len();
@@ -249,7 +249,8 @@ pub fn motion_head(middles: &[Middle], exposure_us: u32) -> Option<MotionHead> {
 
 /// The head the turning motion gives from the first three or four middles of a track (oldest
 /// first, the current one last), too few to measure how well any motion predicts them, for an
-/// exposure of `exposure_us`; `None` with other counts or frame times that do not increase.
+/// exposure of `exposure_us`; `None` with other counts or frame times less than a frame
+/// interval apart.
 ///
 /// For a track whose path reads still in its first frames (a bloom whose fitted spot is the
 /// glow), whose head would otherwise be carried straight on from the middle at the last
@@ -268,7 +269,7 @@ pub fn early_turning_head(middles: &[Middle], exposure_us: u32) -> Option<(f32, 
 /// track give (oldest first, the current one last): the speed along the arc at the current
 /// middle, from the last two displacements' (each a chord of the turn between them, at the
 /// middle of its interval) and their change carried on half an interval; `None` with other
-/// counts or frame times that do not increase.
+/// counts or frame times less than a frame interval apart.
 ///
 /// The last displacement alone lags an LED that speeds up: on an accelerating halo
 /// (independent seed 1, scene 55) it let a fit that read the path 10–15 % short pass for
@@ -324,7 +325,7 @@ pub fn first_path_px(
 ) -> Option<f32> {
     match middles {
         [before, last] => {
-            let dt_us = last.t_us.checked_sub(before.t_us).filter(|&dt| dt > 0)?;
+            let dt_us = frame_interval_us(before.t_us, last.t_us)?;
             let chord_px = (last.px.0 - before.px.0).hypot(last.px.1 - before.px.1);
             let per_exposure = exposure_us as f32 / dt_us as f32;
             let bend_rad = if length_px > 0.0 {
@@ -362,7 +363,7 @@ pub fn first_path_variance_px2(
 ) -> Option<f32> {
     match middles {
         [before, last] => {
-            let dt_us = last.t_us.checked_sub(before.t_us).filter(|&dt| dt > 0)?;
+            let dt_us = frame_interval_us(before.t_us, last.t_us)?;
             let scaled_sd_px = middle_sd_px * exposure_us as f32 / dt_us as f32;
             Some(2.0 * scaled_sd_px * scaled_sd_px)
         }
@@ -382,7 +383,7 @@ struct EarlySteps {
 }
 
 /// [`EarlySteps`] of `middles` (oldest first), `None` with other than three or four of them
-/// or frame times that do not increase.
+/// or frame times less than a frame interval apart.
 fn early_steps(middles: &[Middle]) -> Option<EarlySteps> {
     if !(3..MIN_INNOVATIONS + 3).contains(&middles.len()) {
         return None;
@@ -391,7 +392,7 @@ fn early_steps(middles: &[Middle]) -> Option<EarlySteps> {
 }
 
 /// [`EarlySteps`] of the last three of `middles` (oldest first), `None` with fewer or frame
-/// times that do not increase.
+/// times less than a frame interval apart.
 fn last_steps(middles: &[Middle]) -> Option<EarlySteps> {
     let n = middles.len();
     if n < 3 {
@@ -446,12 +447,12 @@ impl Carried {
 /// The motion the last three `middles` of a run (oldest first, the frame's own not among them)
 /// carry into a frame exposed for `exposure_us`: the speed along the arc of the last
 /// displacement and its heading, turning at the rate it turned from the one before. `None`
-/// with fewer middles, times that do not increase, a turn of more than a right angle (a
-/// reversal, no steady turn), or where the run did not keep its speed: the change between the
-/// last two displacements, carried on over the interval and a half to the frame's exposure
-/// and scaled to it, would move its head by more than the 1.5 px goal (`CARRIED_HEAD_PX`). An LED arriving
-/// where it parks with its light at the edge slows in its last frames: carried at its last
-/// speed, its head landed 14–18 px past where it stopped.
+/// with fewer middles, times less than a frame interval apart, a turn of more than a right
+/// angle (a reversal, no steady turn), or where the run did not keep its speed: the change
+/// between the last two displacements, carried on over the interval and a half to the frame's
+/// exposure and scaled to it, would move its head by more than the 1.5 px goal
+/// (`CARRIED_HEAD_PX`). An LED arriving where it parks with its light at the edge slows in its
+/// last frames: carried at its last speed, its head landed 14–18 px past where it stopped.
 pub fn carried(middles: &[Middle], exposure_us: u32) -> Option<Carried> {
     let s = last_steps(middles)?;
     let (v0_px, v1_px) = (s.v0.0.hypot(s.v0.1) * s.dt0, s.v1.0.hypot(s.v1.1) * s.dt1);
