@@ -24,7 +24,6 @@ use glint::source::stamped::{StampedError, StampedSource};
 #[cfg(feature = "v4l2")]
 use glint::source::v4l2::{ReopeningSource, V4l2Error};
 use glint::source::{FrameMeta, FrameSource};
-use glint::track::shutter::RollingShutter;
 
 #[cfg(feature = "v4l2")]
 use super::camera::{self, CameraArgs};
@@ -73,14 +72,6 @@ pub struct InputArgs {
           value_parser = clap::value_parser!(u32).range(1..=10_000_000))]
     exposure_us: Option<u32>,
 
-    /// The camera's rolling shutter: the time from one row's exposure to the next, µs (the
-    /// sensor's line time, or its frame readout time over its rows), up to 1000. Velocities
-    /// are then read as the LED's, not as the skewed rows show them (6.7 % fast for an LED
-    /// moving down at 1000 px/s with 62.5 µs rows). Without it, a global shutter.
-    #[arg(long, value_name = "MICROSECONDS", value_parser = parse_row_time_us,
-          allow_negative_numbers = true)]
-    row_time_us: Option<f32>,
-
     /// Pixel format of the frames: yuyv, uyvy or grey (8-bit luma, as mono cameras such as
     /// the OV9281 send). Default: the sidecar's format for a recorded dump, else yuyv.
     #[arg(long, value_name = "yuyv|uyvy|grey")]
@@ -110,11 +101,6 @@ impl InputArgs {
         return self.camera.exposure_us();
         #[cfg(not(feature = "v4l2"))]
         return self.exposure_us;
-    }
-
-    /// The rolling shutter given with `--row-time-us`.
-    pub fn rolling_shutter(&self) -> Option<RollingShutter> {
-        RollingShutter::new(self.row_time_us?)
     }
 
     /// The mmap buffers a camera will fill, when the input is a camera.
@@ -148,18 +134,6 @@ impl InputArgs {
             summary_every: (self.summary_every > 0.0)
                 .then(|| Duration::from_secs_f64(self.summary_every)),
         }
-    }
-}
-
-/// Longest row time taken, µs: 480 such rows take half a second to read.
-const MAX_ROW_TIME_US: f32 = 1000.0;
-
-fn parse_row_time_us(s: &str) -> Result<f32, String> {
-    match s.parse::<f32>() {
-        Ok(v) if v.is_finite() && v > 0.0 && v <= MAX_ROW_TIME_US => Ok(v),
-        _ => Err(format!(
-            "not a row time above 0 and up to {MAX_ROW_TIME_US} µs"
-        )),
     }
 }
 
