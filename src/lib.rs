@@ -46,6 +46,7 @@ pub mod net;
 pub mod options;
 pub mod pipeline;
 pub mod report;
+pub mod row_time;
 pub mod sink;
 pub mod small_file;
 pub mod source;

@@ -1,0 +1,490 @@
+//! A rolling shutter's row time, measured from the bands a flickering light draws across the
+//! frames (`glint row-time`).
+//!
+//! Lamps on the mains flicker at twice its frequency (100 Hz on 50 Hz mains, 120 Hz on 60 Hz),
+//! and a rolling shutter exposes row `y` `y τ` after row 0, so each row sees the light at
+//! another point of its cycle: the picture carries bands `2π f τ` radians a row apart in phase
+//! ([`bands`]). The bands' spacing is the row time: `τ = k / 2π f` for the spatial frequency
+//! `k` that best explains the differences between consecutive frames' row profiles
+//! ([`profiles`]). A global shutter draws no bands (every row sees the same moment), nor does
+//! an exposure of a whole number of flicker periods (a camera's power-line filter).
+//!
+//! What makes it the light and not the scene: from one frame to the next the bands move on by
+//! the light's phase over the frame interval, `2π f Δt`. Each pair's band is
+//! `A (e^{iψₙ} − e^{iψₙ₋₁})`, so the ratio of consecutive pairs' bands is known from the frame
+//! times alone for each candidate frequency, and the measured ratios must agree with it (a
+//! moving LED, a robot's shadow or a camera's gain hunting draw nothing that keeps that
+//! clock). That also tells 100 Hz from 120 Hz, except at frame rates where both move the bands
+//! alike, and it tells which way the rows are read: bands read bottom to top move the other
+//! way. Bands that stand still from frame to frame (120 Hz at exactly 30 fps) cancel between
+//! frames and cannot be told from the scene: nothing is measured.
+//!
+//! The row time's uncertainty is the spread of the row times measured on four quarters of the
+//! frame pairs.
+
+pub mod bands;
+pub mod profiles;
+
+use core::f64::consts::TAU;
+
+use nalgebra::Complex;
+
+use crate::track::frame_interval_us;
+use bands::{fit_pair, Basis, PairFit};
+use profiles::RowProfiles;
+
+/// Frames a measurement needs: eight pairs, two in each of the four quarters its uncertainty
+/// is read from.
+pub const MIN_FRAMES: usize = 9;
+
+/// The flicker frequencies tried when none is given: twice 50 Hz and twice 60 Hz mains.
+pub const MAINS_FLICKER_HZ: [f64; 2] = [100.0, 120.0];
+
+/// The fewest band cycles over the picture's height measured: bands wider than twice the
+/// picture cannot be told from a slow change of brightness down it.
+const MIN_CYCLES: f64 = 0.5;
+
+/// The search grid's step in cycles over the height: a fifth of the width of the fit's peak
+/// (about one cycle).
+const GRID_CYCLES: f64 = 0.05;
+
+/// Golden-section steps refining the grid's best frequency: its bracket of two grid steps
+/// shrinks to 0.618^40 of that.
+const REFINE_STEPS: usize = 40;
+
+/// A row whose residual is beyond this many robust standard deviations of its pair's is left
+/// out of the second fit (the rows a moving LED or its glow crossed).
+const OUTLIER_SIGMAS: f64 = 5.0;
+
+/// Evidence for bands: what the sinusoid explains per parameter over the residual per degree
+/// of freedom (an F ratio). Noise alone gives about 1, and the best of the grid's frequencies
+/// a few times that.
+const MIN_F_RATIO: f64 = 25.0;
+
+/// Consecutive pairs whose bands' ratio is compared with a frequency's clock, at least.
+const MIN_RATIOS: usize = 4;
+
+/// How closely the bands' ratios must keep a frequency's clock: the length of their weighted
+/// mean on the unit circle (1 when every ratio has the same phase) ...
+const MIN_COHERENCE: f64 = 0.8;
+
+/// ... and how far that mean's phase may be from the clock's (frame times off by up to 0.7 ms
+/// at 100 Hz).
+const MAX_CLOCK_MISS_RAD: f64 = 0.44;
+
+/// A light whose phase moves less than this over a frame interval leaves bands that stand
+/// nearly still: their difference is too small to compare with the clock.
+const MIN_PHASE_STEP_RAD: f64 = 0.3;
+
+/// Quarters of the pairs whose row times give the uncertainty.
+const PARTS: usize = 4;
+
+/// A row time measured from flicker bands.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RowTime {
+    /// The time from one row's exposure to the next, µs.
+    pub row_time_us: f64,
+    /// Its standard error, µs (from the spread over four quarters of the frame pairs).
+    pub standard_error_us: f64,
+    /// The light's flicker frequency, Hz.
+    pub flicker_hz: f64,
+    /// The bands' amplitude, as a fraction of the rows' luma (median over the pairs).
+    pub band_depth: f64,
+    /// Frame pairs fitted.
+    pub pairs: usize,
+    /// The median frame interval, µs.
+    pub frame_interval_us: u64,
+}
+
+/// Why no row time was measured.
+#[derive(Debug, Clone, PartialEq)]
+pub enum NoRowTime {
+    /// Fewer than [`MIN_FRAMES`] frames, or fewer than eight pairs a frame interval apart.
+    TooFewFrames { pairs: usize },
+    /// Nothing down the rows changes like bands from frame to frame.
+    NoBands { f_ratio: f64 },
+    /// Bands were fitted, but they do not move from frame to frame as any of the flicker
+    /// frequencies tried would move them.
+    NotAFlicker { tried_hz: Vec<f64> },
+    /// Two frequencies, or both directions down the rows, move the bands alike at this frame
+    /// rate: each candidate's frequency (Hz), whether it reads the rows upward, and its row
+    /// time (µs).
+    Ambiguous { candidates: Vec<(f64, bool, f64)> },
+    /// The bands move as bands read from the bottom row up do (a picture flipped upside
+    /// down): `glint`'s row time counts rows from the top.
+    ReadUpward { row_time_us: f64 },
+    /// The bands' spacing would need a readout longer than the frame interval.
+    TooSlow { row_time_us: f64 },
+}
+
+impl core::fmt::Display for NoRowTime {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            NoRowTime::TooFewFrames { pairs } => write!(
+                f,
+                "{pairs} pairs of consecutive frames a frame interval apart; at least {} are needed",
+                MIN_FRAMES - 1
+            ),
+            NoRowTime::NoBands { f_ratio } => write!(
+                f,
+                "no flicker bands in these frames (evidence {f_ratio:.1}, {MIN_F_RATIO} needed): \
+                 a global shutter, steady light, or an exposure of whole flicker periods \
+                 (turn the camera's power-line filter off and set a short exposure, 1-5 ms)"
+            ),
+            NoRowTime::NotAFlicker { tried_hz } => write!(
+                f,
+                "the frames change down their rows, but not as a light flickering at {} Hz \
+                 moves bands from frame to frame (check --fps or the sidecar's times, or give \
+                 --flicker-hz)",
+                join(tried_hz, " or ")
+            ),
+            NoRowTime::Ambiguous { candidates } => {
+                let shown: Vec<String> = candidates
+                    .iter()
+                    .map(|&(hz, upward, us)| {
+                        let from = if upward { "bottom" } else { "top" };
+                        format!("a {hz} Hz light read from the {from} ({us:.2} µs a row)")
+                    })
+                    .collect();
+                write!(
+                    f,
+                    "at this frame rate the bands move alike for {}: give --flicker-hz (twice \
+                     the mains frequency), or record at another frame rate",
+                    shown.join(" and ")
+                )
+            }
+            NoRowTime::ReadUpward { row_time_us } => write!(
+                f,
+                "the rows are read from the bottom up ({row_time_us:.2} µs a row): the picture \
+                 is flipped upside down, and glint counts row times from the top row"
+            ),
+            NoRowTime::TooSlow { row_time_us } => write!(
+                f,
+                "the bands' spacing needs {row_time_us:.2} µs a row, a readout longer than the \
+                 frame interval"
+            ),
+        }
+    }
+}
+
+impl std::error::Error for NoRowTime {}
+
+/// `e^{i phase}`.
+fn unit(phase_rad: f64) -> Complex<f64> {
+    let (sin, cos) = phase_rad.sin_cos();
+    Complex::new(cos, sin)
+}
+
+/// `|c|`.
+fn size(c: Complex<f64>) -> f64 {
+    c.re.hypot(c.im)
+}
+
+/// `arg c`, rad.
+fn phase(c: Complex<f64>) -> f64 {
+    c.im.atan2(c.re)
+}
+
+/// `values` joined by `separator`.
+fn join(values: &[f64], separator: &str) -> String {
+    let shown: Vec<String> = values.iter().map(f64::to_string).collect();
+    shown.join(separator)
+}
+
+/// Consecutive frames `n − 1` and `n` a frame interval apart, and their rows' weights.
+struct Pairs<'a> {
+    profiles: &'a RowProfiles,
+    /// The later frame of each pair.
+    later: Vec<usize>,
+    /// Each pair's rows' weights, pair after pair.
+    weights: Vec<f32>,
+}
+
+impl Pairs<'_> {
+    fn height(&self) -> usize {
+        self.profiles.height_px()
+    }
+
+    fn fit(&self, p: usize, basis: &Basis) -> Option<PairFit> {
+        let n = self.later[p];
+        let h = self.height();
+        fit_pair(
+            self.profiles.profile(n - 1),
+            self.profiles.profile(n),
+            &self.weights[p * h..(p + 1) * h],
+            basis,
+        )
+    }
+
+    /// What the sinusoid explains over `pairs`, and the residual with its degrees of freedom.
+    fn score(&self, pairs: core::ops::Range<usize>, basis: &Basis) -> (f64, f64, f64) {
+        let (mut explained, mut residual, mut dof) = (0.0, 0.0, 0.0);
+        for fit in pairs.filter_map(|p| self.fit(p, basis)) {
+            explained += fit.explained;
+            residual += fit.residual;
+            dof += fit.rows as f64 - 4.0;
+        }
+        (explained, residual, dof)
+    }
+
+    /// Leaves out each pair's rows whose residual at `basis` is an outlier.
+    fn drop_outliers(&mut self, basis: &Basis) {
+        let h = self.height();
+        let mut residuals = Vec::with_capacity(h);
+        for p in 0..self.later.len() {
+            let Some(fit) = self.fit(p, basis) else {
+                continue;
+            };
+            let n = self.later[p];
+            let (a, b) = (self.profiles.profile(n - 1), self.profiles.profile(n));
+            let weights = &mut self.weights[p * h..(p + 1) * h];
+            residuals.clear();
+            residuals.extend((0..h).filter(|&y| weights[y] > 0.0).filter_map(|y| {
+                let r = fit.residual_at(basis, y, f64::from(b[y] - a[y]));
+                r.is_finite().then_some(r.abs())
+            }));
+            let Some(mad) = median(&mut residuals) else {
+                continue;
+            };
+            let limit = OUTLIER_SIGMAS * 1.4826 * mad;
+            for (y, w) in weights.iter_mut().enumerate() {
+                let r = fit.residual_at(basis, y, f64::from(b[y] - a[y]));
+                if *w > 0.0 && limit > 0.0 && r.abs() > limit {
+                    *w = 0.0;
+                }
+            }
+        }
+    }
+}
+
+fn median(values: &mut [f64]) -> Option<f64> {
+    if values.is_empty() {
+        return None;
+    }
+    values.sort_by(f64::total_cmp);
+    Some(values[values.len() / 2])
+}
+
+/// The spatial frequency (rad a row) over `[lo, hi]` at which the sinusoid explains most of
+/// `pairs`, by golden-section search.
+fn refine(
+    pairs: &Pairs<'_>,
+    range: core::ops::Range<usize>,
+    basis: &mut Basis,
+    (mut lo, mut hi): (f64, f64),
+) -> f64 {
+    const INV_PHI: f64 = 0.618_033_988_749_895;
+    let mut score = |k: f64| {
+        basis.set(k);
+        pairs.score(range.clone(), basis).0
+    };
+    let (mut x1, mut x2) = (hi - INV_PHI * (hi - lo), lo + INV_PHI * (hi - lo));
+    let (mut f1, mut f2) = (score(x1), score(x2));
+    for _ in 0..REFINE_STEPS {
+        if f1 >= f2 {
+            hi = x2;
+            (x2, f2) = (x1, f1);
+            x1 = hi - INV_PHI * (hi - lo);
+            f1 = score(x1);
+        } else {
+            lo = x1;
+            (x1, f1) = (x2, f2);
+            x2 = lo + INV_PHI * (hi - lo);
+            f2 = score(x2);
+        }
+    }
+    0.5 * (lo + hi)
+}
+
+/// The best frequency on the grid from `lo` by `step` up to `hi`, refined, and whether the
+/// grid's best is at either end of it (then the bands' spacing, if any, lies outside the
+/// range searched, and it is not refined).
+fn search(pairs: &Pairs<'_>, basis: &mut Basis, lo: f64, hi: f64, step: f64) -> (f64, bool) {
+    let all = 0..pairs.later.len();
+    let count = ((hi - lo) / step).floor() as usize + 1;
+    let (mut best, mut best_score) = (0, f64::NEG_INFINITY);
+    for j in 0..count {
+        basis.set(lo + j as f64 * step);
+        let (explained, _, _) = pairs.score(all.clone(), basis);
+        if explained > best_score {
+            (best, best_score) = (j, explained);
+        }
+    }
+    let k = lo + best as f64 * step;
+    if best == 0 || best + 1 >= count {
+        return (k, true);
+    }
+    (refine(pairs, all, basis, (k - step, k + step)), false)
+}
+
+/// How the bands' ratios from pair to pair keep the clock of a light flickering at
+/// `omega_rad_s`, read top to bottom (`upward` false) or bottom to top: the length of their
+/// weighted mean phase miss on the unit circle, and that mean miss (rad). `None` with fewer
+/// than [`MIN_RATIOS`] ratios to compare.
+fn clock_miss(
+    profiles: &RowProfiles,
+    later: &[usize],
+    bands: &[Option<Complex<f64>>],
+    omega_rad_s: f64,
+    upward: bool,
+) -> Option<(f64, f64)> {
+    let phase_step = |n: usize| {
+        let dt_s = (profiles.time_us(n) - profiles.time_us(n - 1)) as f64 * 1e-6;
+        unit(omega_rad_s * dt_s)
+    };
+    let (mut sum, mut weight, mut count) = (Complex::new(0.0, 0.0), 0.0, 0);
+    for p in 1..later.len() {
+        let (n, m) = (later[p - 1], later[p]);
+        let (Some(before), Some(after)) = (bands[p - 1], bands[p]) else {
+            continue;
+        };
+        if m != n + 1 {
+            continue;
+        }
+        // ζ_after / ζ_before = e^{iωΔt₁} (e^{iωΔt₂} − 1) / (e^{iωΔt₁} − 1).
+        let (first, second) = (phase_step(n), phase_step(m));
+        if size(first - 1.0) < MIN_PHASE_STEP_RAD || size(second - 1.0) < MIN_PHASE_STEP_RAD {
+            continue;
+        }
+        let mut clock = first * (second - 1.0) / (first - 1.0);
+        if upward {
+            clock = clock.conj();
+        }
+        let measured = after * before.conj();
+        let w = size(measured);
+        if w <= 0.0 {
+            continue;
+        }
+        // The measured ratio turned back by the clock's phase: its weight is its size.
+        sum += measured * clock.conj() / size(clock);
+        weight += w;
+        count += 1;
+    }
+    (count >= MIN_RATIOS && weight > 0.0).then(|| (size(sum) / weight, phase(sum)))
+}
+
+/// Measures the row time from `profiles`, trying the flicker frequencies `flicker_hz`.
+pub fn measure(profiles: &RowProfiles, flicker_hz: &[f64]) -> Result<RowTime, NoRowTime> {
+    let height = profiles.height_px();
+    let later: Vec<usize> = (1..profiles.frames())
+        .filter(|&n| frame_interval_us(profiles.time_us(n - 1), profiles.time_us(n)).is_some())
+        .collect();
+    if profiles.frames() < MIN_FRAMES || later.len() < MIN_FRAMES - 1 || height < 2 {
+        return Err(NoRowTime::TooFewFrames { pairs: later.len() });
+    }
+    let mut intervals: Vec<f64> = later
+        .iter()
+        .map(|&n| (profiles.time_us(n) - profiles.time_us(n - 1)) as f64)
+        .collect();
+    let frame_interval_us = median(&mut intervals).unwrap_or(0.0);
+    let mut pairs = Pairs {
+        profiles,
+        weights: vec![1.0; later.len() * height],
+        later,
+    };
+    // From bands wider than twice the picture to a readout of the whole frame interval at the
+    // highest frequency tried.
+    let highest_hz = flicker_hz.iter().copied().fold(0.0, f64::max);
+    let per_cycle = TAU / height as f64;
+    let (lo, hi) = (
+        MIN_CYCLES * per_cycle,
+        highest_hz * frame_interval_us * 1e-6 * per_cycle,
+    );
+    let step = GRID_CYCLES * per_cycle;
+    let mut basis = Basis::new(height, lo);
+    let (first, _) = search(&pairs, &mut basis, lo, hi, step);
+    basis.set(first);
+    pairs.drop_outliers(&basis);
+    let (k, at_edge) = search(&pairs, &mut basis, lo, hi, step);
+    basis.set(k);
+    let all = 0..pairs.later.len();
+    let (explained, residual, dof) = pairs.score(all.clone(), &basis);
+    let fitted = all
+        .clone()
+        .filter(|&p| pairs.fit(p, &basis).is_some())
+        .count();
+    let f_ratio = if residual > 0.0 && dof > 0.0 && fitted > 0 {
+        (explained / (2.0 * fitted as f64)) / (residual / dof)
+    } else {
+        0.0
+    };
+    if at_edge || f_ratio < MIN_F_RATIO {
+        return Err(NoRowTime::NoBands { f_ratio });
+    }
+    let bands: Vec<Option<Complex<f64>>> = all
+        .clone()
+        .map(|p| pairs.fit(p, &basis).map(|f| f.band()))
+        .collect();
+    // Which light, read which way, moves the bands as they moved.
+    let mut kept = Vec::new();
+    for &hz in flicker_hz {
+        for upward in [false, true] {
+            let Some((coherence, miss)) =
+                clock_miss(profiles, &pairs.later, &bands, TAU * hz, upward)
+            else {
+                continue;
+            };
+            if coherence >= MIN_COHERENCE && miss.abs() <= MAX_CLOCK_MISS_RAD {
+                kept.push((hz, upward));
+            }
+        }
+    }
+    let row_time_us = |hz: f64| k / (TAU * hz) * 1e6;
+    let (hz, upward) = match kept.as_slice() {
+        [] => {
+            return Err(NoRowTime::NotAFlicker {
+                tried_hz: flicker_hz.to_vec(),
+            })
+        }
+        [one] => *one,
+        several => {
+            return Err(NoRowTime::Ambiguous {
+                candidates: several
+                    .iter()
+                    .map(|&(hz, upward)| (hz, upward, row_time_us(hz)))
+                    .collect(),
+            })
+        }
+    };
+    let row_time = row_time_us(hz);
+    if upward {
+        return Err(NoRowTime::ReadUpward {
+            row_time_us: row_time,
+        });
+    }
+    if row_time * (height - 1) as f64 > frame_interval_us {
+        return Err(NoRowTime::TooSlow {
+            row_time_us: row_time,
+        });
+    }
+    // The spread over the quarters of the pairs.
+    let count = pairs.later.len();
+    let parts: Vec<f64> = (0..PARTS)
+        .map(|i| {
+            let range = i * count / PARTS..(i + 1) * count / PARTS;
+            refine(&pairs, range, &mut basis, (k - step, k + step))
+        })
+        .collect();
+    let mean = parts.iter().sum::<f64>() / PARTS as f64;
+    let variance = parts.iter().map(|p| (p - mean).powi(2)).sum::<f64>() / (PARTS - 1) as f64;
+    let standard_error_us = (variance / PARTS as f64).sqrt() / (TAU * hz) * 1e6;
+    // A pair's band is A (e^{iψₙ} − e^{iψₙ₋₁}): its amplitude over |e^{iωΔt} − 1|.
+    let mut depths: Vec<f64> = pairs
+        .later
+        .iter()
+        .zip(&bands)
+        .filter_map(|(&n, band)| {
+            let dt_s = (profiles.time_us(n) - profiles.time_us(n - 1)) as f64 * 1e-6;
+            let step = size(unit(TAU * hz * dt_s) - 1.0);
+            (step >= MIN_PHASE_STEP_RAD).then(|| band.map(|b| size(b) / step))?
+        })
+        .collect();
+    Ok(RowTime {
+        row_time_us: row_time,
+        standard_error_us,
+        flicker_hz: hz,
+        band_depth: median(&mut depths).unwrap_or(0.0),
+        pairs: fitted,
+        frame_interval_us: frame_interval_us.round() as u64,
+    })
+}
