@@ -18,6 +18,7 @@ mod memory;
 mod publish;
 #[cfg(feature = "v4l2")]
 mod record;
+mod row_time;
 mod run;
 // Reached from tests/readme_commands.rs, which splices settings files as `main` does.
 pub(crate) mod run_config;
@@ -62,6 +63,9 @@ enum Command {
     /// Measure the whole loop's latency: ask the robot over --serial to switch its LED off at
     /// random moments, and time the first frame in which it is gone.
     Latency(latency::LatencyArgs),
+    /// Measure a rolling shutter's row time (for `track --row-time-us`) from the bands a
+    /// flickering lamp draws across the frames.
+    RowTime(row_time::RowTimeArgs),
     /// Calibrate screen to floor from ArUco markers at known floor positions in a dump.
     Calibrate(calibrate::CalibrateArgs),
     /// Merge several cameras' reports into one track per robot: weighted where views overlap,
@@ -125,6 +129,7 @@ pub fn main() -> ExitCode {
         Command::Track(args) => track::run(args),
         Command::Run(args) => run::run(args),
         Command::Latency(args) => latency::run(args),
+        Command::RowTime(args) => row_time::run(args),
         Command::Calibrate(args) => calibrate::run(args),
         Command::Fuse(args) => fuse::run(args),
         #[cfg(feature = "v4l2")]

@@ -40,6 +40,7 @@ under a global shutter (without the option, the scenes of earlier versions).
 `--flicker DEPTH` draws each frame's noise from a stream of its own too, so that the same seed
 with `--flicker 0` gives the same scenes under a steady room light (their noise differs where
 the light does: the shot noise's draws follow it).
+`--fps F` shoots the frames F a second instead of 30 (frame n's exposure ends at n / F).
 `--motion KIND`, `--spot KIND` and `--frames N` make every scene of that motion, spot or
 length (the rest drawn as without them). `--size WxH` draws its scenes from the same
 distributions as a camera of that size sees them: every length in pixels (the spot, the
@@ -462,6 +463,8 @@ def render_scene(rng, index, force):
         "settled_frame": math.ceil(motion.move_s * FPS) if motion.kind == "settle" else 0,
         "row_time_us": force.row_time_us or 0.0,
         "flicker": force.flicker or 0.0,
+        "flicker_hz": force.flicker_hz,
+        "fps": FPS,
     }
     return bytes(out), truths, params
 
@@ -487,8 +490,12 @@ def main():
     parser.add_argument(
         "--flicker-hz", type=float, default=100.0, help="the room light's flicker frequency"
     )
+    parser.add_argument("--fps", type=float, default=30.0, help="frames a second")
     args = parser.parse_args()
-    global WIDTH, HEIGHT, SCALE
+    global WIDTH, HEIGHT, SCALE, FPS
+    if not 0.0 < args.fps <= 1000.0:
+        parser.error("--fps must be above 0 and up to 1000")
+    FPS = args.fps
     WIDTH, HEIGHT = (int(v) for v in args.size.split("x"))
     SCALE = WIDTH / 640.0
     if args.row_time_us is not None and not 0.0 <= args.row_time_us * HEIGHT <= 1e6 / FPS:
