@@ -19,6 +19,8 @@ use std::process::Command;
 
 use common::glint;
 use common::peers::python;
+use glint::frame::{FrameSize, PixelFormat};
+use glint::source::sidecar::{FrameTiming, Sidecar, SIDECAR_VERSION};
 use serde_json::Value;
 
 /// The farthest a row time given may be from the truth, as a fraction of it.
@@ -78,20 +80,16 @@ impl Set {
     }
 }
 
-/// `glint row-time` on `dump`: the row time it gives, or its message when it gives none.
-fn row_time(dump: &Path, size: &str, fps: f64, extra: &[&str]) -> Result<f64, String> {
+/// `glint row-time` on `dump` (its frames `fps` a second, or as its sidecar says): the row
+/// time it gives, or its message when it gives none.
+fn row_time(dump: &Path, size: &str, fps: Option<f64>, extra: &[&str]) -> Result<f64, String> {
+    let fps = fps.map(|f| ["--fps".to_string(), f.to_string()]);
     let out = glint()
         .arg("row-time")
         .arg("--input")
         .arg(dump)
-        .args([
-            "--size",
-            size,
-            "--format-in",
-            "grey",
-            "--fps",
-            &fps.to_string(),
-        ])
+        .args(["--size", size, "--format-in", "grey"])
+        .args(fps.iter().flatten())
         .args(extra)
         .output()
         .expect("run glint row-time");
@@ -174,7 +172,7 @@ fn the_row_time_is_measured_from_a_flickering_light_s_bands() {
                 100.0 * depth,
                 scene["exposure_us"]
             );
-            match row_time(&dump(dir.path(), &scene), set.size, set.fps, &[]) {
+            match row_time(&dump(dir.path(), &scene), set.size, Some(set.fps), &[]) {
                 Ok(measured) => {
                     let error = measured / set.row_time_us - 1.0;
                     eprintln!("{label}: {measured:.2} µs ({:+.2} %)", 100.0 * error);
@@ -233,7 +231,7 @@ fn nothing_is_measured_where_nothing_says_the_row_time() {
     for (what, set) in &sets {
         let dir = tempfile::tempdir().unwrap();
         for scene in set.render(dir.path()) {
-            let result = row_time(&dump(dir.path(), &scene), set.size, set.fps, &[]);
+            let result = row_time(&dump(dir.path(), &scene), set.size, Some(set.fps), &[]);
             assert!(
                 result.is_err(),
                 "{what}, scene {}: {result:?}",
@@ -258,13 +256,13 @@ fn a_picture_read_bottom_up_or_at_the_wrong_frame_rate_gives_no_row_time() {
     let scene = &set.render(dir.path())[0];
     let path = dump(dir.path(), scene);
     // As rendered it is measured (else the refusals below show nothing).
-    let measured = row_time(&path, set.size, set.fps, &[]).expect("the scene as rendered");
+    let measured = row_time(&path, set.size, Some(set.fps), &[]).expect("the scene as rendered");
     assert!((measured / set.row_time_us - 1.0).abs() <= MAX_ERROR);
     // Its frames taken as 30 a second: the bands do not keep that clock.
-    let wrong_rate = row_time(&path, set.size, 30.0, &[]);
+    let wrong_rate = row_time(&path, set.size, Some(30.0), &[]);
     assert!(wrong_rate.is_err(), "at 30 fps: {wrong_rate:?}");
     // A 100 Hz light would keep its bands still at 25 fps.
-    let wrong_light = row_time(&path, set.size, set.fps, &["--flicker-hz", "100"]);
+    let wrong_light = row_time(&path, set.size, Some(set.fps), &["--flicker-hz", "100"]);
     assert!(wrong_light.is_err(), "as 100 Hz: {wrong_light:?}");
     // Upside down: the rows are read from the bottom up.
     let (width, height) = (640, 480);
@@ -275,11 +273,72 @@ fn a_picture_read_bottom_up_or_at_the_wrong_frame_rate_gives_no_row_time() {
         .collect();
     let flipped_path = dir.path().join("flipped.grey");
     std::fs::write(&flipped_path, flipped).unwrap();
-    let upside_down = row_time(&flipped_path, set.size, set.fps, &[]);
+    let upside_down = row_time(&flipped_path, set.size, Some(set.fps), &[]);
     assert!(
         upside_down
             .as_ref()
             .is_err_and(|m| m.contains("from the bottom up")),
         "upside down: {upside_down:?}"
+    );
+}
+
+/// A recording whose stamps jitter by up to 2.5 ms either way (a USB camera's frames stamped
+/// by a busy host) and which lost a frame: read with its sidecar, the row time is still
+/// measured. The light turns by up to 1.9 rad over 2.5 ms at 120 Hz; the camera's own frame
+/// interval, measured over the run, keeps the clock.
+#[test]
+fn stamps_that_jitter_and_a_dropped_frame_keep_the_light_s_clock() {
+    let set = Set {
+        seed: 23,
+        count: 1,
+        row_time_us: 40.0,
+        flicker: 0.5,
+        flicker_hz: 120.0,
+        fps: 25.0,
+        size: "640x480",
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let scene = &set.render(dir.path())[0];
+    let (width, height) = (640usize, 480usize);
+    let bytes = std::fs::read(dump(dir.path(), scene)).unwrap();
+    let (mut kept, mut frames) = (Vec::new(), Vec::new());
+    // A fixed pseudo-random jitter in [-2500, 2500] µs.
+    let mut state = 0x2545_f491_u64;
+    for (n, frame) in bytes.chunks_exact(width * height).enumerate() {
+        if n == 10 {
+            continue;
+        }
+        state = state
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1);
+        let jitter_us = (state >> 33) % 5001;
+        let t_us = (n as f64 * 1e6 / set.fps) as u64 + jitter_us;
+        kept.extend_from_slice(frame);
+        frames.push(FrameTiming {
+            seq: n as u64,
+            t_us,
+        });
+    }
+    let recording = dir.path().join("recorded.grey");
+    std::fs::write(&recording, kept).unwrap();
+    let size = FrameSize::new(width as u32, height as u32).unwrap();
+    let sidecar = Sidecar {
+        version: SIDECAR_VERSION,
+        format: "GREY".into(),
+        width_px: size.width() as u32,
+        height_px: size.height() as u32,
+        stride_bytes: size.row_bytes_as(PixelFormat::Grey),
+        driver_stride_bytes: size.row_bytes_as(PixelFormat::Grey),
+        fps: Some(set.fps),
+        device: None,
+        frames,
+    };
+    sidecar
+        .write(std::fs::File::create(Sidecar::path_for(&recording)).unwrap())
+        .unwrap();
+    let measured = row_time(&recording, set.size, None, &[]).expect("measured");
+    assert!(
+        (measured / set.row_time_us - 1.0).abs() <= MAX_ERROR,
+        "{measured} µs"
     );
 }

@@ -68,8 +68,8 @@ const MIN_RATIOS: usize = 4;
 /// mean on the unit circle (1 when every ratio has the same phase) ...
 const MIN_COHERENCE: f64 = 0.8;
 
-/// ... and how far that mean's phase may be from the clock's (frame times off by up to 0.7 ms
-/// at 100 Hz).
+/// ... and how far that mean's phase may be from the clock's (0.7 ms a frame at 100 Hz; a
+/// camera at 29.97 fps replayed as 30 misses by 0.02 rad).
 const MAX_CLOCK_MISS_RAD: f64 = 0.44;
 
 /// A light whose phase moves less than this over a frame interval leaves bands that stand
@@ -318,31 +318,30 @@ fn search(pairs: &Pairs<'_>, basis: &mut Basis, lo: f64, hi: f64, step: f64) -> 
 }
 
 /// How the bands' ratios from pair to pair keep the clock of a light flickering at
-/// `omega_rad_s`, read top to bottom (`upward` false) or bottom to top: the length of their
-/// weighted mean phase miss on the unit circle, and that mean miss (rad). `None` with fewer
-/// than [`MIN_RATIOS`] ratios to compare.
+/// `omega_rad_s`, read top to bottom (`upward` false) or bottom to top, where pair `p` ends
+/// at frame `later[p]`, `steps_s[p]` after the frame before it: the length of their weighted
+/// mean phase miss on the unit circle, and that mean miss (rad). `None` with fewer than
+/// [`MIN_RATIOS`] ratios to compare.
 fn clock_miss(
-    profiles: &RowProfiles,
     later: &[usize],
+    steps_s: &[f64],
     bands: &[Option<Complex<f64>>],
     omega_rad_s: f64,
     upward: bool,
 ) -> Option<(f64, f64)> {
-    let phase_step = |n: usize| {
-        let dt_s = (profiles.time_us(n) - profiles.time_us(n - 1)) as f64 * 1e-6;
-        unit(omega_rad_s * dt_s)
-    };
     let (mut sum, mut weight, mut count) = (Complex::new(0.0, 0.0), 0.0, 0);
     for p in 1..later.len() {
-        let (n, m) = (later[p - 1], later[p]);
         let (Some(before), Some(after)) = (bands[p - 1], bands[p]) else {
             continue;
         };
-        if m != n + 1 {
+        if later[p] != later[p - 1] + 1 {
             continue;
         }
         // ζ_after / ζ_before = e^{iωΔt₁} (e^{iωΔt₂} − 1) / (e^{iωΔt₁} − 1).
-        let (first, second) = (phase_step(n), phase_step(m));
+        let (first, second) = (
+            unit(omega_rad_s * steps_s[p - 1]),
+            unit(omega_rad_s * steps_s[p]),
+        );
         if size(first - 1.0) < MIN_PHASE_STEP_RAD || size(second - 1.0) < MIN_PHASE_STEP_RAD {
             continue;
         }
@@ -361,6 +360,21 @@ fn clock_miss(
         count += 1;
     }
     (count >= MIN_RATIOS && weight > 0.0).then(|| (size(sum) / weight, phase(sum)))
+}
+
+/// Each pair's time step on the camera's own clock (s): the frames it spans (its step over
+/// the median step, rounded: a dropped frame spans two) times the mean frame interval over the
+/// whole run. A camera's frames follow its crystal, while the stamps a host gives them
+/// jitter by up to a millisecond (USB), which at 100 Hz turns the light's phase by up to 0.6
+/// rad a stamp; the run's mean interval carries that jitter divided by the run's length.
+fn camera_steps_s(profiles: &RowProfiles, later: &[usize], median_us: f64) -> Vec<f64> {
+    let step_us = |n: usize| (profiles.time_us(n) - profiles.time_us(n - 1)) as f64;
+    let frames = |n: usize| (step_us(n) / median_us).round().max(1.0);
+    let (elapsed_us, spanned) = later
+        .iter()
+        .fold((0.0, 0.0), |(t, k), &n| (t + step_us(n), k + frames(n)));
+    let interval_s = elapsed_us / spanned * 1e-6;
+    later.iter().map(|&n| frames(n) * interval_s).collect()
 }
 
 /// Measures the row time from `profiles`, trying the flicker frequencies `flicker_hz`.
@@ -416,11 +430,12 @@ pub fn measure(profiles: &RowProfiles, flicker_hz: &[f64]) -> Result<RowTime, No
         .map(|p| pairs.fit(p, &basis).map(|f| f.band()))
         .collect();
     // Which light, read which way, moves the bands as they moved.
+    let steps_s = camera_steps_s(profiles, &pairs.later, frame_interval_us);
     let mut kept = Vec::new();
     for &hz in flicker_hz {
         for upward in [false, true] {
             let Some((coherence, miss)) =
-                clock_miss(profiles, &pairs.later, &bands, TAU * hz, upward)
+                clock_miss(&pairs.later, &steps_s, &bands, TAU * hz, upward)
             else {
                 continue;
             };
@@ -469,12 +484,10 @@ pub fn measure(profiles: &RowProfiles, flicker_hz: &[f64]) -> Result<RowTime, No
     let variance = parts.iter().map(|p| (p - mean).powi(2)).sum::<f64>() / (PARTS - 1) as f64;
     let standard_error_us = (variance / PARTS as f64).sqrt() / (TAU * hz) * 1e6;
     // A pair's band is A (e^{iψₙ} − e^{iψₙ₋₁}): its amplitude over |e^{iωΔt} − 1|.
-    let mut depths: Vec<f64> = pairs
-        .later
+    let mut depths: Vec<f64> = steps_s
         .iter()
         .zip(&bands)
-        .filter_map(|(&n, band)| {
-            let dt_s = (profiles.time_us(n) - profiles.time_us(n - 1)) as f64 * 1e-6;
+        .filter_map(|(&dt_s, band)| {
             let step = size(unit(TAU * hz * dt_s) - 1.0);
             (step >= MIN_PHASE_STEP_RAD).then(|| band.map(|b| size(b) / step))?
         })
