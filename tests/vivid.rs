@@ -543,6 +543,17 @@ fn devices_lists_vivid_with_formats_and_controls() {
     assert!(!list.contains("/dev/video1:"), "{list}");
 }
 
+/// `glint row-time --device` reads the camera's frames and, the loop's LED scene having no
+/// flicker bands, gives no row time: one line and exit status 1, nothing on standard output.
+#[test]
+fn row_time_reads_a_camera_and_gives_no_number_without_bands() {
+    let Some(suite) = suite() else { return };
+    let log = suite.log("row_time");
+    assert_eq!(suite.status("row_time"), "1", "{log}");
+    assert!(log.contains("glint: no row time from 12 frames: "), "{log}");
+    assert_eq!(suite.file("row_time.out"), "", "{log}");
+}
+
 #[test]
 fn loopback_frames_come_back_byte_exact() {
     let Some(suite) = suite() else { return };

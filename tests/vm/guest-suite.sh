@@ -117,7 +117,8 @@ wait $feeder 2>/dev/null
 echo "loop_done_s $(cut -d' ' -f1 /proc/uptime)" >>"$OUT/timing"
 
 # 4. glint itself on a rendered LED scene fed through the loop: `glint track --device` until
-#    SIGTERM (with a summary every second and latency stats), then `glint record`.
+#    SIGTERM (with a summary every second and latency stats), then `glint record` and
+#    `glint row-time`.
 feed /mnt/in/scene.yuv
 probe scene_loop --device /dev/video0 --size 640x480 --frames 8
 "$GLINT" track --device /dev/video0 --size 640x480 --summary-every 1 --stats \
@@ -131,6 +132,10 @@ echo $? >"$OUT/track.status"
     >"$OUT/record.out" 2>"$OUT/record.err"
 echo $? >"$OUT/record.status"
 cp /tmp/rec.yuv /tmp/rec.yuv.json "$OUT/"
+# `glint row-time` reads the camera too; the loop's LED scene has no flicker bands.
+"$GLINT" row-time --device /dev/video0 --size 640x480 --frames 12 \
+    >"$OUT/row_time.out" 2>"$OUT/row_time.err"
+echo $? >"$OUT/row_time.status"
 kill $feeder
 wait $feeder 2>/dev/null
 "$GLINT" devices >"$OUT/devices.txt" 2>&1
