@@ -501,3 +501,149 @@ pub fn measure(profiles: &RowProfiles, flicker_hz: &[f64]) -> Result<RowTime, No
         frame_interval_us: frame_interval_us.round() as u64,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::frame::{Frame, FrameSize, PixelFormat};
+    use proptest::prelude::*;
+
+    const WIDTH: usize = 64;
+    const HEIGHT: usize = 120;
+
+    /// A small xorshift stream, for textures and noise.
+    fn next(state: &mut u64) -> u64 {
+        *state ^= *state << 13;
+        *state ^= *state >> 7;
+        *state ^= *state << 17;
+        *state
+    }
+
+    /// GREY frames of a textured floor lit by a light flickering at `hz`, `depth` deep, each
+    /// row `row_time_us` after the one above, taken at `times_us`; rows bottom to top with
+    /// `upward`.
+    fn banded(
+        times_us: &[u64],
+        hz: f64,
+        depth: f64,
+        row_time_us: f64,
+        upward: bool,
+    ) -> RowProfiles {
+        let mut state = 0x9e37_79b9_7f4a_7c15;
+        let floor: Vec<f64> = (0..WIDTH * HEIGHT)
+            .map(|_| 40.0 + (next(&mut state) % 80) as f64)
+            .collect();
+        let size = FrameSize::new(WIDTH as u32, HEIGHT as u32).unwrap();
+        let mut profiles = RowProfiles::new(HEIGHT, times_us.len());
+        let mut bytes = vec![0u8; WIDTH * HEIGHT];
+        for &t_us in times_us {
+            for (i, b) in bytes.iter_mut().enumerate() {
+                let row = i / WIDTH;
+                let read = if upward { HEIGHT - 1 - row } else { row };
+                let t_s = (t_us as f64 + read as f64 * row_time_us) * 1e-6;
+                let light = 1.0 + depth * (TAU * hz * t_s + 0.4).sin();
+                let noise = (next(&mut state) % 5) as f64 - 2.0;
+                *b = (floor[i] * light + noise).round().clamp(0.0, 255.0) as u8;
+            }
+            let frame = Frame::new_checked_as(&bytes, size, WIDTH, PixelFormat::Grey).unwrap();
+            assert!(profiles.push(&frame, t_us));
+        }
+        profiles
+    }
+
+    /// 30 frames at 30 fps, frame 12 dropped.
+    fn times_us() -> Vec<u64> {
+        (0..31u64)
+            .filter(|&n| n != 12)
+            .map(|n| n * 33_333)
+            .collect()
+    }
+
+    #[test]
+    fn a_flickering_light_s_bands_give_the_row_time_and_its_frequency() {
+        for (hz, row_time_us) in [(100.0, 120.0), (100.0, 200.0)] {
+            let profiles = banded(&times_us(), hz, 0.05, row_time_us, false);
+            let measured = measure(&profiles, &MAINS_FLICKER_HZ).expect("measured");
+            assert_eq!(measured.flicker_hz, hz);
+            assert!(
+                (measured.row_time_us / row_time_us - 1.0).abs() < 0.005,
+                "{measured:?}"
+            );
+            assert!(
+                (measured.band_depth / 0.05 - 1.0).abs() < 0.2,
+                "{measured:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn bands_read_upward_or_standing_still_give_no_row_time() {
+        let upward = banded(&times_us(), 100.0, 0.05, 150.0, true);
+        assert!(matches!(
+            measure(&upward, &MAINS_FLICKER_HZ),
+            Err(NoRowTime::ReadUpward { .. })
+        ));
+        // 120 Hz at exactly 30 fps: the same bands in every frame.
+        let still = banded(&times_us(), 120.0, 0.05, 150.0, false);
+        let result = measure(&still, &MAINS_FLICKER_HZ);
+        assert!(result.is_err(), "{result:?}");
+        let steady = banded(&times_us(), 100.0, 0.0, 150.0, false);
+        let result = measure(&steady, &MAINS_FLICKER_HZ);
+        assert!(
+            matches!(result, Err(NoRowTime::NoBands { .. })),
+            "{result:?}"
+        );
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+        /// Any frames at any times (repeated, backwards, far apart), any flicker frequencies:
+        /// a row time is finite, positive and read out within the frame interval, or there is
+        /// none; never a panic.
+        #[test]
+        fn any_frames_at_any_times_give_a_sane_row_time_or_none(
+            width in 1usize..40,
+            height in 1usize..60,
+            frames in 0usize..24,
+            seed in any::<u64>(),
+            pattern in 0usize..4,
+            steps_us in proptest::collection::vec(0u64..100_000, 24),
+            backwards in any::<bool>(),
+            hz in proptest::collection::vec(0.5f64..300.0, 0..3),
+        ) {
+            let size = FrameSize::new(2 * width as u32, height as u32).unwrap();
+            let mut state = seed | 1;
+            let mut profiles = RowProfiles::new(height, frames);
+            let mut bytes = vec![0u8; size.pixels()];
+            let mut t_us = 5_000_000u64;
+            for (n, &step_us) in steps_us.iter().enumerate().take(frames) {
+                for (i, b) in bytes.iter_mut().enumerate() {
+                    *b = match pattern {
+                        0 => 0,
+                        1 => 255,
+                        2 => (next(&mut state) >> 56) as u8,
+                        _ => ((i / size.width()) as u64 * 37 + n as u64 * 11) as u8,
+                    };
+                }
+                t_us = if backwards && n % 3 == 2 {
+                    t_us.saturating_sub(step_us)
+                } else {
+                    t_us + step_us
+                };
+                let frame =
+                    Frame::new_checked_as(&bytes, size, size.width(), PixelFormat::Grey).unwrap();
+                prop_assert!(profiles.push(&frame, t_us));
+            }
+            if let Ok(r) = measure(&profiles, &hz) {
+                prop_assert!(r.row_time_us.is_finite() && r.row_time_us > 0.0, "{:?}", r);
+                prop_assert!(r.standard_error_us.is_finite(), "{:?}", r);
+                prop_assert!(r.band_depth.is_finite(), "{:?}", r);
+                prop_assert!(
+                    r.row_time_us * (height - 1) as f64 <= r.frame_interval_us as f64 + 1.0,
+                    "{:?}",
+                    r
+                );
+            }
+        }
+    }
+}
