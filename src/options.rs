@@ -116,7 +116,7 @@ pub fn parse_fps(s: &str) -> Result<f64, String> {
 /// Longest row time taken, µs: 480 such rows take half a second to read.
 const MAX_ROW_TIME_US: f32 = 1000.0;
 
-/// Parses `--row-time-us`: above 0, up to [`MAX_ROW_TIME_US`].
+/// Parses `--row-time-us`: above 0, up to 1000 µs.
 pub fn parse_row_time_us(s: &str) -> Result<f32, String> {
     match s.parse::<f32>() {
         Ok(v) if v.is_finite() && v > 0.0 && v <= MAX_ROW_TIME_US => Ok(v),

@@ -110,6 +110,19 @@ fn row_time(dump: &Path, size: &str, fps: Option<f64>, extra: &[&str]) -> Result
     Ok(value.unwrap_or_else(|| panic!("no row time in {stdout}")))
 }
 
+/// The first scene of the 120 Hz set at 25 fps, on its own.
+fn one_120_hz_scene() -> Set {
+    Set {
+        seed: 23,
+        count: 1,
+        row_time_us: 40.0,
+        flicker: 0.5,
+        flicker_hz: 120.0,
+        fps: 25.0,
+        size: "640x480",
+    }
+}
+
 fn dump(dir: &Path, scene: &Value) -> std::path::PathBuf {
     dir.join(format!("scene_{}.grey", scene["scene"]))
 }
@@ -243,15 +256,7 @@ fn nothing_is_measured_where_nothing_says_the_row_time() {
 
 #[test]
 fn a_picture_read_bottom_up_or_at_the_wrong_frame_rate_gives_no_row_time() {
-    let set = Set {
-        seed: 23,
-        count: 1,
-        row_time_us: 40.0,
-        flicker: 0.5,
-        flicker_hz: 120.0,
-        fps: 25.0,
-        size: "640x480",
-    };
+    let set = one_120_hz_scene();
     let dir = tempfile::tempdir().unwrap();
     let scene = &set.render(dir.path())[0];
     let path = dump(dir.path(), scene);
@@ -288,21 +293,13 @@ fn a_picture_read_bottom_up_or_at_the_wrong_frame_rate_gives_no_row_time() {
 /// interval, measured over the run, keeps the clock.
 #[test]
 fn stamps_that_jitter_and_a_dropped_frame_keep_the_light_s_clock() {
-    let set = Set {
-        seed: 23,
-        count: 1,
-        row_time_us: 40.0,
-        flicker: 0.5,
-        flicker_hz: 120.0,
-        fps: 25.0,
-        size: "640x480",
-    };
+    let set = one_120_hz_scene();
     let dir = tempfile::tempdir().unwrap();
     let scene = &set.render(dir.path())[0];
     let (width, height) = (640usize, 480usize);
     let bytes = std::fs::read(dump(dir.path(), scene)).unwrap();
     let (mut kept, mut frames) = (Vec::new(), Vec::new());
-    // A fixed pseudo-random jitter in [-2500, 2500] µs.
+    // A fixed pseudo-random delay of 0 to 5 ms: 2.5 ms late, give or take 2.5 ms.
     let mut state = 0x2545_f491_u64;
     for (n, frame) in bytes.chunks_exact(width * height).enumerate() {
         if n == 10 {

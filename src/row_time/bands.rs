@@ -89,8 +89,8 @@ impl PairFit {
 }
 
 /// Fits the difference `next − previous` of two row profiles over the rows whose `weight` is
-/// above 0 (a NaN row in either profile is left out); `None` with fewer than [`MIN_ROWS`]
-/// rows or regressors that do not span four directions over them.
+/// above 0 (a NaN row in either profile is left out); `None` with fewer than eight rows
+/// (`MIN_ROWS`) or regressors that do not span four directions over them.
 pub fn fit_pair(previous: &[f32], next: &[f32], weight: &[f32], basis: &Basis) -> Option<PairFit> {
     let mut normal = Matrix4::<f64>::zeros();
     let mut rhs = Vector4::<f64>::zeros();
