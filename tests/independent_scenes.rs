@@ -27,9 +27,8 @@
 mod common;
 
 use std::path::Path;
-use std::process::Command;
 
-use common::peers::python;
+use common::peers::render_independent;
 use common::{glint, parse_jsonl, quantile, shutter_skew, slope_and_mean};
 use glint_tools::scene::{read_truth_csv, Truth, Visibility};
 use serde_json::Value;
@@ -145,22 +144,10 @@ fn score(reports: &[Value], truths: &[Truth], settled_frame: usize, exposure_s: 
 /// Renders the scenes into `dir` (with the renderer's `extra` arguments) and returns their
 /// parameters.
 fn render(dir: &Path, seed: u64, count: usize, extra: &[&str]) -> Vec<Value> {
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/independent/render_streaks.py");
-    let out = Command::new(python())
-        .arg(script)
-        .args(["--seed", &seed.to_string(), "--count", &count.to_string()])
-        .args(extra)
-        .arg("--out")
-        .arg(dir)
-        .output()
-        .expect("run the renderer");
-    assert!(
-        out.status.success(),
-        "renderer failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let scenes = std::fs::read(dir.join("scenes.json")).expect("scenes.json");
-    serde_json::from_slice::<Vec<Value>>(&scenes).expect("scenes.json parses")
+    let (seed, count) = (seed.to_string(), count.to_string());
+    let mut args = vec!["--seed", &seed, "--count", &count];
+    args.extend_from_slice(extra);
+    render_independent(dir, &args)
 }
 
 fn quantiles(v: &[f64]) -> (f64, f64) {

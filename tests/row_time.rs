@@ -15,10 +15,9 @@
 mod common;
 
 use std::path::Path;
-use std::process::Command;
 
 use common::glint;
-use common::peers::python;
+use common::peers::render_independent;
 use glint::frame::{FrameSize, PixelFormat};
 use glint::source::sidecar::{FrameTiming, Sidecar, SIDECAR_VERSION};
 use serde_json::Value;
@@ -46,29 +45,22 @@ struct Set {
 
 impl Set {
     fn render(&self, dir: &Path) -> Vec<Value> {
-        let script =
-            Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/independent/render_streaks.py");
-        let out = Command::new(python())
-            .arg(script)
-            .args(["--seed", &self.seed.to_string()])
-            .args(["--count", &self.count.to_string()])
-            .args(["--row-time-us", &self.row_time_us.to_string()])
-            .args(["--flicker", &self.flicker.to_string()])
-            .args(["--flicker-hz", &self.flicker_hz.to_string()])
-            .args(["--fps", &self.fps.to_string()])
-            .args(["--size", self.size])
-            .args(["--motion", "arc", "--frames", FRAMES])
-            .arg("--out")
-            .arg(dir)
-            .output()
-            .expect("run the renderer");
-        assert!(
-            out.status.success(),
-            "renderer failed: {}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        let scenes = std::fs::read(dir.join("scenes.json")).expect("scenes.json");
-        serde_json::from_slice(&scenes).expect("scenes.json parses")
+        let args = [
+            ("--seed", self.seed.to_string()),
+            ("--count", self.count.to_string()),
+            ("--row-time-us", self.row_time_us.to_string()),
+            ("--flicker", self.flicker.to_string()),
+            ("--flicker-hz", self.flicker_hz.to_string()),
+            ("--fps", self.fps.to_string()),
+            ("--size", self.size.to_string()),
+            ("--motion", "arc".to_string()),
+            ("--frames", FRAMES.to_string()),
+        ];
+        let args: Vec<String> = args
+            .into_iter()
+            .flat_map(|(name, value)| [name.to_string(), value])
+            .collect();
+        render_independent(dir, &args)
     }
 
     /// The depth of the bands in `scene`: the flicker averaged over a row's exposure,

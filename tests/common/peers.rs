@@ -32,6 +32,26 @@ pub fn python() -> PathBuf {
     python
 }
 
+/// Renders scenes into `dir` with the independent renderer (`tests/independent/
+/// render_streaks.py`, its `args`) and returns their parameters (its `scenes.json`).
+pub fn render_independent<S: AsRef<std::ffi::OsStr>>(dir: &Path, args: &[S]) -> Vec<Value> {
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/independent/render_streaks.py");
+    let out = Command::new(python())
+        .arg(script)
+        .args(args)
+        .arg("--out")
+        .arg(dir)
+        .output()
+        .expect("run the renderer");
+    assert!(
+        out.status.success(),
+        "renderer failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let scenes = std::fs::read(dir.join("scenes.json")).expect("scenes.json");
+    serde_json::from_slice::<Vec<Value>>(&scenes).expect("scenes.json parses")
+}
+
 /// Decodes MAVLink `bytes` with pymavlink (tests/mavlink/decode.py): the messages, then the
 /// summary.
 pub fn decode_mavlink(bytes: &[u8]) -> (Vec<Value>, Value) {
