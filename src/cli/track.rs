@@ -63,10 +63,10 @@ pub struct TrackSettings {
     fps: Option<f64>,
 
     /// The camera's rolling shutter: the time from one row's exposure to the next, µs (the
-    /// sensor's line time, or its frame readout time over its rows; `glint row-time` measures
-    /// it from a flickering lamp's bands), up to 1000. Velocities are then read as the LED's,
-    /// not as the skewed rows show them (6.7 % fast for an LED moving down at 1000 px/s with
-    /// 62.5 µs rows). Without it, a global shutter.
+    /// sensor's line time, or its frame readout time over its rows), up to 1000; `glint
+    /// row-time` measures it from a flickering lamp's bands. Velocities are then read as the
+    /// LED's, not as the skewed rows show them (6.7 % fast for an LED moving down at 1000 px/s
+    /// with 62.5 µs rows). Without it, a global shutter.
     #[arg(long, value_name = "MICROSECONDS", value_parser = parse_row_time_us,
           allow_negative_numbers = true)]
     row_time_us: Option<f32>,
