@@ -10,7 +10,8 @@
 //! is within [`MAX_ERROR`] of the truth, and every scene whose bands the physics says are at
 //! least [`MEASURABLE_DEPTH`] deep is measured. Where nothing says the row time (a steady
 //! light, a global shutter, bands that stand still from frame to frame, a picture read from
-//! the bottom up, frame times that do not match the light's clock) no number is given.
+//! the bottom up, frame times that do not match the light's clock) no number is given. A dump
+//! cut inside a frame is measured on its whole frames, and the cut reported.
 
 mod common;
 
@@ -95,11 +96,15 @@ fn row_time(dump: &Path, size: &str, fps: Option<f64>, extra: &[&str]) -> Result
         );
         return Err(stderr);
     }
-    let value = stdout
+    Ok(given(&stdout).unwrap_or_else(|| panic!("no row time in {stdout}")))
+}
+
+/// The row time `glint row-time` printed (its first line, `row time N µs ...`).
+fn given(stdout: &str) -> Option<f64> {
+    stdout
         .strip_prefix("row time ")
         .and_then(|rest| rest.split_whitespace().next())
-        .and_then(|v| v.parse().ok());
-    Ok(value.unwrap_or_else(|| panic!("no row time in {stdout}")))
+        .and_then(|v| v.parse().ok())
 }
 
 /// The first scene of the 120 Hz set at 25 fps, on its own.
@@ -247,7 +252,8 @@ fn nothing_is_measured_where_nothing_says_the_row_time() {
 }
 
 #[test]
-fn a_picture_read_bottom_up_or_at_the_wrong_frame_rate_gives_no_row_time() {
+fn a_picture_read_bottom_up_or_at_the_wrong_frame_rate_gives_no_row_time_and_a_cut_one_its_frames()
+{
     let set = one_120_hz_scene();
     let dir = tempfile::tempdir().unwrap();
     let scene = &set.render(dir.path())[0];
@@ -261,9 +267,34 @@ fn a_picture_read_bottom_up_or_at_the_wrong_frame_rate_gives_no_row_time() {
     // A 100 Hz light would keep its bands still at 25 fps.
     let wrong_light = row_time(&path, set.size, Some(set.fps), &["--flicker-hz", "100"]);
     assert!(wrong_light.is_err(), "as 100 Hz: {wrong_light:?}");
-    // Upside down: the rows are read from the bottom up.
     let (width, height) = (640, 480);
     let bytes = std::fs::read(&path).unwrap();
+    // Cut inside its last frame: the whole frames before the cut are measured, and the cut is
+    // said after, with exit status 1.
+    let cut_path = dir.path().join("cut.grey");
+    std::fs::write(&cut_path, &bytes[..bytes.len() - width * height / 2]).unwrap();
+    let cut = glint()
+        .arg("row-time")
+        .arg("--input")
+        .arg(&cut_path)
+        .args(["--size", set.size, "--format-in", "grey", "--fps", "25"])
+        .output()
+        .unwrap();
+    let (stdout, stderr) = (
+        String::from_utf8_lossy(&cut.stdout),
+        String::from_utf8_lossy(&cut.stderr),
+    );
+    assert_eq!(cut.status.code(), Some(1), "{stderr}");
+    let frames = bytes.len() / (width * height) - 1;
+    assert!(
+        stderr.contains(&format!(
+            "after {frames} whole frames: input ends inside frame {frames}"
+        )),
+        "{stderr}"
+    );
+    let cut_measured = given(&stdout).unwrap_or_else(|| panic!("no row time in {stdout}"));
+    assert!((cut_measured / set.row_time_us - 1.0).abs() <= MAX_ERROR);
+    // Upside down: the rows are read from the bottom up.
     let flipped: Vec<u8> = bytes
         .chunks_exact(width * height)
         .flat_map(|frame| frame.chunks_exact(width).rev().flatten().copied())

@@ -62,24 +62,40 @@ pub fn run(args: RowTimeArgs) -> Result<ExitCode> {
     signals::stop_on_signals(&stop)?;
     let input::Input { mut source, .. } = input::open(&args.input, args.size, args.fps, &stop)?;
     let mut profiles = RowProfiles::new(args.size.height(), args.frames as usize);
+    // A damaged input (a dump cut inside a frame, a camera gone) keeps the whole frames read
+    // before it: they are measured, and the damage is reported after, as `glint track` does.
+    let mut damage = None;
     while !profiles.is_full() {
-        let Some((frame, meta)) = source.next_frame().context("reading frames")? else {
-            break;
-        };
-        profiles.push(&frame, meta.timestamp_us);
+        match source.next_frame() {
+            Ok(Some((frame, meta))) => {
+                profiles.push(&frame, meta.timestamp_us);
+            }
+            Ok(None) => break,
+            Err(e) => {
+                damage = Some(e);
+                break;
+            }
+        }
     }
     let tried: Vec<f64> = match args.flicker_hz {
         Some(hz) => vec![hz],
         None => MAINS_FLICKER_HZ.to_vec(),
     };
-    let row_time = match measure(&profiles, &tried) {
-        Ok(row_time) => row_time,
-        Err(e) => bail!("no row time from {} frames: {e}", profiles.frames()),
-    };
-    let mut stdout = io::stdout().lock();
-    write!(stdout, "{}", summary(&row_time, args.size))
-        .context("writing the row time to standard output")?;
-    Ok(ExitCode::SUCCESS)
+    let frames = profiles.frames();
+    let measured = measure(&profiles, &tried);
+    if let Ok(row_time) = &measured {
+        let mut stdout = io::stdout().lock();
+        write!(stdout, "{}", summary(row_time, args.size))
+            .context("writing the row time to standard output")?;
+    }
+    match (measured, damage) {
+        (Ok(_), None) => Ok(ExitCode::SUCCESS),
+        (Ok(_), Some(e)) => bail!("after {frames} whole frames: {e}"),
+        (Err(no), Some(e)) => {
+            bail!("after {frames} whole frames: {e}; no row time from them: {no}")
+        }
+        (Err(no), None) => bail!("no row time from {frames} frames: {no}"),
+    }
 }
 
 /// The lines printed for a person.
