@@ -296,25 +296,34 @@ fn refine(
     0.5 * (lo + hi)
 }
 
-/// The best frequency on the grid from `lo` by `step` up to `hi`, refined, and whether the
-/// grid's best is at either end of it (then the bands' spacing, if any, lies outside the
-/// range searched, and it is not refined).
-fn search(pairs: &Pairs<'_>, basis: &mut Basis, lo: f64, hi: f64, step: f64) -> (f64, bool) {
+/// The best spatial frequency (rad a row) on the grid from `lo_rad` by `step_rad` up to
+/// `hi_rad`, refined, and whether the grid's best is at either end of it (then the bands'
+/// spacing, if any, lies outside the range searched, and it is not refined).
+fn search(
+    pairs: &Pairs<'_>,
+    basis: &mut Basis,
+    lo_rad: f64,
+    hi_rad: f64,
+    step_rad: f64,
+) -> (f64, bool) {
     let all = 0..pairs.later.len();
-    let count = ((hi - lo) / step).floor() as usize + 1;
+    let count = ((hi_rad - lo_rad) / step_rad).floor() as usize + 1;
     let (mut best, mut best_score) = (0, f64::NEG_INFINITY);
     for j in 0..count {
-        basis.set(lo + j as f64 * step);
+        basis.set(lo_rad + j as f64 * step_rad);
         let (explained, _, _) = pairs.score(all.clone(), basis);
         if explained > best_score {
             (best, best_score) = (j, explained);
         }
     }
-    let k = lo + best as f64 * step;
+    let k_rad = lo_rad + best as f64 * step_rad;
     if best == 0 || best + 1 >= count {
-        return (k, true);
+        return (k_rad, true);
     }
-    (refine(pairs, all, basis, (k - step, k + step)), false)
+    (
+        refine(pairs, all, basis, (k_rad - step_rad, k_rad + step_rad)),
+        false,
+    )
 }
 
 /// How the bands' ratios from pair to pair keep the clock of a light flickering at
@@ -399,18 +408,18 @@ pub fn measure(profiles: &RowProfiles, flicker_hz: &[f64]) -> Result<RowTime, No
     // From bands wider than twice the picture to a readout of the whole frame interval at the
     // highest frequency tried.
     let highest_hz = flicker_hz.iter().copied().fold(0.0, f64::max);
-    let per_cycle = TAU / height as f64;
-    let (lo, hi) = (
-        MIN_CYCLES * per_cycle,
-        highest_hz * frame_interval_us * 1e-6 * per_cycle,
+    let rad_per_cycle = TAU / height as f64;
+    let (lo_rad, hi_rad) = (
+        MIN_CYCLES * rad_per_cycle,
+        highest_hz * frame_interval_us * 1e-6 * rad_per_cycle,
     );
-    let step = GRID_CYCLES * per_cycle;
-    let mut basis = Basis::new(height, lo);
-    let (first, _) = search(&pairs, &mut basis, lo, hi, step);
-    basis.set(first);
+    let step_rad = GRID_CYCLES * rad_per_cycle;
+    let mut basis = Basis::new(height, lo_rad);
+    let (first_rad, _) = search(&pairs, &mut basis, lo_rad, hi_rad, step_rad);
+    basis.set(first_rad);
     pairs.drop_outliers(&basis);
-    let (k, at_edge) = search(&pairs, &mut basis, lo, hi, step);
-    basis.set(k);
+    let (k_rad, at_edge) = search(&pairs, &mut basis, lo_rad, hi_rad, step_rad);
+    basis.set(k_rad);
     let all = 0..pairs.later.len();
     let (explained, residual, dof) = pairs.score(all.clone(), &basis);
     let fitted = all
@@ -444,7 +453,7 @@ pub fn measure(profiles: &RowProfiles, flicker_hz: &[f64]) -> Result<RowTime, No
             }
         }
     }
-    let row_time_us = |hz: f64| k / (TAU * hz) * 1e6;
+    let row_time_us = |hz: f64| k_rad / (TAU * hz) * 1e6;
     let (hz, upward) = match kept.as_slice() {
         [] => {
             return Err(NoRowTime::NotAFlicker {
@@ -477,7 +486,12 @@ pub fn measure(profiles: &RowProfiles, flicker_hz: &[f64]) -> Result<RowTime, No
     let parts: Vec<f64> = (0..PARTS)
         .map(|i| {
             let range = i * count / PARTS..(i + 1) * count / PARTS;
-            refine(&pairs, range, &mut basis, (k - step, k + step))
+            refine(
+                &pairs,
+                range,
+                &mut basis,
+                (k_rad - step_rad, k_rad + step_rad),
+            )
         })
         .collect();
     let mean = parts.iter().sum::<f64>() / PARTS as f64;
@@ -488,8 +502,8 @@ pub fn measure(profiles: &RowProfiles, flicker_hz: &[f64]) -> Result<RowTime, No
         .iter()
         .zip(&bands)
         .filter_map(|(&dt_s, band)| {
-            let step = size(unit(TAU * hz * dt_s) - 1.0);
-            (step >= MIN_PHASE_STEP_RAD).then(|| band.map(|b| size(b) / step))?
+            let chord = size(unit(TAU * hz * dt_s) - 1.0);
+            (chord >= MIN_PHASE_STEP_RAD).then(|| band.map(|b| size(b) / chord))?
         })
         .collect();
     Ok(RowTime {
