@@ -95,12 +95,12 @@ impl RowProfiles {
         self.height_px
     }
 
-    /// Frame `n`'s profile (NaN where a row is left out).
+    /// Frame `n`'s profile (NaN where a row is left out), for `n` below [`RowProfiles::frames`].
     pub fn profile(&self, n: usize) -> &[f32] {
         &self.ln_means[n * self.height_px..(n + 1) * self.height_px]
     }
 
-    /// Frame `n`'s time, µs.
+    /// Frame `n`'s time, µs, for `n` below [`RowProfiles::frames`].
     pub fn time_us(&self, n: usize) -> u64 {
         self.times_us[n]
     }
