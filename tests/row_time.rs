@@ -362,3 +362,47 @@ fn stamps_that_jitter_and_a_dropped_frame_keep_the_light_s_clock() {
         "{measured} µs"
     );
 }
+
+/// Hostile inputs get one line on standard error and exit status 1: nothing on standard
+/// output, no panic.
+#[test]
+fn hostile_inputs_get_one_line_and_no_row_time() {
+    let dir = tempfile::tempdir().unwrap();
+    let empty = dir.path().join("empty.grey");
+    std::fs::write(&empty, b"").unwrap();
+    // Noise, cut inside its tenth frame.
+    let mut state = 0x1234_5678_9abc_def1_u64;
+    let noise: Vec<u8> = (0..9 * 640 * 480 + 1000)
+        .map(|_| {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 56) as u8
+        })
+        .collect();
+    let noisy = dir.path().join("noise.grey");
+    std::fs::write(&noisy, noise).unwrap();
+    let missing = dir.path().join("missing.grey");
+    for (input, says) in [
+        (empty.as_path(), "no frames: the input is empty"),
+        (
+            noisy.as_path(),
+            "after 9 whole frames: input ends inside frame 9",
+        ),
+        (missing.as_path(), "cannot open"),
+        (dir.path(), "is a directory"),
+    ] {
+        let out = glint()
+            .arg("row-time")
+            .arg("--input")
+            .arg(input)
+            .args(["--size", "640x480", "--format-in", "grey"])
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{}: {stderr}", input.display());
+        assert!(out.stdout.is_empty(), "{}", input.display());
+        assert_eq!(stderr.lines().count(), 1, "{stderr}");
+        assert!(stderr.contains(says), "{}: {stderr}", input.display());
+    }
+}
