@@ -216,15 +216,12 @@ impl Pairs<'_> {
         )
     }
 
-    /// What the sinusoid explains over `pairs`, and the residual with its degrees of freedom.
-    fn score(&self, pairs: core::ops::Range<usize>, basis: &Basis) -> (f64, f64, f64) {
-        let (mut explained, mut residual, mut dof) = (0.0, 0.0, 0.0);
-        for fit in pairs.filter_map(|p| self.fit(p, basis)) {
-            explained += fit.explained;
-            residual += fit.residual;
-            dof += fit.rows as f64 - 4.0;
-        }
-        (explained, residual, dof)
+    /// What the sinusoid explains over `pairs`.
+    fn score(&self, pairs: core::ops::Range<usize>, basis: &Basis) -> f64 {
+        pairs
+            .filter_map(|p| self.fit(p, basis))
+            .map(|fit| fit.explained)
+            .sum()
     }
 
     /// Leaves out each pair's rows whose residual at `basis` is an outlier.
@@ -276,7 +273,7 @@ fn refine(
     const INV_PHI: f64 = 0.618_033_988_749_895;
     let mut score = |k: f64| {
         basis.set(k);
-        pairs.score(range.clone(), basis).0
+        pairs.score(range.clone(), basis)
     };
     let (mut x1, mut x2) = (hi - INV_PHI * (hi - lo), lo + INV_PHI * (hi - lo));
     let (mut f1, mut f2) = (score(x1), score(x2));
@@ -311,7 +308,7 @@ fn search(
     let (mut best, mut best_score) = (0, f64::NEG_INFINITY);
     for j in 0..count {
         basis.set(lo_rad + j as f64 * step_rad);
-        let (explained, _, _) = pairs.score(all.clone(), basis);
+        let explained = pairs.score(all.clone(), basis);
         if explained > best_score {
             (best, best_score) = (j, explained);
         }
@@ -371,19 +368,18 @@ fn clock_miss(
     (count >= MIN_RATIOS && weight > 0.0).then(|| (size(sum) / weight, phase(sum)))
 }
 
-/// Each pair's time step on the camera's own clock (s): the frames it spans (its step over
-/// the median step, rounded: a dropped frame spans two) times the mean frame interval over the
-/// whole run. A camera's frames follow its crystal, while the stamps a host gives them
-/// jitter by up to a millisecond (USB), which at 100 Hz turns the light's phase by up to 0.6
-/// rad a stamp; the run's mean interval carries that jitter divided by the run's length.
-fn camera_steps_s(profiles: &RowProfiles, later: &[usize], median_us: f64) -> Vec<f64> {
-    let step_us = |n: usize| (profiles.time_us(n) - profiles.time_us(n - 1)) as f64;
-    let frames = |n: usize| (step_us(n) / median_us).round().max(1.0);
-    let (elapsed_us, spanned) = later
-        .iter()
-        .fold((0.0, 0.0), |(t, k), &n| (t + step_us(n), k + frames(n)));
+/// Each pair's time step on the camera's own clock (s), from the stamps' steps `stamped_us`
+/// and their median: the frames it spans (its step over the median step, rounded: a dropped
+/// frame spans two) times the mean frame interval over the whole run. A camera's frames follow
+/// its crystal, while the stamps a host gives them jitter by a millisecond or more (USB),
+/// which at 100 Hz turns the light's phase by 0.6 rad a millisecond; the run's mean interval
+/// carries that jitter divided by the run's length.
+fn camera_steps_s(stamped_us: &[f64], median_us: f64) -> Vec<f64> {
+    let frames = |step_us: f64| (step_us / median_us).round().max(1.0);
+    let elapsed_us: f64 = stamped_us.iter().sum();
+    let spanned: f64 = stamped_us.iter().map(|&s| frames(s)).sum();
     let interval_s = elapsed_us / spanned * 1e-6;
-    later.iter().map(|&n| frames(n) * interval_s).collect()
+    stamped_us.iter().map(|&s| frames(s) * interval_s).collect()
 }
 
 /// Measures the row time from `profiles`, trying the flicker frequencies `flicker_hz`.
@@ -395,11 +391,11 @@ pub fn measure(profiles: &RowProfiles, flicker_hz: &[f64]) -> Result<RowTime, No
     if profiles.frames() < MIN_FRAMES || later.len() < MIN_FRAMES - 1 || height < 2 {
         return Err(NoRowTime::TooFewFrames { pairs: later.len() });
     }
-    let mut intervals: Vec<f64> = later
+    let stamped_us: Vec<f64> = later
         .iter()
         .map(|&n| (profiles.time_us(n) - profiles.time_us(n - 1)) as f64)
         .collect();
-    let frame_interval_us = median(&mut intervals).unwrap_or(0.0);
+    let frame_interval_us = median(&mut stamped_us.clone()).unwrap_or(0.0);
     let mut pairs = Pairs {
         profiles,
         weights: vec![1.0; later.len() * height],
@@ -420,12 +416,17 @@ pub fn measure(profiles: &RowProfiles, flicker_hz: &[f64]) -> Result<RowTime, No
     pairs.drop_outliers(&basis);
     let (k_rad, at_edge) = search(&pairs, &mut basis, lo_rad, hi_rad, step_rad);
     basis.set(k_rad);
-    let all = 0..pairs.later.len();
-    let (explained, residual, dof) = pairs.score(all.clone(), &basis);
-    let fitted = all
-        .clone()
-        .filter(|&p| pairs.fit(p, &basis).is_some())
-        .count();
+    // Each pair's fit at the bands' frequency: the evidence, and each pair's band.
+    let fits: Vec<Option<PairFit>> = (0..pairs.later.len())
+        .map(|p| pairs.fit(p, &basis))
+        .collect();
+    let (mut explained, mut residual, mut dof, mut fitted) = (0.0, 0.0, 0.0, 0usize);
+    for fit in fits.iter().flatten() {
+        explained += fit.explained;
+        residual += fit.residual;
+        dof += fit.rows as f64 - 4.0;
+        fitted += 1;
+    }
     let f_ratio = if residual > 0.0 && dof > 0.0 && fitted > 0 {
         (explained / (2.0 * fitted as f64)) / (residual / dof)
     } else {
@@ -434,12 +435,9 @@ pub fn measure(profiles: &RowProfiles, flicker_hz: &[f64]) -> Result<RowTime, No
     if at_edge || f_ratio < MIN_F_RATIO {
         return Err(NoRowTime::NoBands { f_ratio });
     }
-    let bands: Vec<Option<Complex<f64>>> = all
-        .clone()
-        .map(|p| pairs.fit(p, &basis).map(|f| f.band()))
-        .collect();
+    let bands: Vec<Option<Complex<f64>>> = fits.iter().map(|f| f.map(|f| f.band())).collect();
     // Which light, read which way, moves the bands as they moved.
-    let steps_s = camera_steps_s(profiles, &pairs.later, frame_interval_us);
+    let steps_s = camera_steps_s(&stamped_us, frame_interval_us);
     let mut kept = Vec::new();
     for &hz in flicker_hz {
         for upward in [false, true] {
