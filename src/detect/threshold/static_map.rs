@@ -22,13 +22,16 @@
 //! the LED of a robot parked before it was ever seen moving would be erased, and a robot that
 //! waits a few seconds between moves must not be. The tracked LED itself is never learned
 //! (the area around it is kept out of every period), so a tracked robot may park for as long
-//! as it likes. Faster would erase a parked robot's LED; slower leaves a window to the
+//! as it likes. A pixel kept out for a whole period keeps its count, neither up nor down: the
+//! period says nothing about it. Faster would erase a parked robot's LED; slower leaves a window to the
 //! tracker's own rules (it stands still since it appeared, so it is never reported) for longer.
 //!
-//! Memory: five bit planes of the frame (four counter bits and the period's OR), plus the static
-//! flag: 6 bits a pixel, 225 KiB at 640×480, allocated once.
+//! Memory: six bit planes of the frame (four counter bits, the period's OR and what the period
+//! saw outside the kept-out areas), plus the static flag: 7 bits a pixel, 263 KiB at 640×480,
+//! allocated once.
 
 use crate::detect::bitimage::{BitImage, Window};
+use crate::detect::morph::{self, Kernel};
 
 /// Bits of each pixel's counter.
 pub const COUNTER_BITS: usize = 4;
@@ -39,6 +42,14 @@ pub const UPDATE_PERIOD_US: u64 = 8 * 33_333;
 /// A counter at or above this marks its pixel static (binary 11xx: bits 3 and 2 set).
 pub const LEARN_AT_COUNT: u8 = 12;
 
+/// A counter at or above this (binary 1xxx: bit 3 set) marks its pixel static when it touches
+/// a static pixel (see [`StaticMap::join_learned`]).
+pub const JOIN_AT_COUNT: u8 = 8;
+
+/// How far, in pixels, the learned pixels reach into their neighbours at one step at most:
+/// a window's rim a robot kept out is a few tens of pixels wide.
+const MAX_JOIN_STEPS: usize = 64;
+
 /// A counter at or below this releases its pixel (binary 00xx: bits 3 and 2 clear).
 pub const FORGET_AT_COUNT: u8 = 3;
 
@@ -47,6 +58,9 @@ pub struct StaticMap {
     counter: [BitImage; COUNTER_BITS],
     /// The pixels bright in any frame of the current period (outside the kept-out areas).
     period: BitImage,
+    /// The pixels outside the kept-out areas in any frame of the current period: what the
+    /// period says anything about.
+    seen: BitImage,
     /// Pixels learned as static.
     flag: BitImage,
     /// The time the current period started at; `None` before the first frame.
@@ -60,6 +74,7 @@ impl StaticMap {
         StaticMap {
             counter: [plane(), plane(), plane(), plane()],
             period: plane(),
+            seen: plane(),
             flag: plane(),
             period_start_us: None,
         }
@@ -82,30 +97,36 @@ impl StaticMap {
             Some(start) if start <= t_us => start,
             _ => {
                 self.period.clear_all();
+                self.seen.clear_all();
                 self.period_start_us = Some(t_us);
                 t_us
             }
         };
         for y in 0..bright.height() {
             let src = bright.row(y);
-            for (k, (dst, &word)) in self.period.row_mut(y).iter_mut().zip(src).enumerate() {
+            let rows = self.period.row_mut(y).iter_mut().zip(self.seen.row_mut(y));
+            for (k, ((dst, seen), &word)) in rows.zip(src).enumerate() {
                 let kept = keep_out
                     .iter()
                     .any(|w| (w.y0..w.y1).contains(&y) && (w.k0..w.k1).contains(&k));
                 if !kept {
                     *dst |= word;
+                    *seen = !0;
                 }
             }
         }
         if t_us - start_us >= UPDATE_PERIOD_US {
             self.step();
             self.period.clear_all();
+            self.seen.clear_all();
             self.period_start_us = Some(t_us);
         }
     }
 
-    /// One step of every counter: up where the period was bright, down where it was not
-    /// (saturating at 0 and 15), then the flag's hysteresis.
+    /// One step of every counter: up where the period was bright, down where it was seen and
+    /// not bright (saturating at 0 and 15), then the flag's hysteresis. A pixel kept out for
+    /// the whole period keeps its count: a window's rim beside a robot that passes it again
+    /// and again is learned, only later, with the rest of the window.
     fn step(&mut self) {
         let [c0, c1, c2, c3] = &mut self.counter;
         let last = self.period.last_word_mask();
@@ -117,17 +138,19 @@ impl StaticMap {
                 c2.row_mut(y),
                 c3.row_mut(y),
                 self.period.row(y),
+                self.seen.row(y),
                 self.flag.row_mut(y),
             );
-            let (r0, r1, r2, r3, bright, flag) = rows;
+            let (r0, r1, r2, r3, bright, seen, flag) = rows;
             for k in 0..wpr {
                 let valid = if k + 1 == wpr { last } else { !0 };
-                let (Some(b0), Some(b1), Some(b2), Some(b3), Some(&on), Some(f)) = (
+                let (Some(b0), Some(b1), Some(b2), Some(b3), Some(&on), Some(&seen), Some(f)) = (
                     r0.get_mut(k),
                     r1.get_mut(k),
                     r2.get_mut(k),
                     r3.get_mut(k),
                     bright.get(k),
+                    seen.get(k),
                     flag.get_mut(k),
                 ) else {
                     continue;
@@ -135,7 +158,7 @@ impl StaticMap {
                 let full = *b0 & *b1 & *b2 & *b3;
                 let empty = !(*b0 | *b1 | *b2 | *b3);
                 let up = on & !full & valid;
-                let down = !on & !empty & valid;
+                let down = !on & seen & !empty & valid;
                 // Ripple-carry increment by `up`, ripple-borrow decrement by `down`, one bit
                 // plane at a time (the two masks never share a pixel).
                 let (mut carry, mut borrow) = (up, down);
@@ -148,6 +171,32 @@ impl StaticMap {
                 let high = *b3 & *b2;
                 let low = !(*b3 | *b2);
                 *f = (*f | high) & !low & valid;
+            }
+        }
+        self.join_learned();
+    }
+
+    /// Learns the pixels close to being learned (a count of [`JOIN_AT_COUNT`] or more) that
+    /// touch learned ones, as far as they reach ([`MAX_JOIN_STEPS`] pixels at most a step):
+    /// a window is learned whole. Its rim beside a robot's path, kept out while the robot
+    /// passes, lags a few counts behind the rest; left alone for those periods it stood as a
+    /// smaller static blob, and the robot passing it merged with it into a blob that was read
+    /// as a streak 40 px off. Uses the period's `seen` plane as scratch (it is cleared after).
+    fn join_learned(&mut self) {
+        let window = self.flag.full_window();
+        for _ in 0..MAX_JOIN_STEPS {
+            morph::dilate(&self.flag, &mut self.seen, Kernel::Square, window);
+            let mut grew = false;
+            for y in 0..self.flag.height() {
+                let rows = self.flag.row_mut(y).iter_mut().zip(self.seen.row(y));
+                for ((f, &near), &count_high) in rows.zip(self.counter[3].row(y)) {
+                    let join = near & count_high & !*f;
+                    grew |= join != 0;
+                    *f |= join;
+                }
+            }
+            if !grew {
+                break;
             }
         }
     }
@@ -173,6 +222,7 @@ impl StaticMap {
             plane.clear_all();
         }
         self.period.clear_all();
+        self.seen.clear_all();
         self.flag.clear_all();
         self.period_start_us = None;
     }
