@@ -14,6 +14,7 @@ use glint::detect::blobs::Labeler;
 use glint::detect::streak::StreakModel;
 use glint::detect::threshold;
 use glint::detect::threshold::static_map::StaticMap;
+use glint::detect::threshold::steady::SteadyPixels;
 use glint::detect::{Detector, DetectorConfig};
 use glint::frame::{Frame, FrameSize, PixelFormat};
 use glint::pipeline::{Pipeline, PipelineConfig};
@@ -61,6 +62,15 @@ fn stages(c: &mut Criterion) {
                 statics.observe(black_box(&mask), &[], t_us);
                 cut.copy_window_from(&mask, whole);
                 statics.clear_static(&mut cut)
+            })
+        });
+
+        // The steady pixels' share of every frame: the counters' step (30 fps frame times).
+        let mut steady = SteadyPixels::new(size.width(), size.height());
+        group.bench_function("steady", |b| {
+            b.iter(|| {
+                t_us += 33_333;
+                steady.observe(black_box(&mask), t_us)
             })
         });
 

@@ -26,9 +26,10 @@ pub const DEFAULT_MAX_MEMORY_MB: u64 = 256;
 pub const FIXED_BYTES: u64 = 4 * BYTES_PER_MB;
 
 /// Bit images the LED detector keeps at the frame's size: the mask and the erosion scratch,
-/// the streak stage's blob, halo, skeleton and visited images, three skeleton scratches, and
-/// the static map's six planes (a 4-bit counter, the period's OR and the static flag).
-const LED_BIT_IMAGES: u64 = 15;
+/// the streak stage's blob, halo, skeleton and visited images, three skeleton scratches, the
+/// static map's seven planes (a 4-bit counter, the period's OR and what it saw, and the static
+/// flag), and the steady pixels' five (a 4-bit counter and the fresh pixels).
+const LED_BIT_IMAGES: u64 = 21;
 /// The LED detector's run table (boxed, about 80 KiB) with room to spare.
 const LED_TABLE_BYTES: u64 = 128 * 1024;
 /// Byte planes the marker detector keeps at the frame's size: the luma and the mask.

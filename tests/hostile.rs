@@ -513,7 +513,7 @@ fn options_that_need_too_much_memory_are_refused_up_front() {
                 "--detector",
                 "bgdiff",
             ],
-            "the options need 4357 MB, more than --max-memory-mb 256: the background model \
+            "the options need 4549 MB, more than --max-memory-mb 256: the background model \
              (--background-frames 9 × --size 16384x16384) takes 2560 MB",
         ),
         (
@@ -621,7 +621,7 @@ fn options_that_need_too_much_memory_are_refused_up_front() {
     assert_refused(
         &out,
         1,
-        "the options need 4357 MB, which this system will not give",
+        "the options need 4549 MB, which this system will not give",
     );
 }
 

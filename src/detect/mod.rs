@@ -46,6 +46,7 @@ use spot_shape::{Skewed, SpotOptics};
 use streak::{Streak, StreakModel, StreakScratch};
 use threshold::large_blob::{LastBlobs, MovedLarge};
 use threshold::static_map::StaticMap;
+use threshold::steady::SteadyPixels;
 use threshold::{blob_level, Levels, Threshold, AUTO_MARGIN_LUMA};
 
 use crate::frame::{Frame, FrameSize};
@@ -164,6 +165,9 @@ pub struct Detector {
     edge_memory: EdgeMemory,
     /// The static bright pixels learned by the automatic threshold.
     statics: StaticMap,
+    /// How long each bright pixel has been bright: what is fresh in a large blob that stood
+    /// still, before the static map has learned it.
+    steady: SteadyPixels,
     /// Around the blob analysed in the last frame (the LED): not learned as static.
     keep_out: heapless::Vec<Window, MAX_KEEP_OUT>,
     /// The first cut's blobs of the last frame, to tell a large blob that moved.
@@ -205,6 +209,7 @@ impl Detector {
             spot_memory: SpotMemory::new(None),
             edge_memory: EdgeMemory::new(None),
             statics: StaticMap::new(size.width(), size.height()),
+            steady: SteadyPixels::new(size.width(), size.height()),
             keep_out: heapless::Vec::new(),
             last_blobs: LastBlobs::new(),
             moved_large: MovedLarge::new(),
@@ -373,6 +378,7 @@ impl Detector {
         };
         if frame.size() == self.size {
             self.statics.observe(&self.mask, &self.keep_out, self.t_us);
+            self.steady.observe(&self.mask, self.t_us);
         }
         self.keep_out.clear();
         let count = count.saturating_sub(self.statics.clear_static(&mut self.mask));
@@ -388,7 +394,15 @@ impl Detector {
         }
         self.labeler.label(&self.mask);
         let first_cut = self.labeler.blobs();
-        let (last_blobs, moved_large) = (&self.last_blobs, &mut self.moved_large);
+        for blob in first_cut.iter().filter(|b| b.area_px > self.max_area_px) {
+            let b = &blob.bbox;
+            let window = self
+                .mask
+                .window_around(b.x_min_px, b.y_min_px, b.x_max_px, b.y_max_px, 1);
+            self.steady.find_fresh(window, &mut self.erosion_scratch);
+        }
+        let (last_blobs, moved_large, steady) =
+            (&self.last_blobs, &mut self.moved_large, &self.steady);
         let cut = blob_level::cut_each_blob(
             frame,
             &self.labeler,
@@ -401,6 +415,7 @@ impl Detector {
                 }
                 moved
             },
+            |x, y| steady.is_fresh(x, y),
             &mut self.mask,
         );
         if self.labeler.overflow().any() {

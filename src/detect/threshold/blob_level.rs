@@ -49,17 +49,29 @@ pub struct BlobCut {
     pub glare_px: usize,
 }
 
+/// Which of a blob's pixels at its level are kept.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Kept {
+    /// All of them.
+    Whole,
+    /// Only those that have just come into it (a large blob that stood still).
+    Fresh,
+}
+
 /// Cuts every blob that `labeler` found in `mask` (the low first cut of `frame`) at its own
 /// plateau's level minus [`AUTO_MARGIN_LUMA`], clearing blobs of fewer than `min_area_px` pixels,
-/// clipped blobs of more than `max_area_px` for which `large_moved` is false, and blobs
-/// that are not lights (see the module's rules). `None` when the labeller overflowed, so
-/// that the caller can fall back to one level for the frame.
+/// and blobs that are not lights (see the module's rules). Of a clipped blob of more than
+/// `max_area_px` for which `large_moved` is false (it stood still) only the pixels for which
+/// `is_fresh` is true are kept, cut at its level: what has just come into it (an LED touching
+/// a window, see [`steady`](super::steady)). `None` when the labeller overflowed, so that the
+/// caller can fall back to one level for the frame.
 pub fn cut_each_blob(
     frame: &Frame<'_>,
     labeler: &Labeler,
     min_area_px: u32,
     max_area_px: u32,
     mut large_moved: impl FnMut(&Blob) -> bool,
+    is_fresh: impl Fn(usize, usize) -> bool,
     mask: &mut BitImage,
 ) -> Option<BlobCut> {
     if labeler.overflow().any() {
@@ -104,44 +116,51 @@ pub fn cut_each_blob(
         // unless it stands out as one.
         let clipped = top >= MIN_CLIP_LUMA
             && clip_luma.is_none_or(|clip| top.saturating_add(AUTO_MARGIN_LUMA) >= clip);
-        let size = if blob.area_px < min_area_px {
-            false
+        let kept = if blob.area_px < min_area_px {
+            None
         } else if blob.area_px <= max_area_px {
-            true
+            Some(Kept::Whole)
+        } else if !clipped {
+            // Only a clipped light can be an LED's glow.
+            None
+        } else if large_moved(blob) {
+            Some(Kept::Whole)
         } else {
-            // Only a clipped light can be an LED's glow; the test of motion only for it.
-            let moved = clipped && large_moved(blob);
-            if clipped && !moved {
-                glare_px += blob.area_px as usize;
-            }
-            moved
+            glare_px += blob.area_px as usize;
+            Some(Kept::Fresh)
         };
         let light = clipped
             || (top >= MIN_LIGHT_LUMA
                 && ring_mean_luma(frame, &blob.bbox)
                     .is_some_and(|ring| f32::from(top) >= ring + f32::from(LIGHT_CONTRAST_LUMA)));
-        *level =
-            (size && light).then(|| plateau_luma(top, counts).saturating_sub(AUTO_MARGIN_LUMA));
+        *level = kept.filter(|_| light).map(|kept| {
+            let level = plateau_luma(top, counts).saturating_sub(AUTO_MARGIN_LUMA);
+            (level, kept)
+        });
     }
-    let level_of = |slot: usize| -> Option<u8> { *levels.get(slot)? };
+    let level_of = |slot: usize| -> Option<(u8, Kept)> { *levels.get(slot)? };
     let mut count = 0;
     let mut brightest_level_luma = None;
     for run in labeler.runs() {
         let y = usize::from(run.y);
         let level = run.blob().and_then(level_of);
+        let mut kept_any = false;
         for x in usize::from(run.x0)..=usize::from(run.x1) {
             let keep = match (level, frame.luma(x, y)) {
-                (Some(level), Some(luma)) => luma >= level,
+                (Some((level, Kept::Whole)), Some(luma)) => luma >= level,
+                (Some((level, Kept::Fresh)), Some(luma)) => luma >= level && is_fresh(x, y),
                 _ => false,
             };
             if keep {
                 count += 1;
+                kept_any = true;
             } else {
                 mask.clear(x, y);
             }
         }
-        if level.is_some() {
-            brightest_level_luma = brightest_level_luma.max(level);
+        // A large blob that stood still has a level only where something fresh is kept.
+        if kept_any || matches!(level, Some((_, Kept::Whole))) {
+            brightest_level_luma = brightest_level_luma.max(level.map(|(level, _)| level));
         }
     }
     Some(BlobCut {
@@ -313,7 +332,16 @@ mod tests {
         }
         let mut labeler = Labeler::new();
         labeler.label(&mask);
-        cut_each_blob(&frame, &labeler, 4, 10_000, |_| false, &mut mask).unwrap();
+        cut_each_blob(
+            &frame,
+            &labeler,
+            4,
+            10_000,
+            |_| false,
+            |_, _| false,
+            &mut mask,
+        )
+        .unwrap();
         mask
     }
 

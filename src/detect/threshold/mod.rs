@@ -20,6 +20,7 @@ pub mod blob_level;
 mod kernels;
 pub mod large_blob;
 pub mod static_map;
+pub mod steady;
 
 /// The lowest top luma level that can be a clipped sensor. Studio range clips at 235, so
 /// anything dimmer than this is a frame with nothing saturated in it (lights dimmer than this
