@@ -336,4 +336,41 @@ mod tests {
         map.map.reset();
         assert_eq!(map.flag().count_ones(), 0);
     }
+
+    #[test]
+    fn a_pixel_kept_out_for_whole_periods_keeps_its_count() {
+        let lit = BitImage::from_ascii(&["##......"]);
+        let dark = BitImage::from_ascii(&["........"]);
+        let all = Window {
+            y0: 0,
+            y1: 1,
+            k0: 0,
+            k1: 1,
+        };
+        let mut map = Fed::new(8, 1);
+        map.periods(&lit, &[], LEARN_AT_COUNT - 1);
+        // Dark but kept out (a robot parked over it): no evidence either way.
+        map.periods(&dark, &[all], 5);
+        assert_eq!(map.flag().count_ones(), 0);
+        map.periods(&lit, &[], 1);
+        assert_eq!(map.flag().to_ascii(), ["##......"]);
+    }
+
+    #[test]
+    fn a_rim_a_few_counts_behind_is_learned_with_the_window_it_touches() {
+        let window = BitImage::from_ascii(&["######..", "######..", ".......#"]);
+        let without_speck = BitImage::from_ascii(&["######..", "######..", "........"]);
+        let rim = Window {
+            y0: 1,
+            y1: 2,
+            k0: 0,
+            k1: 1,
+        };
+        let mut map = Fed::new(8, 3);
+        // The second row is kept out in three periods: three counts behind the first.
+        map.periods(&without_speck, &[rim], 3);
+        map.periods(&window, &[], LEARN_AT_COUNT - 3);
+        // The speck, as far behind, touches nothing learned.
+        assert_eq!(map.flag().to_ascii(), ["######..", "######..", "........"]);
+    }
 }
