@@ -131,6 +131,9 @@ impl StaticMap {
         let [c0, c1, c2, c3] = &mut self.counter;
         let last = self.period.last_word_mask();
         let wpr = self.period.words_per_row();
+        // Pixels close to being learned and not yet learned, in any word: only then is
+        // anything to join.
+        let mut close = 0u64;
         for y in 0..self.period.height() {
             let rows = (
                 c0.row_mut(y),
@@ -171,9 +174,12 @@ impl StaticMap {
                 let high = *b3 & *b2;
                 let low = !(*b3 | *b2);
                 *f = (*f | high) & !low & valid;
+                close |= *b3 & !*f;
             }
         }
-        self.join_learned();
+        if close != 0 {
+            self.join_learned();
+        }
     }
 
     /// Learns the pixels close to being learned (a count of [`JOIN_AT_COUNT`] or more) that

@@ -22,8 +22,9 @@
 //! as long. An LED must cross its own width in about that time to stay fresh where it touches
 //! an unlearned window: 32 px/s for an 8 px spot.
 //!
-//! Cost: a few word operations per 64 pixels a frame for the counters; the fresh pixels are
-//! worked out only inside the boxes of large blobs, in frames that have one.
+//! Cost: a few word operations per 64 pixels of the rows that are lit or were lit in the last
+//! frame (a test of each word of the others); the fresh pixels are worked out only inside the
+//! boxes of large blobs, in frames that have one.
 //!
 //! Memory: the four counter planes and the fresh plane, allocated once.
 
@@ -43,6 +44,8 @@ const MAX_COUNT: usize = (1 << COUNTER_BITS) - 1;
 /// Each pixel's count of frames bright in a row, and the fresh pixels of the last large blobs.
 pub struct SteadyPixels {
     counter: [BitImage; COUNTER_BITS],
+    /// The rows whose counters are not all zero.
+    counting_rows: Vec<bool>,
     fresh: BitImage,
     /// The times of the last frames, newest at `(next + MAX_COUNT - 1) % MAX_COUNT`.
     times_us: [u64; MAX_COUNT],
@@ -59,6 +62,7 @@ impl SteadyPixels {
         let plane = || BitImage::with_dimensions(width_px, height_px);
         SteadyPixels {
             counter: [plane(), plane(), plane(), plane()],
+            counting_rows: vec![false; height_px],
             fresh: plane(),
             times_us: [0; MAX_COUNT],
             observed: 0,
@@ -78,11 +82,18 @@ impl SteadyPixels {
             for plane in &mut self.counter {
                 plane.clear_all();
             }
+            self.counting_rows.fill(false);
             self.observed = 0;
         }
         self.remember_time(t_us);
         let [c0, c1, c2, c3] = &mut self.counter;
-        for y in 0..bright.height() {
+        for (y, counting) in self.counting_rows.iter_mut().enumerate() {
+            // A row dark now and dark before has nothing to count or reset: most of a frame.
+            let lit = bright.row(y).iter().any(|&w| w != 0);
+            if !lit && !*counting {
+                continue;
+            }
+            *counting = lit;
             let rows = (c0.row_mut(y), c1.row_mut(y), c2.row_mut(y), c3.row_mut(y));
             let (r0, r1, r2, r3) = rows;
             let words = r0.iter_mut().zip(r1).zip(r2).zip(r3).zip(bright.row(y));
@@ -100,9 +111,9 @@ impl SteadyPixels {
     }
 
     /// Works out the fresh pixels inside `window`: bright in the last frame observed, not
-    /// steady, and opened by a 3×3 square; none when nothing inside the window is steady. `scratch` (of the counters' size) is overwritten
-    /// inside the window grown by a row and a word. Read them with
-    /// [`SteadyPixels::is_fresh`], inside the window.
+    /// steady, and opened by a 3×3 square; none when nothing inside the window is steady.
+    /// `scratch` (of the counters' size) is overwritten inside the window grown by a row and
+    /// a word. Read them with [`SteadyPixels::is_fresh`], inside the window.
     pub fn find_fresh(&mut self, window: Window, scratch: &mut BitImage) {
         if !scratch.same_shape(&self.fresh) || window.is_empty() {
             return;
