@@ -366,7 +366,8 @@ impl Detector {
     /// candidates.
     ///
     /// A clipped blob larger than an LED's usual size is cut too when it moved since the last
-    /// frame (see [`threshold::large_blob`]), and dropped as glare when it did not.
+    /// frame (see [`threshold::large_blob`]), and dropped as glare when it did not, all but
+    /// the pixels that have just come into it (see [`threshold::steady`]).
     ///
     /// Returns the levels, the pixels left in the mask, and the pixels of glare dropped as
     /// too large to be an LED.

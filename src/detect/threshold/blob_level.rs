@@ -12,7 +12,8 @@
 //!   and set no level, and so are clipped blobs larger than an LED's usual size (a window:
 //!   cut again, a window whose noise straddles its own level would break into thousands of
 //!   specks) unless they moved since the last frame (an LED in a wide glow, see
-//!   [`large_blob`](super::large_blob));
+//!   [`large_blob`](super::large_blob)), all but what has just come into them (an LED touching
+//!   a window the static map has not learned yet, see [`steady`](super::steady));
 //! - blobs whose top is too dark to be a clipped light ([`MIN_CLIP_LUMA`]) are dropped, unless
 //!   they are a light that does not clip: a top of at least [`MIN_LIGHT_LUMA`] and at least
 //!   [`LIGHT_CONTRAST_LUMA`] above the mean luma of a ring around the blob (a dot on the floor,

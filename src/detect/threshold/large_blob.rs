@@ -17,6 +17,8 @@
 //! none of them is ever kept; in the first frame nothing is known to have moved. A large blob
 //! that stops (an LED in a wide glow parked) is dropped again, as it was before; the static
 //! map and the tracker's rules then never take a light that stood still since it appeared.
+//! Of a large blob that stood still, only what has just come into it is kept (an LED touching
+//! a window: see [`steady`](super::steady)).
 //!
 //! Cut at its own level, such a blob may leave more than one piece: over a textured floor a
 //! darker seam under the glow cuts clipped islands off its edge. Of the pieces inside a large
