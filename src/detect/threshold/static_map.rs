@@ -42,10 +42,6 @@ pub const UPDATE_PERIOD_US: u64 = 8 * 33_333;
 /// A counter at or above this marks its pixel static (binary 11xx: bits 3 and 2 set).
 pub const LEARN_AT_COUNT: u8 = 12;
 
-/// A counter at or above this (binary 1xxx: bit 3 set) marks its pixel static when it touches
-/// a static pixel (see [`StaticMap::join_learned`]).
-pub const JOIN_AT_COUNT: u8 = 8;
-
 /// How far, in pixels, the learned pixels reach into their neighbours at one step at most:
 /// a window's rim a robot kept out is a few tens of pixels wide.
 const MAX_JOIN_STEPS: usize = 64;
@@ -182,7 +178,7 @@ impl StaticMap {
         }
     }
 
-    /// Learns the pixels close to being learned (a count of [`JOIN_AT_COUNT`] or more) that
+    /// Learns the pixels close to being learned (a count of 8 or more: bit 3 set) that
     /// touch learned ones, as far as they reach ([`MAX_JOIN_STEPS`] pixels at most a step):
     /// a window is learned whole. Its rim beside a robot's path, kept out while the robot
     /// passes, lags a few counts behind the rest; left alone for those periods it stood as a
