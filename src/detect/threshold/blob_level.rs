@@ -63,8 +63,9 @@ enum Kept {
 /// plateau's level minus [`AUTO_MARGIN_LUMA`], clearing blobs of fewer than `min_area_px` pixels,
 /// and blobs that are not lights (see the module's rules). Of a clipped blob of more than
 /// `max_area_px` for which `large_moved` is false (it stood still) only the pixels for which
-/// `is_fresh` is true are kept, cut at its level: what has just come into it (an LED touching
-/// a window, see [`steady`](super::steady)). `None` when the labeller overflowed, so that the
+/// `is_fresh` is true are kept, cut at its level or, when they are dimmer, at their own top's
+/// (by the margin): what has just come into it (an LED touching a window, see
+/// [`steady`](super::steady)). `None` when the labeller overflowed, so that the
 /// caller can fall back to one level for the frame.
 pub fn cut_each_blob(
     frame: &Frame<'_>,
@@ -80,16 +81,31 @@ pub fn cut_each_blob(
     }
     let blobs = labeler.blobs();
     let mut tops = [0u8; MAX_BLOBS];
+    // The top of what is fresh in each large blob: a light dimmer than the window it touches
+    // is cut at its own level.
+    let mut fresh_tops = [0u8; MAX_BLOBS];
     for run in labeler.runs() {
         let (Some(slot), y) = (run.blob(), usize::from(run.y)) else {
             continue;
         };
-        let run_top = (usize::from(run.x0)..=usize::from(run.x1))
+        let xs = usize::from(run.x0)..=usize::from(run.x1);
+        let run_top = xs
+            .clone()
             .filter_map(|x| frame.luma(x, y))
             .max()
             .unwrap_or(0);
         if let Some(top) = tops.get_mut(slot) {
             *top = (*top).max(run_top);
+        }
+        if blobs.get(slot).is_some_and(|b| b.area_px > max_area_px) {
+            let fresh_top = xs
+                .filter(|&x| is_fresh(x, y))
+                .filter_map(|x| frame.luma(x, y))
+                .max()
+                .unwrap_or(0);
+            if let Some(top) = fresh_tops.get_mut(slot) {
+                *top = (*top).max(fresh_top);
+            }
         }
     }
     let mut near_top = [[0u32; PLATEAU_WINDOW_LUMA + 1]; MAX_BLOBS];
@@ -111,7 +127,13 @@ pub fn cut_each_blob(
     let clip_luma = sensor_clip_luma(blobs, &tops, &near_top, min_area_px);
     let mut levels = [None; MAX_BLOBS];
     let mut glare_px = 0;
-    for (((level, blob), &top), counts) in levels.iter_mut().zip(blobs).zip(&tops).zip(&near_top) {
+    let rows = levels
+        .iter_mut()
+        .zip(blobs)
+        .zip(&tops)
+        .zip(&near_top)
+        .zip(&fresh_tops);
+    for ((((level, blob), &top), counts), &fresh_top) in rows {
         // Below the frame's own clip by more than the rim's margin, a blob did not clip,
         // however bright: a speck of floor lit by a clipped glow beside it is not a light
         // unless it stands out as one.
@@ -134,10 +156,15 @@ pub fn cut_each_blob(
             || (top >= MIN_LIGHT_LUMA
                 && ring_mean_luma(frame, &blob.bbox)
                     .is_some_and(|ring| f32::from(top) >= ring + f32::from(LIGHT_CONTRAST_LUMA)));
-        *level = kept.filter(|_| light).map(|kept| {
-            let level = plateau_luma(top, counts).saturating_sub(AUTO_MARGIN_LUMA);
-            (level, kept)
-        });
+        let level_luma = plateau_luma(top, counts).saturating_sub(AUTO_MARGIN_LUMA);
+        *level = match kept.filter(|_| light) {
+            Some(Kept::Fresh) if fresh_top < MIN_LIGHT_LUMA => None,
+            Some(Kept::Fresh) => Some((
+                level_luma.min(fresh_top.saturating_sub(AUTO_MARGIN_LUMA)),
+                Kept::Fresh,
+            )),
+            kept => kept.map(|kept| (level_luma, kept)),
+        };
     }
     let level_of = |slot: usize| -> Option<(u8, Kept)> { *levels.get(slot)? };
     let mut count = 0;
