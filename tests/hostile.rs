@@ -533,7 +533,7 @@ fn options_that_need_too_much_memory_are_refused_up_front() {
         // The default model learns the floor; the line says which option plans none.
         (
             &["run", "--input", "-", "--size", "16384x16384"],
-            "the options need 1797 MB, more than --max-memory-mb 256: the streak fit's learned \
+            "the options need 1989 MB, more than --max-memory-mb 256: the streak fit's learned \
              floor (--size 16384x16384 with --streak-model auto, the default; --streak-model \
              ramps has none) takes 800 MB",
         ),
@@ -547,8 +547,8 @@ fn options_that_need_too_much_memory_are_refused_up_front() {
                 "--streak-model",
                 "ramps",
             ],
-            "the options need 997 MB, more than --max-memory-mb 256: the frame buffer \
-             (--size 16384x16384) takes 512 MB",
+            "the options need 1189 MB, more than --max-memory-mb 256: the masks and scratch \
+             (--size 16384x16384) takes 673 MB",
         ),
         (
             &[
