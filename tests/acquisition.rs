@@ -5,6 +5,7 @@
 //!   `found: false` while it stands still, then found once it moves, and never the glare;
 //! - a hot pixel brighter than an LED the camera does not clip;
 //! - a large clipped window beside an LED dimmer than the window;
+//! - an LED passing along a clipped window it touches, before the window is learned;
 //! - three LEDs on one rigid body: the tracker stays on one of them.
 //!
 //! In every case: after acquisition every visible frame is found, and every report lies

@@ -23,8 +23,15 @@
 //! waits a few seconds between moves must not be. The tracked LED itself is never learned
 //! (the area around it is kept out of every period), so a tracked robot may park for as long
 //! as it likes. A pixel kept out for a whole period keeps its count, neither up nor down: the
-//! period says nothing about it. Faster would erase a parked robot's LED; slower leaves a window to the
-//! tracker's own rules (it stands still since it appeared, so it is never reported) for longer.
+//! period says nothing about it. Faster would erase a parked robot's LED; slower leaves a
+//! window to the tracker's own rules (it stands still since it appeared, so it is never
+//! reported) for longer.
+//!
+//! A pixel close to being learned (a count of 8 or more) that touches a learned one is learned
+//! with it, so that a window is learned whole: its rim beside a robot's path, kept out while the
+//! robot passes, lags a few counts behind the rest. The join grows the learned pixels a pixel
+//! at a time, a dilation of the frame each, at most [`MAX_JOIN_STEPS`] of them, and only in a
+//! step that has such a pixel (a window's rim once, as it is learned).
 //!
 //! Memory: six bit planes of the frame (four counter bits, the period's OR and what the period
 //! saw outside the kept-out areas), plus the static flag: 7 bits a pixel, 263 KiB at 640×480,

@@ -26,7 +26,7 @@
 //! frame (a test of each word of the others); the fresh pixels are worked out only inside the
 //! boxes of large blobs, in frames that have one.
 //!
-//! Memory: the four counter planes and the fresh plane, allocated once.
+//! Memory: the four counter planes, the fresh plane and a flag a row, allocated once.
 
 use crate::detect::bitimage::{BitImage, Window};
 use crate::detect::morph::{self, Kernel};
