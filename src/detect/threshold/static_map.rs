@@ -30,7 +30,7 @@
 //! A pixel close to being learned (a count of 8 or more) that touches a learned one is learned
 //! with it, so that a window is learned whole: its rim beside a robot's path, kept out while the
 //! robot passes, lags a few counts behind the rest. The join grows the learned pixels a pixel
-//! at a time, a dilation of the frame each, at most [`MAX_JOIN_STEPS`] of them, and only in a
+//! at a time, a dilation of the frame each, at most 64 of them, and only in a
 //! step that has such a pixel (a window's rim once, as it is learned).
 //!
 //! Memory: six bit planes of the frame (four counter bits, the period's OR and what the period

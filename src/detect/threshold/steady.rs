@@ -236,18 +236,24 @@ mod tests {
         t_us
     }
 
+    /// The pixels of a `width × height` image for which `set` holds, as `#`.
+    fn ascii(width: usize, height: usize, set: impl Fn(usize, usize) -> bool) -> Vec<String> {
+        (0..height)
+            .map(|y| {
+                (0..width)
+                    .map(|x| if set(x, y) { '#' } else { '.' })
+                    .collect()
+            })
+            .collect()
+    }
+
+    /// The fresh pixels of the whole image.
     fn fresh_ascii(steady: &mut SteadyPixels) -> Vec<String> {
         let (w, h) = (steady.fresh.width(), steady.fresh.height());
         let mut scratch = BitImage::with_dimensions(w, h);
         let window = steady.fresh.full_window();
         steady.find_fresh(window, &mut scratch);
-        (0..h)
-            .map(|y| {
-                (0..w)
-                    .map(|x| if steady.is_fresh(x, y) { '#' } else { '.' })
-                    .collect()
-            })
-            .collect()
+        ascii(w, h, |x, y| steady.is_fresh(x, y))
     }
 
     #[test]
@@ -286,22 +292,12 @@ mod tests {
     /// Which pixels are steady now, read from the counters.
     fn steady_ascii(steady: &SteadyPixels) -> Vec<String> {
         let (w, h) = (steady.fresh.width(), steady.fresh.height());
-        (0..h)
-            .map(|y| {
-                (0..w)
-                    .map(|x| {
-                        let count = (0..COUNTER_BITS)
-                            .filter(|&k| steady.counter[k].get(x, y))
-                            .fold(0, |c, k| c | 1 << k);
-                        if count >= steady.steady_count {
-                            '#'
-                        } else {
-                            '.'
-                        }
-                    })
-                    .collect()
-            })
-            .collect()
+        ascii(w, h, |x, y| {
+            let count = (0..COUNTER_BITS)
+                .filter(|&k| steady.counter[k].get(x, y))
+                .fold(0, |c, k| c | 1 << k);
+            count >= steady.steady_count
+        })
     }
 
     #[test]
