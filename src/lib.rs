@@ -38,6 +38,7 @@ pub mod detect;
 pub mod frame;
 pub mod fuse;
 pub mod geometry;
+pub mod golden;
 pub mod identify;
 pub mod latency;
 pub mod monitor;

@@ -33,6 +33,7 @@ use super::level_falls::{first_falls, Armed};
 use super::normal::{normal_cdf, quantile_of_ln};
 use super::ray_floor;
 use crate::frame::Frame;
+use crate::golden;
 
 /// The brightness levels the profiles are cut at, as fractions of the way from the floor to
 /// the clip level. They stay clear of the floor (its texture and the LED's glow bend the foot
@@ -161,7 +162,7 @@ pub fn place_ends(
     if foot_ratio(&widths, &levels, floor, black, luma_sigma)? < FOOT_MIN_RATIO {
         return None;
     }
-    let (mut lo, mut hi) = (
+    let (lo, hi) = (
         (luma_sigma / GAMMA_RANGE.1.sqrt())
             .max(SIGMA_RANGE_PX.0)
             .ln(),
@@ -172,25 +173,7 @@ pub fn place_ends(
     if lo >= hi {
         return None;
     }
-    const INV_PHI: f32 = 0.618_034;
-    let mut x1 = hi - INV_PHI * (hi - lo);
-    let mut x2 = lo + INV_PHI * (hi - lo);
-    let (mut f1, mut f2) = (fit(x1.exp()).1, fit(x2.exp()).1);
-    for _ in 0..SEARCH_STEPS {
-        if f1 <= f2 {
-            hi = x2;
-            x2 = x1;
-            f2 = f1;
-            x1 = hi - INV_PHI * (hi - lo);
-            f1 = fit(x1.exp()).1;
-        } else {
-            lo = x1;
-            x1 = x2;
-            f1 = f2;
-            x2 = lo + INV_PHI * (hi - lo);
-            f2 = fit(x2.exp()).1;
-        }
-    }
+    let (lo, hi) = golden::minimise(|x: f32| fit(x.exp()).1, (lo, hi), SEARCH_STEPS);
     let sigma_px = (0.5 * (lo + hi)).exp();
     let (end_px, _) = fit(sigma_px);
     end_px.iter().all(|e| e.is_finite()).then_some(end_px)

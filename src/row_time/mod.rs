@@ -29,6 +29,7 @@ use core::f64::consts::TAU;
 
 use nalgebra::Complex;
 
+use crate::golden;
 use crate::track::frame_interval_us;
 use bands::{fit_pair, Basis, PairFit};
 use profiles::RowProfiles;
@@ -262,34 +263,19 @@ fn median(values: &mut [f64]) -> Option<f64> {
     Some(values[values.len() / 2])
 }
 
-/// The spatial frequency (rad a row) over `[lo, hi]` at which the sinusoid explains most of
+/// The spatial frequency (rad a row) within `bracket` at which the sinusoid explains most of
 /// `pairs`, by golden-section search.
 fn refine(
     pairs: &Pairs<'_>,
     range: core::ops::Range<usize>,
     basis: &mut Basis,
-    (mut lo, mut hi): (f64, f64),
+    bracket: (f64, f64),
 ) -> f64 {
-    const INV_PHI: f64 = 0.618_033_988_749_895;
-    let mut score = |k: f64| {
+    let unexplained = |k: f64| {
         basis.set(k);
-        pairs.score(range.clone(), basis)
+        -pairs.score(range.clone(), basis)
     };
-    let (mut x1, mut x2) = (hi - INV_PHI * (hi - lo), lo + INV_PHI * (hi - lo));
-    let (mut f1, mut f2) = (score(x1), score(x2));
-    for _ in 0..REFINE_STEPS {
-        if f1 >= f2 {
-            hi = x2;
-            (x2, f2) = (x1, f1);
-            x1 = hi - INV_PHI * (hi - lo);
-            f1 = score(x1);
-        } else {
-            lo = x1;
-            (x1, f1) = (x2, f2);
-            x2 = lo + INV_PHI * (hi - lo);
-            f2 = score(x2);
-        }
-    }
+    let (lo, hi) = golden::minimise(unexplained, bracket, REFINE_STEPS);
     0.5 * (lo + hi)
 }
 
