@@ -1,6 +1,6 @@
 //! A histogram of luma levels kept on the stack: a quantile of a few hundred pixels' luma
 //! without sorting or allocating, on the per-frame path (the fit's flat floor start, the
-//! learned floor around a streak).
+//! learned floor around a streak), and the mean of a row's darker pixels (`glint row-time`).
 
 /// Counts of luma levels 0–255.
 pub struct LumaHistogram {
@@ -47,6 +47,25 @@ impl LumaHistogram {
         None
     }
 
+    /// The mean of the `n` least values counted (of all of them when fewer); `None` when
+    /// nothing is counted or `n` is 0.
+    pub fn mean_of_lowest(&self, n: usize) -> Option<f32> {
+        let n = n.min(self.count);
+        if n == 0 {
+            return None;
+        }
+        let (mut left, mut sum) = (n, 0u64);
+        for (level, &count) in self.bins.iter().enumerate() {
+            let taken = usize::from(count).min(left);
+            sum += (taken * level) as u64;
+            left -= taken;
+            if left == 0 {
+                break;
+            }
+        }
+        Some(sum as f32 / n as f32)
+    }
+
     /// The median: the lower of the two middle values of an even count; `None` when empty.
     pub fn median(&self) -> Option<f32> {
         self.level_above(self.count.checked_sub(1)? / 2)
@@ -81,5 +100,10 @@ mod tests {
         h.add(11.6);
         assert_eq!(h.median(), Some(12.0));
         assert_eq!(LumaHistogram::new().median(), None);
+        // 3, 3, 7, 12, 12, 100, 250: the lowest four average 6.25.
+        assert_eq!(h.mean_of_lowest(4), Some(6.25));
+        assert_eq!(h.mean_of_lowest(100), Some(387.0 / 7.0));
+        assert_eq!(h.mean_of_lowest(0), None);
+        assert_eq!(LumaHistogram::new().mean_of_lowest(3), None);
     }
 }

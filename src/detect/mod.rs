@@ -18,7 +18,7 @@ pub mod floor_bg;
 mod level_falls;
 pub mod light_centre;
 pub mod line_profile;
-mod luma_histogram;
+pub(crate) mod luma_histogram;
 pub mod mirror_middle;
 pub mod moments;
 pub mod morph;

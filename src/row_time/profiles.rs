@@ -17,6 +17,7 @@
 //! every frame wherever nothing moves: no cut by level (a wall near the clip, kept in its dark
 //! phases and cut in its bright ones) draws bands of its own.
 
+use crate::detect::luma_histogram::LumaHistogram;
 use crate::frame::Frame;
 
 /// A row whose mean luma is below this holds no light to read a factor from (a black row, or
@@ -56,20 +57,11 @@ impl RowProfiles {
         let (step, width) = (frame.luma_step(), frame.size().width());
         let kept = ((width as f32 * KEPT_FRACTION) as usize).max(1);
         for row in frame.luma_rows() {
-            let mut counts = [0u32; 256];
+            let mut levels = LumaHistogram::new();
             for &l in row.iter().step_by(step) {
-                counts[usize::from(l)] += 1;
+                levels.add(f32::from(l));
             }
-            let (mut left, mut sum) = (kept as u64, 0u64);
-            for (level, &count) in counts.iter().enumerate() {
-                let taken = u64::from(count).min(left);
-                sum += taken * level as u64;
-                left -= taken;
-                if left == 0 {
-                    break;
-                }
-            }
-            let mean = sum as f32 / kept as f32;
+            let mean = levels.mean_of_lowest(kept).unwrap_or(0.0);
             self.ln_means.push(if mean >= MIN_ROW_MEAN_LUMA {
                 mean.ln()
             } else {
