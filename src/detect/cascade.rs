@@ -52,11 +52,18 @@ use super::ray_floor;
 use super::tips::Tips;
 use crate::frame::Frame;
 
-/// A sharp edge falls from 0.8 to 0.2 of its step within this distance: a step between two
-/// pixel centres, read by bilinear interpolation, falls over 0.6 px along the rows and up to
-/// 0.85 px (0.6 × √2) along a diagonal; a pixel is the most a sharp edge takes. Over the sweep's
+/// A sharp edge falls from 0.8 to 0.2 of its step within about this distance. Read by
+/// bilinear interpolation along the rows, a step falls over 0.6 px where its edge lies on a
+/// pixel's border, and over up to 1.2 px where it runs through a pixel's middle and leaves
+/// that pixel half lit. Over where the edge lies, that is 0.91 px on average for a step that
+/// does not clip, 0.70 px at 3× the clip and 0.63 px at 10×, where the half-lit pixel clips
+/// too (more along a diagonal). A moving LED's edge lies elsewhere in each frame, and the
+/// median of its frames' falls is what is judged ([`super::edge_memory`]). Over the sweep's
 /// moving points (seed 11) the median fall is 0.73 px for its disks (p95 2.2 px: noise, the
-/// floor's texture), 1.43 px for its Gaussians, 6.1 px for its glows.
+/// floor's texture), 1.43 px for its Gaussians, 6.1 px for its glows. Narrow Gaussians (σ
+/// 0.9–1.3 px) read about a pixel, as a disk that barely clips may: a bound of 0.85 px
+/// fitted them, and also sharp disks that the fit reads worse (README, "A lower bound for a
+/// sharp edge").
 pub const SHARP_EDGE_PX: f32 = 1.0;
 
 /// The levels the fall is read between, as fractions of the way from the floor to the clip:
