@@ -3,7 +3,8 @@
 //! whose ramps contradict themselves (still, with tips a streak apart; short lines of sharp
 //! disks keep their single-frame speed so), and the sharp disk of
 //! `fast-line` is read by the ramps alone, at the ramps' cost, as are `circles`' arcs of one
-//! across a grout line.
+//! across a grout line. Streaks along a grout line, whose ends' floor is darker than their
+//! sides', hold the bounds.
 
 mod common;
 
@@ -11,7 +12,7 @@ use common::in_process;
 use glint::detect::streak::StreakModel;
 use glint::frame::{Frame, FrameSize};
 use glint::track::VelocityMethod;
-use glint_tools::scene::{Scene, Squeeze, SweepPoint, Visibility};
+use glint_tools::scene::{Point, Scene, Spot, Squeeze, SweepPoint, Trajectory, Visibility};
 
 /// What a visible frame in which the LED was found gave.
 struct Read {
@@ -27,8 +28,13 @@ struct Read {
 
 /// The frames of `scene` up to `frames` in which the LED was visible and found.
 fn run(scene: &Scene, frames: usize) -> Vec<Read> {
+    run_with(scene, frames, StreakModel::Auto)
+}
+
+/// [`run`] with the streak model `model`.
+fn run_with(scene: &Scene, frames: usize, model: StreakModel) -> Vec<Read> {
     let size = FrameSize::new(scene.width_px(), scene.height_px()).unwrap();
-    let mut pipeline = in_process::pipeline(scene, StreakModel::Auto);
+    let mut pipeline = in_process::pipeline(scene, model);
     let mut bytes = vec![0u8; scene.frame_len_bytes()];
     let mut out = Vec::new();
     for index in 0..frames.min(scene.frame_count()) {
@@ -228,4 +234,95 @@ fn an_led_whose_edge_reads_either_side_of_sharp_is_read_by_one_model() {
             100.0 * p95
         );
     }
+}
+
+/// `fast-line`'s floor with the LED driving along one of its dark grout lines (a robot
+/// following a painted line), down or across the picture (`direction`, a unit vector) at
+/// 1000 px/s for 12 frames of 15 ms exposures (15 px streaks), with `spot`, the camera's
+/// `gamma` and the floor's `seed`.
+fn along_a_grout_line(direction: (f64, f64), spot: Spot, gamma: f64, seed: u64) -> Scene {
+    const SPEED_PX_S: f64 = 1000.0;
+    const FRAMES: usize = 12;
+    let mut config = Scene::preset("fast-line").unwrap().config().clone();
+    // The grout line nearest the picture's centre is the first 2 px of a tile: its middle is
+    // 1 px in.
+    let tile_px = f64::from(config.floor.tile_px);
+    let line = |size_px: u32| (0.5 * f64::from(size_px) / tile_px).floor() * tile_px + 1.0;
+    let centre = Point::new(line(config.width_px), line(config.height_px));
+    let velocity = Point::new(SPEED_PX_S * direction.0, SPEED_PX_S * direction.1);
+    let half_s = 0.5 * FRAMES as f64 / config.fps;
+    config.trajectory = Trajectory::Line {
+        start_px: Point::new(
+            centre.x - velocity.x * half_s,
+            centre.y - velocity.y * half_s,
+        ),
+        velocity_px_s: velocity,
+    };
+    config.exposure_us = 15_000;
+    config.frame_count = FRAMES;
+    config.seed = seed;
+    config.camera.gamma = gamma;
+    if let Spot::Gaussian { .. } = spot {
+        config.led.glow_peak = 0.0;
+    }
+    config.led.spot = spot;
+    Scene::new(config).unwrap()
+}
+
+/// A streak along a dark line of the floor: its body's sides lie on the tile beside the
+/// line, and its ends' axis on the line, some 40 luma darker. The ramps' line profile cuts
+/// both at levels set from the sides' floor, so that the ends fall through them early: on a
+/// σ 1.5 px spot they read the speed 2.4–3.5 % slow on average at gammas 1.8–2.4 (README,
+/// "Along a grout line again"). The default fits spots whose edge is resolved with the
+/// floor it has learned under them: over Gaussian spots of σ 1.2–2.5 px and a bloom, gamma
+/// 1.8–2.4, down and across, each case holds the issue's bounds on the single frame's speed
+/// (3 % median, 10 % p95) and the head's p95 (1.5 px). NOT YET HELD, so not swept: a σ
+/// 0.9 px spot, whose edge reads sharp on the line (the ramps' disk rule then reads it
+/// 2–4 % slow in the median), and a linear camera (gamma 1).
+#[test]
+fn streaks_along_a_grout_line_hold_the_bounds() {
+    let spots = [
+        Spot::Gaussian { sigma_px: 1.2 },
+        Spot::Gaussian { sigma_px: 1.5 },
+        Spot::Gaussian { sigma_px: 2.5 },
+        Spot::Bloom {
+            sigma_px: 1.2,
+            glow_sigma_px: 4.8,
+            glow_ratio: 0.05,
+        },
+    ];
+    let mut out = Vec::new();
+    let mut case = 0u64;
+    for spot in spots {
+        for gamma in [1.8, 2.1, 2.4] {
+            for (name, direction) in [("down", (0.0, 1.0)), ("across", (1.0, 0.0))] {
+                case += 1;
+                let scene = along_a_grout_line(direction, spot, gamma, 1 + case % 3);
+                let frames = run(&scene, usize::MAX);
+                assert!(
+                    frames.len() >= 10,
+                    "{spot:?}, gamma {gamma}, {name}: found in {} frames",
+                    frames.len()
+                );
+                let mut speeds: Vec<f64> = frames.iter().filter_map(|f| f.speed_error).collect();
+                let mut heads: Vec<f64> = frames.iter().filter_map(|f| f.head_px).collect();
+                assert!(
+                    speeds.len() >= 9,
+                    "{spot:?}, gamma {gamma}, {name}: {} frames with a speed from the streak",
+                    speeds.len()
+                );
+                let (speed_median, speed_p95) = median_p95(&mut speeds);
+                let (_, head_p95) = median_p95(&mut heads);
+                if speed_median > 0.03 || speed_p95 > 0.10 || head_p95 > 1.5 {
+                    out.push(format!(
+                        "{spot:?}, gamma {gamma}, {name}: speed {:.1} / {:.1} %, head p95 \
+                         {head_p95:.2} px",
+                        100.0 * speed_median,
+                        100.0 * speed_p95
+                    ));
+                }
+            }
+        }
+    }
+    assert!(out.is_empty(), "{}", out.join("\n"));
 }
