@@ -30,6 +30,12 @@
 //! off on short arcs, and left short lines without a speed (`tests/streak_cascade.rs`); on the
 //! 200-point sweeps of seeds 11 and 12 the rule keeps 5 and 1 points within the bounds.
 //!
+//! A sharp edge on a narrow spot is not enough either: under [`NARROW_SPOT_PX`] of radius the
+//! spot's outline is drawn by the pixels as much as by the LED, and the ramps' disk rule
+//! reads narrow Gaussians and narrow disks a few tenths of a pixel off at each end, a few per
+//! cent of a short path. A path shorter than [`SHORT_PATH_PX`] of such a spot is fitted
+//! (`tests/streak_cascade.rs`: four sweep points' speed p95 from 10–16 % to 2–6 %).
+//!
 //! The edge is the LED's, not the frame's: the spot and its edge are the same from one frame
 //! to the next, but one frame's fall is read on a few samples through noise and the floor's
 //! texture, and a Gaussian spot's reads lie either side of [`SHARP_EDGE_PX`]. So it is judged
@@ -157,4 +163,33 @@ pub fn beyond_the_fit(area_px: u32, frame_px: usize) -> bool {
 /// say which.
 pub fn ramps_contradict(tips: &Tips) -> bool {
     tips.still && tips.path_length_px > 2.0 * tips.radius_px
+}
+
+/// Below this footprint radius (the ramps' `radius_px`, at their low level) a spot's short
+/// path ([`SHORT_PATH_PX`]) is fitted even where its edge is sharp. The ramps read a disk:
+/// each end is where the footprint's outline, less the disk's radius, puts it. A spot only a
+/// few pixels across is drawn by the pixels as much as by the LED: its outline is two or
+/// three pixels, their area and the interpolation move it by tenths of a pixel, and whether
+/// it is a disk or a narrow Gaussian the frame does not tell (the line profile's foot reads
+/// 0.49 for a σ 0.9 px Gaussian, 0.5–0.8 for the sweep's disks), so the ramps read the
+/// narrow Gaussians with the disk's rule. The fit draws the pixel's area and the spot's
+/// profile. On the sweep (seeds 11–13, 600 points), fitting every sharp spot under a bound of
+/// 0 (none), 2, 2.5, 3, 3.5, 4 and 5 px put 69, 66, 65, 58, 59, 58 and 57 points out: most of
+/// what the fit gains is had at 3 px. Wider sharp disks stay with the ramps, which read
+/// `circles`' 4 px disk's middle 0.06 px off in the median against the fit's 0.25 px
+/// (`tests/replay_accuracy.rs`).
+pub const NARROW_SPOT_PX: f32 = 3.0;
+
+/// The paths of narrow spots ([`NARROW_SPOT_PX`]) shorter than this are fitted. A few tenths
+/// of a pixel at each end are 2–3 % of a 20 px path's length, the median bound on the
+/// speed, and less on longer paths, where the fit of a narrow sharp disk's long streak is
+/// mostly refused: on `fast-line` drawn with a 1.5 px disk, fitting every such path held in
+/// 42 of 600 frames and doubled the replay's CPU time (0.20 → 0.38 s) for the same figures. With the bound at 15, 20 and 30 px the sweep put 60 points
+/// out either way (58 without it).
+pub const SHORT_PATH_PX: f32 = 20.0;
+
+/// Whether the ramps' reading of a streak is a short path of a narrow spot, which the fit
+/// reads better ([`NARROW_SPOT_PX`], [`SHORT_PATH_PX`]).
+pub fn too_narrow_for_the_ramps(tips: &Tips) -> bool {
+    tips.radius_px < NARROW_SPOT_PX && tips.path_length_px < SHORT_PATH_PX
 }

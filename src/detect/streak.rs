@@ -414,10 +414,12 @@ pub fn analyze(
                 // A glow clipped past the glare limit: the fit cannot read it, so the ramps'
                 // reading stands, as with `--streak-model ramps` (no path where they have none).
                 _ if cascade::beyond_the_fit(blob.area_px, frame.size().pixels()) => ramps_stand(),
-                // Sharp, and read without contradiction (or with no axis to read them on).
+                // Sharp, wide enough for the ramps' disk, and read without contradiction (or
+                // with no axis to read them on).
                 Some(tips)
-                    if tips.is_some_and(|t| !cascade::ramps_contradict(&t))
-                        || (tips.is_none() && !spans) =>
+                    if tips.is_some_and(|t| {
+                        !cascade::ramps_contradict(&t) && !cascade::too_narrow_for_the_ramps(&t)
+                    }) || (tips.is_none() && !spans) =>
                 {
                     ramps_stand()
                 }
