@@ -11,8 +11,8 @@
 
 mod common;
 
-use common::{parse_jsonl, quantile, render_scene, track};
-use glint_tools::scene::{Point, Scene, Spot, Trajectory, Visibility};
+use common::{line_through, parse_jsonl, quantile, render_scene, track};
+use glint_tools::scene::{Point, Scene, Spot, Visibility};
 
 const SPEED_MEDIAN_MAX: f64 = 0.03;
 const SPEED_P95_MAX: f64 = 0.10;
@@ -32,17 +32,8 @@ fn scene(direction: (f64, f64), spot: Spot, row_time_us: f64) -> Scene {
     let tile_middle = |size_px: u32| ((0.5 * f64::from(size_px) / tile_px).floor() + 0.5) * tile_px;
     let centre = Point::new(tile_middle(config.width_px), tile_middle(config.height_px));
     let velocity = Point::new(SPEED_PX_S * direction.0, SPEED_PX_S * direction.1);
-    // Halfway through the run at the centre.
-    let half_s = 0.5 * FRAMES as f64 / config.fps;
-    config.trajectory = Trajectory::Line {
-        start_px: Point::new(
-            centre.x - velocity.x * half_s,
-            centre.y - velocity.y * half_s,
-        ),
-        velocity_px_s: velocity,
-    };
+    line_through(&mut config, centre, velocity, FRAMES);
     config.exposure_us = EXPOSURE_US;
-    config.frame_count = FRAMES;
     config.row_time_us = row_time_us;
     if let Spot::Gaussian { .. } = spot {
         config.led.glow_peak = 0.0;

@@ -8,11 +8,11 @@
 
 mod common;
 
-use common::in_process;
+use common::{in_process, line_through};
 use glint::detect::streak::StreakModel;
 use glint::frame::{Frame, FrameSize};
 use glint::track::VelocityMethod;
-use glint_tools::scene::{Point, Scene, Spot, Squeeze, SweepPoint, Trajectory, Visibility};
+use glint_tools::scene::{Point, Scene, Spot, Squeeze, SweepPoint, Visibility};
 
 /// What a visible frame in which the LED was found gave.
 struct Read {
@@ -28,13 +28,8 @@ struct Read {
 
 /// The frames of `scene` up to `frames` in which the LED was visible and found.
 fn run(scene: &Scene, frames: usize) -> Vec<Read> {
-    run_with(scene, frames, StreakModel::Auto)
-}
-
-/// [`run`] with the streak model `model`.
-fn run_with(scene: &Scene, frames: usize, model: StreakModel) -> Vec<Read> {
     let size = FrameSize::new(scene.width_px(), scene.height_px()).unwrap();
-    let mut pipeline = in_process::pipeline(scene, model);
+    let mut pipeline = in_process::pipeline(scene, StreakModel::Auto);
     let mut bytes = vec![0u8; scene.frame_len_bytes()];
     let mut out = Vec::new();
     for index in 0..frames.min(scene.frame_count()) {
@@ -248,16 +243,8 @@ fn along_a_grout_line(velocity_px_s: (f64, f64), spot: Spot, gamma: f64, seed: u
     let line = |size_px: u32| (0.5 * f64::from(size_px) / tile_px).floor() * tile_px + 1.0;
     let centre = Point::new(line(config.width_px), line(config.height_px));
     let velocity = Point::new(velocity_px_s.0, velocity_px_s.1);
-    let half_s = 0.5 * FRAMES as f64 / config.fps;
-    config.trajectory = Trajectory::Line {
-        start_px: Point::new(
-            centre.x - velocity.x * half_s,
-            centre.y - velocity.y * half_s,
-        ),
-        velocity_px_s: velocity,
-    };
+    line_through(&mut config, centre, velocity, FRAMES);
     config.exposure_us = 15_000;
-    config.frame_count = FRAMES;
     config.seed = seed;
     config.camera.gamma = gamma;
     if let Spot::Gaussian { .. } = spot {

@@ -69,7 +69,7 @@ use crate::frame::Frame;
 /// floor's texture), 1.43 px for its Gaussians, 6.1 px for its glows. Narrow Gaussians (σ
 /// 0.9–1.3 px) read about a pixel, as a disk that barely clips may: a bound of 0.85 px
 /// fitted them, and also sharp disks that the fit reads worse (README, "A lower bound for a
-/// sharp edge").
+/// sharp edge"). Their short paths are fitted by their width instead ([`NARROW_SPOT_PX`]).
 pub const SHARP_EDGE_PX: f32 = 1.0;
 
 /// The levels the fall is read between, as fractions of the way from the floor to the clip:
@@ -184,8 +184,9 @@ pub const NARROW_SPOT_PX: f32 = 3.0;
 /// of a pixel at each end are 2–3 % of a 20 px path's length, the issue's median bound on the
 /// speed, and less on longer paths, where the fit of a narrow sharp disk's long streak is
 /// mostly refused: on `fast-line` drawn with a 1.5 px disk, fitting every such path held in
-/// 42 of 600 frames and doubled the replay's CPU time (0.20 → 0.38 s) for the same figures. With the bound at 15, 20 and 30 px the sweep put 60 points
-/// out either way (58 without it).
+/// 42 of 600 frames and doubled the replay's CPU time (0.20 → 0.38 s) for the same figures.
+/// With the bound at 15, 20 and 30 px the sweep put 60 points out either way (58 without
+/// it).
 pub const SHORT_PATH_PX: f32 = 20.0;
 
 /// Whether the ramps' reading of a streak is a short path of a narrow spot, which the fit

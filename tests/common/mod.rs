@@ -14,7 +14,7 @@ use std::path::PathBuf;
 use std::process::{Command, Output};
 
 use glint::frame::PixelFormat;
-use glint_tools::scene::{Scene, Truth, Visibility};
+use glint_tools::scene::{Point, Scene, SceneConfig, Trajectory, Truth, Visibility};
 use serde_json::Value;
 
 /// Whether the tests that need `what` were asked to be skipped by setting `var` to `1`. A skip
@@ -72,6 +72,25 @@ pub fn render_scene(scene: Scene) -> Rendered {
         dump,
         _dir: dir,
     }
+}
+
+/// Sets `config` to `frames` frames of the LED on a straight line at `velocity_px_s`, passing
+/// `centre_px` halfway through them.
+pub fn line_through(
+    config: &mut SceneConfig,
+    centre_px: Point,
+    velocity_px_s: Point,
+    frames: usize,
+) {
+    let half_s = 0.5 * frames as f64 / config.fps;
+    config.trajectory = Trajectory::Line {
+        start_px: Point::new(
+            centre_px.x - velocity_px_s.x * half_s,
+            centre_px.y - velocity_px_s.y * half_s,
+        ),
+        velocity_px_s,
+    };
+    config.frame_count = frames;
 }
 
 /// The `glint` binary built for this test run.
