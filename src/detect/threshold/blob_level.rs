@@ -88,24 +88,23 @@ pub fn cut_each_blob(
         let (Some(slot), y) = (run.blob(), usize::from(run.y)) else {
             continue;
         };
-        let xs = usize::from(run.x0)..=usize::from(run.x1);
-        let run_top = xs
-            .clone()
-            .filter_map(|x| frame.luma(x, y))
-            .max()
-            .unwrap_or(0);
+        // One pass over the run for both tops; the fresh pixels are asked of large blobs only.
+        let large = blobs.get(slot).is_some_and(|b| b.area_px > max_area_px);
+        let (mut run_top, mut fresh_top) = (0u8, 0u8);
+        for x in usize::from(run.x0)..=usize::from(run.x1) {
+            let Some(luma) = frame.luma(x, y) else {
+                continue;
+            };
+            run_top = run_top.max(luma);
+            if large && is_fresh(x, y) {
+                fresh_top = fresh_top.max(luma);
+            }
+        }
         if let Some(top) = tops.get_mut(slot) {
             *top = (*top).max(run_top);
         }
-        if blobs.get(slot).is_some_and(|b| b.area_px > max_area_px) {
-            let fresh_top = xs
-                .filter(|&x| is_fresh(x, y))
-                .filter_map(|x| frame.luma(x, y))
-                .max()
-                .unwrap_or(0);
-            if let Some(top) = fresh_tops.get_mut(slot) {
-                *top = (*top).max(fresh_top);
-            }
+        if let Some(top) = fresh_tops.get_mut(slot) {
+            *top = (*top).max(fresh_top);
         }
     }
     let mut near_top = [[0u32; PLATEAU_WINDOW_LUMA + 1]; MAX_BLOBS];
