@@ -13,7 +13,9 @@
 //! of the same sweep (the README's figures use 200), and `GLINT_SWEEP_SEED` another sweep.
 //!
 //! It measures glint's default streak model, `auto` (`GLINT_STREAK_MODEL=ramps` measures the
-//! ramps alone, `GLINT_STREAK_MODEL=fit` the fit alone).
+//! ramps alone, `GLINT_STREAK_MODEL=fit` the fit alone). `GLINT_SWEEP_GAMMA=1` draws every
+//! point through that tone curve instead of its own (1: a linear camera, outside the
+//! sweep's 1.8–2.4).
 //! To see where the errors come from: `GLINT_SWEEP_ONLY=5,13` runs only those points,
 //! `GLINT_SWEEP_FLAT_FLOOR=1` renders the floor without texture, `GLINT_SWEEP_NO_NOISE=1`
 //! without noise (neither the read noise nor the noise after the clip),
@@ -776,7 +778,13 @@ fn every_sweep_point_holds_the_bounds() {
     let only: Option<Vec<usize>> = std::env::var("GLINT_SWEEP_ONLY")
         .ok()
         .map(|v| v.split(',').filter_map(|i| i.parse().ok()).collect());
-    for point in SweepPoint::sweep(seed, count) {
+    let gamma: Option<f64> = std::env::var("GLINT_SWEEP_GAMMA")
+        .ok()
+        .and_then(|v| v.parse().ok());
+    for mut point in SweepPoint::sweep(seed, count) {
+        if let Some(gamma) = gamma {
+            point.gamma = gamma;
+        }
         if only.as_ref().is_some_and(|o| !o.contains(&point.index)) {
             continue;
         }

@@ -10,6 +10,7 @@ pub mod bgdiff;
 mod bilinear;
 pub mod bitimage;
 pub mod blobs;
+mod body_line;
 pub mod cascade;
 mod clip_spread;
 pub mod edge_memory;

@@ -29,6 +29,7 @@
 
 use super::bilinear::Walk;
 use super::bitimage::{BitImage, Window};
+use super::body_line;
 use super::line_profile;
 use super::ray_floor;
 use crate::frame::Frame;
@@ -144,6 +145,14 @@ pub fn refine(
         for ((tip, o), (d, e)) in tips.iter_mut().zip(origins).zip(dirs.iter().zip(end_px)) {
             *tip = (o.0 + e * d.0, o.1 + e * d.1);
         }
+    }
+    // A straight streak's tips lie on its body's line, read on many sections.
+    let sides = [&side_a, &side_b].map(|r| body_line::Side {
+        level: r.floor_luma + LEVEL_LOW * (clip - r.floor_luma),
+        edge_px: r.low_px,
+    });
+    if let Some(line) = body_line::read(frame, origins, half_width_low, sides) {
+        tips = tips.map(|t| line.onto(t));
     }
     // Each end's cap outline at the low level gives the spot's own extent along the axis
     // there, measured as deep as the outline is the spot's: no deeper than the spot is wide,
@@ -333,6 +342,8 @@ struct Ramp {
     length_px: f32,
     /// Distance to the low level.
     low_px: f32,
+    /// The floor the levels were set from.
+    floor_luma: f32,
 }
 
 /// Walks from `start` along unit vector `d`, and measures where the brightness falls through
@@ -375,5 +386,6 @@ fn ramp_along(frame: &Frame<'_>, start: (f32, f32), d: (f32, f32), clip: f32) ->
         edge_px: low + LEVEL_LOW * length_px,
         length_px,
         low_px: low,
+        floor_luma: floor,
     })
 }
