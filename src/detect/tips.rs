@@ -26,6 +26,10 @@
 //! The tips of a longer streak still subtract the width across the middle: the caps' fitted
 //! extents scatter by a few tenths of a pixel more than that width (a clipped edge is read to
 //! about a pixel), and subtracting them instead doubled the head error on the 1280×720 scene.
+//!
+//! Across the path, a straight streak's tips are then moved onto the line through its body's
+//! sections (`body_line.rs`): each end's own section and direction scatter by tenths of
+//! a pixel.
 
 use super::bilinear::Walk;
 use super::bitimage::{BitImage, Window};
