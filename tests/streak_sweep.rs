@@ -1229,3 +1229,57 @@ fn the_sweep_through_a_rolling_shutter_reads_the_leds_speed() {
         q(&head, 0.95)
     );
 }
+
+/// Points of the sweep drawn through tone curves outside its own 1.8–2.4.
+const OTHER_CURVES_POINTS: usize = 40;
+
+/// Tone curves outside the sweep's 1.8–2.4: a linear camera (gamma 1, as machine-vision
+/// cameras often deliver their luma) and a steep one (2.8). The sweep's first
+/// [`OTHER_CURVES_POINTS`] points, drawn through each, hold the issue's bounds pooled on the
+/// head and the single-frame speed and the 60 px middle's median, with no false report and
+/// no tracked LED lost (README, "A linear camera"; measured: head p95 1.00 and 0.93 px,
+/// speed p95 8.0 and 6.0 %). NOT YET HELD, so not asserted: the 60 px middle's p95 over
+/// these points, which three blooms' middles put at 0.52 and 0.84 px, and at 0.91 px drawn
+/// through the sweep's own curves.
+#[test]
+fn the_sweep_through_other_tone_curves_holds_the_pooled_bounds() {
+    let q = |v: &[f64], q: f64| quantile(v, q).unwrap_or(f64::NAN);
+    let mut out = Vec::new();
+    for gamma in [1.0, 2.8] {
+        let (mut head, mut mid60, mut speed) = (Vec::new(), Vec::new(), Vec::new());
+        let (mut false_reports, mut lost) = (0usize, 0usize);
+        for mut point in SweepPoint::sweep(DEFAULT_SEED, OTHER_CURVES_POINTS) {
+            point.gamma = gamma;
+            let s = run_point(&point, StreakModel::Auto);
+            false_reports += s.false_reports;
+            lost += s.missed_tracked;
+            head.extend(&s.head_px);
+            if point.path.length_px() == MIDDLE_STREAK_PX {
+                mid60.extend(&s.mid_px);
+            }
+            speed.extend(&s.speed);
+        }
+        let figures = format!(
+            "gamma {gamma}: head {:.3}/{:.3} px, middle on 60 px streaks {:.3}/{:.3} px, speed \
+             {:.2}/{:.2} %, {false_reports} false reports, {lost} frames lost",
+            q(&head, 0.5),
+            q(&head, 0.95),
+            q(&mid60, 0.5),
+            q(&mid60, 0.95),
+            100.0 * q(&speed, 0.5),
+            100.0 * q(&speed, 0.95),
+        );
+        eprintln!("{figures}");
+        if q(&head, 0.5) > HEAD_MEDIAN_MAX_PX
+            || q(&head, 0.95) > HEAD_P95_MAX_PX
+            || q(&mid60, 0.5) > MID_MEDIAN_MAX_PX
+            || q(&speed, 0.5) > SPEED_MEDIAN_MAX
+            || q(&speed, 0.95) > SPEED_P95_MAX
+            || false_reports > 0
+            || lost > 0
+        {
+            out.push(figures);
+        }
+    }
+    assert!(out.is_empty(), "{}", out.join("\n"));
+}
