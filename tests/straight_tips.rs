@@ -20,8 +20,8 @@ const FRAMES: usize = 6;
 
 /// How far across the true path the tips lie, root mean square over every heading and frame
 /// after the first: `fast-line`'s textured, noisy floor with a sharp disk of `radius_px`,
-/// `path_px` long per exposure, at the camera's `gamma`.
-/// Also how many frames were scored, and how many of them had a path.
+/// `path_px` long per exposure, at the camera's `gamma`; and how many frames were scored,
+/// and how many of them had a path.
 fn tips_across_px(radius_px: f64, path_px: f64, gamma: f64) -> (f64, usize, usize) {
     let mut squares = 0.0;
     let (mut scored, mut with_path) = (0usize, 0usize);

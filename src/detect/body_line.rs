@@ -20,7 +20,7 @@
 
 use super::level_falls::{first_falls, Armed};
 use crate::frame::Frame;
-use nalgebra::{Matrix2, Matrix3, Vector2, Vector3};
+use nalgebra::{Matrix3, Vector3};
 
 /// Cross-sections of the body read. On 60 px streaks of 1.5–4 px disks, twelve put the tips
 /// 0.05–0.09 px across the path; six and eight 0.06–0.11 px, sixteen 0.07–0.08 px.
@@ -103,9 +103,10 @@ pub fn read(
     let u = (chord.0 / length_px, chord.1 / length_px);
     let n = (-u.1, u.0);
     let half_px = 0.5 * length_px;
-    // Each section's centre as (x, y): x along, from -1 to 1 between the ends, y across.
-    let mut centres = [(0.0f64, 0.0f64); SECTIONS];
-    let mut count = 0usize;
+    // Each section's centre (x along, from -1 to 1 between the ends; y across) summed into the
+    // least squares of y on 1, x and x²: the quadratic tells a bend, its first two terms the
+    // line.
+    let mut sums = Sums::default();
     for j in 0..SECTIONS {
         let s = inset_px + body_px * (j as f32 + 0.5) / SECTIONS as f32;
         let p = (ends_px[0].0 + s * u.0, ends_px[0].1 + s * u.1);
@@ -114,25 +115,16 @@ pub fn read(
         else {
             continue;
         };
-        centres[count] = (
+        sums.add(
             f64::from((s - half_px) / half_px),
             f64::from(0.5 * (left - right)),
         );
-        count += 1;
     }
-    let centres = &centres[..count];
-    if count < MIN_SECTIONS || bends(centres)? {
+    if sums.count < MIN_SECTIONS || sums.bends()? {
         return None;
     }
     // y = a + b·x through the centres: the point at the body's middle, and the slope.
-    let mut normal = Matrix2::<f64>::zeros();
-    let mut rhs = Vector2::<f64>::zeros();
-    for &(x, y) in centres {
-        let basis = Vector2::new(1.0, x);
-        normal += basis * basis.transpose();
-        rhs += basis * y;
-    }
-    let line = normal.try_inverse()? * rhs;
+    let line = sums.normal.fixed_view::<2, 2>(0, 0).try_inverse()? * sums.rhs.fixed_rows::<2>(0);
     let (a, slope) = (line[0] as f32, line[1] as f32 / half_px);
     let along = (u.0 + slope * n.0, u.1 + slope * n.1);
     let norm = along.0.hypot(along.1);
@@ -161,26 +153,36 @@ fn edge_px(frame: &Frame<'_>, p: (f32, f32), d: (f32, f32), side: Side) -> Optio
     fall.map(|f| from_px + f.at_px)
 }
 
-/// Whether the `centres` (x from -1 to 1 between the ends) bend away from a line: the
-/// quadratic `a + b·x + c·x²` through them stands `c` off the line at the ends. `None` when
-/// the bend cannot be told from their scatter.
-fn bends(centres: &[(f64, f64)]) -> Option<bool> {
-    let mut normal = Matrix3::<f64>::zeros();
-    let mut rhs = Vector3::<f64>::zeros();
-    let mut squares = 0.0f64;
-    for &(x, y) in centres {
+/// The sums of the least squares of the sections' centres `y` on `1`, `x` and `x²`.
+#[derive(Default)]
+struct Sums {
+    normal: Matrix3<f64>,
+    rhs: Vector3<f64>,
+    squares: f64,
+    count: usize,
+}
+
+impl Sums {
+    fn add(&mut self, x: f64, y: f64) {
         let basis = Vector3::new(1.0, x, x * x);
-        normal += basis * basis.transpose();
-        rhs += basis * y;
-        squares += y * y;
+        self.normal += basis * basis.transpose();
+        self.rhs += basis * y;
+        self.squares += y * y;
+        self.count += 1;
     }
-    let inverse = normal.try_inverse()?;
-    let fit = inverse * rhs;
-    let residual = (squares - fit.dot(&rhs)).max(0.0);
-    let variance = residual / (centres.len() as f64 - 3.0);
-    let bend_deviation_px = (variance * inverse[(2, 2)]).sqrt();
-    if bend_deviation_px > MAX_BEND_DEVIATION_PX {
-        return None;
+
+    /// Whether the centres bend away from a line: the quadratic `a + b·x + c·x²` through them
+    /// stands `c` off the line at the ends (x = ±1). `None` when the bend cannot be told from
+    /// their scatter.
+    fn bends(&self) -> Option<bool> {
+        let inverse = self.normal.try_inverse()?;
+        let fit = inverse * self.rhs;
+        let residual = (self.squares - fit.dot(&self.rhs)).max(0.0);
+        let variance = residual / (self.count as f64 - 3.0);
+        let bend_deviation_px = (variance * inverse[(2, 2)]).sqrt();
+        if bend_deviation_px > MAX_BEND_DEVIATION_PX {
+            return None;
+        }
+        Some(fit[2].abs() > STRAIGHT_PX.max(BEND_SIGMAS * bend_deviation_px))
     }
-    Some(fit[2].abs() > STRAIGHT_PX.max(BEND_SIGMAS * bend_deviation_px))
 }
