@@ -173,6 +173,10 @@ pub struct Detector {
     keep_out: heapless::Vec<Window, MAX_KEEP_OUT>,
     /// The first cut's blobs of the last frame, to tell a large blob that moved.
     last_blobs: LastBlobs,
+    /// The sensor's clip level as the last frame that showed one showed it: the plateau of a
+    /// blob too thin for its own pixels to show one (see [`threshold::blob_level`]). A
+    /// camera's clip is the same level in every frame until its settings change.
+    sensor_clip_luma: Option<u8>,
     /// This frame's large first-cut blobs that moved: what is cut from them is a candidate
     /// whatever its size (only the largest piece of each).
     moved_large: MovedLarge,
@@ -213,6 +217,7 @@ impl Detector {
             steady: SteadyPixels::new(size.width(), size.height()),
             keep_out: heapless::Vec::new(),
             last_blobs: LastBlobs::new(),
+            sensor_clip_luma: None,
             moved_large: MovedLarge::new(),
             glow_pieces: [false; blobs::MAX_BLOBS],
             frames_segmented: 0,
@@ -410,6 +415,7 @@ impl Detector {
             &self.labeler,
             self.config.min_area_px,
             self.max_area_px,
+            self.sensor_clip_luma,
             |blob| {
                 let moved = last_blobs.moved(blob, first_cut);
                 if moved {
@@ -427,6 +433,7 @@ impl Detector {
         }
         match cut {
             Some(cut) => {
+                self.sensor_clip_luma = cut.sensor_clip_luma.or(self.sensor_clip_luma);
                 levels.threshold_luma = cut.brightest_level_luma;
                 (levels, cut.count, cut.glare_px)
             }
@@ -453,7 +460,7 @@ impl Detector {
     pub fn levels_of(&self, frame: &Frame<'_>, index: usize, frame_levels: Levels) -> Levels {
         match (self.config.method, self.config.threshold) {
             (MaskMethod::Saturation, Threshold::Fixed(_)) => frame_levels,
-            _ => blob_level::levels_of_blob(frame, &self.labeler, index),
+            _ => blob_level::levels_of_blob(frame, &self.labeler, index, self.sensor_clip_luma),
         }
     }
 

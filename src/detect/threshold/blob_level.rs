@@ -48,6 +48,9 @@ pub struct BlobCut {
     /// Pixels of the clipped blobs dropped as larger than an LED's usual size and not moving
     /// (a window, a lamp in the lens, a white frame): glare, for the "blinded" test.
     pub glare_px: usize,
+    /// The sensor's clip level as this frame's blobs show it (see `sensor_clip_luma`):
+    /// `None` when no blob showed a plateau.
+    pub sensor_clip_luma: Option<u8>,
 }
 
 /// Which of a blob's pixels at its level are kept.
@@ -65,13 +68,17 @@ enum Kept {
 /// `max_area_px` for which `large_moved` is false (it stood still) only the pixels for which
 /// `is_fresh` is true are kept, cut at its level or, when they are dimmer, at their own top's
 /// (by the margin): what has just come into it (an LED touching a window, see
-/// [`steady`](super::steady)). `None` when the labeller overflowed, so that the
-/// caller can fall back to one level for the frame.
+/// [`steady`](super::steady)). A blob whose pixels show no plateau of their own is cut below
+/// the sensor's clip when its top lies above it: this frame's clip, or else `known_clip_luma`,
+/// the one an earlier frame showed (see `plateau_luma`). `None` when the labeller
+/// overflowed, so that the caller can fall back to one level for the frame.
+#[allow(clippy::too_many_arguments)]
 pub fn cut_each_blob(
     frame: &Frame<'_>,
     labeler: &Labeler,
     min_area_px: u32,
     max_area_px: u32,
+    known_clip_luma: Option<u8>,
     mut large_moved: impl FnMut(&Blob) -> bool,
     is_fresh: impl Fn(usize, usize) -> bool,
     mask: &mut BitImage,
@@ -155,7 +162,8 @@ pub fn cut_each_blob(
             || (top >= MIN_LIGHT_LUMA
                 && ring_mean_luma(frame, &blob.bbox)
                     .is_some_and(|ring| f32::from(top) >= ring + f32::from(LIGHT_CONTRAST_LUMA)));
-        let level_luma = plateau_luma(top, counts).saturating_sub(AUTO_MARGIN_LUMA);
+        let level_luma = plateau_luma(top, counts, clip_luma.or(known_clip_luma))
+            .saturating_sub(AUTO_MARGIN_LUMA);
         *level = match kept.filter(|_| light) {
             Some(Kept::Fresh) if fresh_top < MIN_LIGHT_LUMA => None,
             Some(Kept::Fresh) => Some((
@@ -194,6 +202,7 @@ pub fn cut_each_blob(
         count,
         brightest_level_luma,
         glare_px,
+        sensor_clip_luma: clip_luma,
     })
 }
 
@@ -214,7 +223,7 @@ fn sensor_clip_luma(
         .zip(near_top)
         .filter(|((blob, &top), _)| blob.area_px >= min_area_px && top >= MIN_CLIP_LUMA)
         .filter_map(|((_, &top), counts)| {
-            let plateau = plateau_luma(top, counts);
+            let plateau = plateau_luma(top, counts, None);
             let at_plateau = counts.get(usize::from(top - plateau)).copied().unwrap_or(0);
             (at_plateau >= PLATEAU_MIN_PX).then_some(plateau)
         })
@@ -250,8 +259,14 @@ fn ring_mean_luma(frame: &Frame<'_>, bbox: &BoundingBox) -> Option<f32> {
 }
 
 /// The levels of one blob of the final mask: its plateau's level (a clipped blob's most common
-/// level near its top, which a hard clip's top is) and the cut below it, from its runs.
-pub fn levels_of_blob(frame: &Frame<'_>, labeler: &Labeler, index: usize) -> Levels {
+/// level near its top, which a hard clip's top is, or the sensor's clip `clip_luma` where
+/// its own pixels show no plateau, see `plateau_luma`) and the cut below it, from its runs.
+pub fn levels_of_blob(
+    frame: &Frame<'_>,
+    labeler: &Labeler,
+    index: usize,
+    clip_luma: Option<u8>,
+) -> Levels {
     // One pass: every level's count, the top and the counts below it read off after.
     let mut by_luma = [0u32; 256];
     for run in labeler.runs_of(index) {
@@ -274,7 +289,7 @@ pub fn levels_of_blob(frame: &Frame<'_>, labeler: &Labeler, index: usize) -> Lev
             .copied()
             .unwrap_or(0);
     }
-    let top_luma = plateau_luma(top, &counts);
+    let top_luma = plateau_luma(top, &counts, clip_luma);
     Levels {
         top_luma,
         threshold_luma: Some(top_luma.saturating_sub(AUTO_MARGIN_LUMA)),
@@ -305,9 +320,17 @@ pub fn count_near_top(counts: &mut [u32; PLATEAU_WINDOW_LUMA + 1], top: u8, luma
 /// A light that does not clip has no plateau: its pixels spread over the levels below its
 /// peak, a few at each, and its most common level is anywhere among them. A plateau is a peak
 /// of the counts, [`PLATEAU_PEAK`] times their mean at least (a plateau spread by noise of
-/// 3 luma holds 0.13 of its pixels at its level, 2.3 times the mean over the window); without
-/// one the top stands.
-fn plateau_luma(top: u8, counts: &[u32; PLATEAU_WINDOW_LUMA + 1]) -> u8 {
+/// 3 luma holds 0.13 of its pixels at its level, 2.3 times the mean over the window).
+///
+/// Without a peak of its own, a blob whose top lies above `clip_luma`, the sensor's clip as
+/// other blobs or earlier frames showed it, and within the window of it, clipped there: no
+/// light reads above the clip but for the noise after it. A thin streak's hundred pixels are
+/// too few for the peak to show reliably: on sweep seed 12's point 86 (a 0.89 px disk clipped
+/// 1.7×, noise of 2.8 luma after a studio-range clip at 235) the peak stood 2.5–3.7 times the
+/// mean in five frames and 1.96 in the sixth, whose top, 242, then cut the streak at 234
+/// into pieces, one 17.6 px piece of its 60 px reported. Without a peak or a clip below the
+/// top, the top stands.
+fn plateau_luma(top: u8, counts: &[u32; PLATEAU_WINDOW_LUMA + 1], clip_luma: Option<u8>) -> u8 {
     if top < MIN_CLIP_LUMA {
         return top;
     }
@@ -319,10 +342,12 @@ fn plateau_luma(top: u8, counts: &[u32; PLATEAU_WINDOW_LUMA + 1]) -> u8 {
     }
     let total: u32 = counts.iter().sum();
     let peaked = counts[mode] as f32 * counts.len() as f32 >= PLATEAU_PEAK * total as f32;
-    if peaked {
-        top - mode as u8
-    } else {
-        top
+    let below_clip =
+        clip_luma.filter(|&clip| clip < top && usize::from(top - clip) <= PLATEAU_WINDOW_LUMA);
+    match (peaked, below_clip) {
+        (true, _) => top - mode as u8,
+        (false, Some(clip)) => clip,
+        (false, None) => top,
     }
 }
 
@@ -347,6 +372,11 @@ mod tests {
 
     /// Cuts every blob of the frame's first cut at [`MIN_LIGHT_LUMA`]; returns the mask.
     fn cut(bytes: &[u8]) -> BitImage {
+        cut_knowing(bytes, None)
+    }
+
+    /// [`cut`], with the sensor's clip `known_clip_luma` shown by an earlier frame.
+    fn cut_knowing(bytes: &[u8], known_clip_luma: Option<u8>) -> BitImage {
         let size = FrameSize::new(64, 32).unwrap();
         let frame = Frame::new_checked(bytes, size, size.row_bytes()).unwrap();
         let mut mask = BitImage::new(size);
@@ -364,6 +394,7 @@ mod tests {
             &labeler,
             4,
             10_000,
+            known_clip_luma,
             |_| false,
             |_, _| false,
             &mut mask,
@@ -390,6 +421,58 @@ mod tests {
         assert_eq!(on_dark.count_ones(), 70);
     }
 
+    /// A 2 px line on the floor, 40 px long, whose noise after a clip at 235 spreads its
+    /// pixels evenly over 229–241 (each column one level): too few and too spread for a
+    /// plateau of its own. Cut below its top it breaks into pieces where its columns read
+    /// 229–232; cut below the clip an earlier frame showed, it is one blob.
+    #[test]
+    fn a_line_too_thin_to_show_its_plateau_is_cut_below_the_known_clip() {
+        let columns: Vec<_> = (0..40)
+            .map(|i| (12 + i, 15, 1, 2, 229 + (i % 13) as u8))
+            .collect();
+        let bytes = frame_bytes(120, &columns);
+        let blobs = |mask: &BitImage| {
+            let mut labeler = Labeler::new();
+            labeler.label(mask);
+            labeler.blobs().len()
+        };
+        let alone = cut(&bytes);
+        assert!(blobs(&alone) > 1, "cut below its top, in pieces");
+        let knowing = cut_knowing(&bytes, Some(235));
+        assert_eq!(blobs(&knowing), 1);
+        assert_eq!(knowing.count_ones(), 80);
+    }
+
+    /// The counts near the top of sweep seed 12's point 86, frame 5 (a 0.89 px disk's 60 px
+    /// line, clipped at 235 with noise of 2.8 luma after the clip), from its top, 242, down:
+    /// no peak. The clip known from another blob or an earlier frame is its plateau when it
+    /// lies below the top within the window, and only then; a blob with a peak of its own
+    /// keeps it.
+    #[test]
+    fn a_plateau_without_a_peak_is_the_known_clip_below_its_top() {
+        let counts = [1, 6, 4, 7, 9, 10, 12, 8, 12, 8, 9, 10, 0, 6, 1, 0, 1];
+        assert_eq!(plateau_luma(242, &counts, None), 242);
+        assert_eq!(plateau_luma(242, &counts, Some(235)), 235);
+        assert_eq!(
+            plateau_luma(242, &counts, Some(242)),
+            242,
+            "a clip at the top"
+        );
+        assert_eq!(
+            plateau_luma(242, &counts, Some(250)),
+            242,
+            "a clip above the top"
+        );
+        assert_eq!(
+            plateau_luma(242, &counts, Some(220)),
+            242,
+            "a clip past the window"
+        );
+        let mut peaked = counts;
+        peaked[3] = 40;
+        assert_eq!(plateau_luma(242, &peaked, Some(235)), 239);
+    }
+
     fn counts_of(lumas: impl IntoIterator<Item = u8>) -> (u8, [u32; PLATEAU_WINDOW_LUMA + 1]) {
         let lumas: Vec<u8> = lumas.into_iter().collect();
         let top = lumas.iter().copied().max().unwrap_or(0);
@@ -406,19 +489,19 @@ mod tests {
     fn the_plateau_is_the_top_of_a_hard_clip_and_the_middle_of_a_spread_one() {
         let rim = (200..250).step_by(3);
         let (top, counts) = counts_of(rim.clone().chain([250; 40]));
-        assert_eq!(plateau_luma(top, &counts), 250);
+        assert_eq!(plateau_luma(top, &counts, None), 250);
         let spread = [
             243, 244, 245, 245, 246, 246, 246, 246, 247, 247, 248, 249, 250,
         ];
         let (top, counts) = counts_of(rim.chain(spread.iter().cycle().take(130).copied()));
         assert_eq!(top, 250);
-        assert_eq!(plateau_luma(top, &counts), 246);
+        assert_eq!(plateau_luma(top, &counts, None), 246);
         // A light that does not clip keeps its top: below the clip's levels, or with its
         // pixels spread evenly below its peak.
         let (top, counts) = counts_of([200, 210, 210, 210, 215]);
-        assert_eq!(plateau_luma(top, &counts), 215);
+        assert_eq!(plateau_luma(top, &counts, None), 215);
         let dome = (233..=248).flat_map(|l| [l, l]).chain([240, 249]);
         let (top, counts) = counts_of(dome);
-        assert_eq!(plateau_luma(top, &counts), 249);
+        assert_eq!(plateau_luma(top, &counts, None), 249);
     }
 }
