@@ -107,7 +107,16 @@ impl StaticMap {
         };
         for y in 0..bright.height() {
             let src = bright.row(y);
-            let rows = self.period.row_mut(y).iter_mut().zip(self.seen.row_mut(y));
+            let (period, seen) = (self.period.row_mut(y), self.seen.row_mut(y));
+            if !keep_out.iter().any(|w| (w.y0..w.y1).contains(&y)) {
+                // Most rows: no window is kept out across them, so every word is learned.
+                for (dst, &word) in period.iter_mut().zip(src) {
+                    *dst |= word;
+                }
+                seen.fill(!0);
+                continue;
+            }
+            let rows = period.iter_mut().zip(seen.iter_mut());
             for (k, ((dst, seen), &word)) in rows.zip(src).enumerate() {
                 let kept = keep_out
                     .iter()
