@@ -170,6 +170,10 @@ impl StaticMap {
                 ) else {
                     continue;
                 };
+                // Most of a frame: never bright, so no count to step and no flag to clear.
+                if on | *b0 | *b1 | *b2 | *b3 | *f == 0 {
+                    continue;
+                }
                 let full = *b0 & *b1 & *b2 & *b3;
                 let empty = !(*b0 | *b1 | *b2 | *b3);
                 let up = on & !full & valid;
