@@ -152,7 +152,7 @@ pub fn refine(
     }
     // A straight streak's tips lie on its body's line, read on many sections.
     let sides = [&side_a, &side_b].map(|r| body_line::Side {
-        level: r.floor_luma + LEVEL_LOW * (clip - r.floor_luma),
+        level: r.low_luma,
         edge_px: r.low_px,
     });
     if let Some(line) = body_line::read(frame, origins, half_width_low, sides) {
@@ -346,8 +346,8 @@ struct Ramp {
     length_px: f32,
     /// Distance to the low level.
     low_px: f32,
-    /// The floor the levels were set from.
-    floor_luma: f32,
+    /// The luma of the low level (over the floor this ramp was read on).
+    low_luma: f32,
 }
 
 /// Walks from `start` along unit vector `d`, and measures where the brightness falls through
@@ -390,6 +390,6 @@ fn ramp_along(frame: &Frame<'_>, start: (f32, f32), d: (f32, f32), clip: f32) ->
         edge_px: low + LEVEL_LOW * length_px,
         length_px,
         low_px: low,
-        floor_luma: floor,
+        low_luma: floor + LEVEL_LOW * span,
     })
 }
